@@ -1,0 +1,191 @@
+"""The adapter contract, the lazy registry and the safe runner.
+
+An adapter turns a scenario (``reference.scenarios``) into an
+:class:`~reference.record.ImpactRecord` measured from the engine's own contact output.
+It never computes metrics: ``reference.metrics.compute`` does, for every producer alike.
+
+Adding an engine (a checklist, in the manner of scipy's ``OdeSolver``):
+
+1. Write ``engines/<name>_adapter.py`` with a subclass of :class:`Adapter`; import the engine
+   inside the module only (the registry imports the module only when the engine is used) and
+   raise :class:`EngineUnavailable` from ``_import_engine`` if it is missing.
+2. Set ``name``, ``pip`` (the install command) and implement ``version()``,
+   ``default_timestep_s()`` and ``_run()``.
+3. ``_run`` builds the scenario, steps it, and records every step from a little before first
+   contact until the bodies have separated: time, penetration, penetration rate, the engine's
+   normal force (force sample at t_k = the force acting over the step that starts at t_k),
+   body velocities.
+4. Return a non-ok :class:`~reference.record.Status` for physical outcomes (no_contact,
+   tunneled, diverged, max_time, unsupported) instead of raising.
+5. Register the class in :data:`ENGINES` as ``"module:Class"`` and add a test module in
+   ``tests/engines/`` that ``importorskip``s the engine.
+
+Modes: ``native`` (the engine's own contact model, parameters mapped from the physical ones),
+``tuned`` (native with fitted parameters from a tuned-parameter file) and ``injected`` (the
+reference force law driven through the engine each step, so only the time stepping differs).
+"""
+
+from __future__ import annotations
+
+import difflib
+import importlib
+import time
+import traceback
+from abc import ABC, abstractmethod
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+from reference.record import ImpactRecord, Status
+from reference.scenarios import BallOnPlate, RigidFlexible
+
+Scenario = BallOnPlate | RigidFlexible
+
+MODES: tuple[str, ...] = ("native", "injected", "tuned")
+
+ENGINES: dict[str, str] = {
+    "mujoco": "engines.mujoco_adapter:MujocoAdapter",
+    "pybullet": "engines.pybullet_adapter:PybulletAdapter",
+    "pymunk": "engines.pymunk_adapter:PymunkAdapter",
+    "drake": "engines.drake_adapter:DrakeAdapter",
+}
+
+PIP: dict[str, str] = {
+    "mujoco": "pip install mujoco",
+    "pybullet": "pip install pybullet",
+    "pymunk": "pip install pymunk",
+    "drake": "pip install drake",
+}
+
+
+class EngineUnavailable(RuntimeError):
+    """The engine's Python package is not installed; the message names the pip command."""
+
+    def __init__(self, engine: str, detail: str = "") -> None:
+        pip = PIP.get(engine, f"pip install {engine}")
+        more = f" ({detail})" if detail else ""
+        super().__init__(f"engine {engine!r} is not installed{more}: run `{pip}`")
+        self.engine = engine
+        self.pip = pip
+
+
+@dataclass(frozen=True)
+class RunSettings:
+    """How to run one scenario in an engine.
+
+    Attributes:
+        timestep_s: integration step (s); ``None`` takes the adapter's default for the scenario.
+        max_time_s: simulated-time cap (s); ``None`` lets the adapter choose from the scenario.
+        tuned: fitted native parameters for ``tuned`` mode (engine-specific keys).
+        options: engine-specific extras (e.g. an integrator name), recorded in the metadata.
+    """
+
+    timestep_s: float | None = None
+    max_time_s: float | None = None
+    tuned: dict[str, Any] | None = None
+    options: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        from reference import validation as check
+
+        if self.timestep_s is not None:
+            check.positive("timestep_s", self.timestep_s)
+        if self.max_time_s is not None:
+            check.positive("max_time_s", self.max_time_s)
+
+
+class Adapter(ABC):
+    """One engine. Subclasses implement ``version``, ``default_timestep_s`` and ``_run``."""
+
+    name: ClassVar[str]
+
+    @abstractmethod
+    def version(self) -> str:
+        """The engine package's version string."""
+
+    @abstractmethod
+    def default_timestep_s(self, scenario: Scenario, mode: str) -> float:
+        """The adapter's default integration step (s) for this scenario and mode."""
+
+    @abstractmethod
+    def _run(self, scenario: Scenario, mode: str, settings: RunSettings) -> ImpactRecord:
+        """Simulate and record; may return a non-ok status record."""
+
+    def run(self, scenario: Scenario, mode: str = "native",
+            settings: RunSettings | None = None) -> ImpactRecord:
+        """Run one scenario; fills provenance (engine, version, mode, timestep_s, wall_s)."""
+        if mode not in MODES:
+            raise ValueError(f"mode = {mode!r}: must be one of {', '.join(MODES)}")
+        settings = settings or RunSettings()
+        dt = settings.timestep_s or self.default_timestep_s(scenario, mode)
+        if settings.timestep_s is None:
+            from dataclasses import replace
+
+            settings = replace(settings, timestep_s=dt)
+        t0 = time.perf_counter()
+        rec = self._run(scenario, mode, settings)
+        rec.meta.update(
+            engine=self.name,
+            engine_version=self.version(),
+            mode=mode,
+            timestep_s=dt,
+            wall_s=time.perf_counter() - t0,
+            **{k: v for k, v in settings.options.items() if k not in rec.meta},
+        )
+        return rec
+
+
+def _suggest(name: str) -> str:
+    hint = difflib.get_close_matches(name, ENGINES, n=1)
+    return f" (did you mean {hint[0]!r}?)" if hint else ""
+
+
+def get_adapter(name: str) -> Adapter:
+    """Import and instantiate the adapter registered as ``name``.
+
+    Raises ValueError for an unknown name and :class:`EngineUnavailable` when the engine's
+    package is not installed.
+    """
+    if name not in ENGINES:
+        raise ValueError(
+            f"engine = {name!r}: must be one of {', '.join(ENGINES)}{_suggest(name)}"
+        )
+    module_name, _, attr = ENGINES[name].partition(":")
+    module = importlib.import_module(module_name)
+    return getattr(module, attr)()
+
+
+def available_engines() -> list[str]:
+    """Registered engines whose package imports on this machine."""
+    out = []
+    for name in ENGINES:
+        try:
+            get_adapter(name).version()
+        except EngineUnavailable:
+            continue
+        out.append(name)
+    return out
+
+
+def run_safely(engine: str, scenario: Scenario, mode: str = "native",
+               settings: RunSettings | None = None) -> ImpactRecord:
+    """Run and never raise for engine trouble: a missing engine becomes ``unavailable``,
+    an exception inside the engine becomes ``crashed`` (with the error in the message).
+
+    Bad input (unknown engine or mode, invalid settings) still raises ValueError.
+    """
+    if engine not in ENGINES:
+        raise ValueError(
+            f"engine = {engine!r}: must be one of {', '.join(ENGINES)}{_suggest(engine)}"
+        )
+    if mode not in MODES:
+        raise ValueError(f"mode = {mode!r}: must be one of {', '.join(MODES)}")
+    meta = {"engine": engine, "mode": mode}
+    try:
+        adapter = get_adapter(engine)
+    except EngineUnavailable as exc:
+        return ImpactRecord.failed(Status.UNAVAILABLE, str(exc), **meta)
+    try:
+        return adapter.run(scenario, mode, settings)
+    except Exception as exc:  # an engine failure must not lose the other results
+        last = traceback.format_exception_only(type(exc), exc)[-1].strip()
+        return ImpactRecord.failed(Status.CRASHED, last, **meta)

@@ -1,0 +1,75 @@
+"""The ``impactbench`` command line.
+
+Every subcommand lives in its own module under :mod:`impactbench.commands` and exposes
+``register(top, groups)``: ``top`` is the top-level subparsers object, ``groups`` maps the
+scenario-keyed groups (``reference``, ``sweep``) to their subparsers. A handler is stored as
+``func`` on its parser and returns the exit code.
+
+Bad input anywhere (argparse, scenario validation, config files) prints one line
+``impactbench: error: …`` to stderr and exits 2, without a traceback
+(set ``IMPACTBENCH_DEBUG=1`` to see one).
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import os
+import sys
+from collections.abc import Sequence
+
+COMMAND_MODULES: tuple[str, ...] = (
+    # one line per subcommand module; keep this list sorted
+)
+
+GROUPS: dict[str, str] = {
+    "reference": "solve a scenario with the reference solver (the ground truth)",
+    "sweep": "sweep one parameter of a scenario with the reference solver into a table",
+}
+
+
+class UsageError(ValueError):
+    """Bad command-line input (exit code 2)."""
+
+
+class Parser(argparse.ArgumentParser):
+    """ArgumentParser whose errors are one line and exit 2."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        raise UsageError(f"{self.prog}: {message}")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = Parser(
+        prog="impactbench",
+        description="Cross-validate physics engines on impact against Hunt–Crossley and "
+        "rigid–flexible reference solutions.",
+    )
+    top = parser.add_subparsers(dest="command", required=True, parser_class=Parser,
+                                metavar="COMMAND")
+    groups = {}
+    for name, help_text in GROUPS.items():
+        group = top.add_parser(name, help=help_text, description=help_text)
+        groups[name] = group.add_subparsers(dest="scenario", required=True, metavar="SCENARIO",
+                                            parser_class=Parser)
+    for module in COMMAND_MODULES:
+        importlib.import_module(module).register(top, groups)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the console script; returns the exit code."""
+    try:
+        args = build_parser().parse_args(argv)
+        return int(args.func(args) or 0)
+    except ValueError as exc:  # UsageError, scenario/config validation
+        if os.environ.get("IMPACTBENCH_DEBUG"):
+            raise
+        print(f"impactbench: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,58 @@
+"""Small helpers shared by the CLI subcommands: number parsing, JSON and table output."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from collections.abc import Iterable, Mapping, Sequence
+from typing import Any
+
+
+def number(text: str) -> float:
+    """argparse type: a finite real number (the scenario checks sign and range)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a finite number")
+    return value
+
+
+def number_list(text: str) -> list[float]:
+    """argparse type: one number or a comma-separated list (use with ``action='extend'``)."""
+    parts = [p for p in text.split(",") if p.strip()]
+    if not parts:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number or a comma list of numbers")
+    return [number(p.strip()) for p in parts]
+
+
+def _jsonable(value: Any) -> Any:
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, Mapping):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_jsonable(v) for v in value]
+    if hasattr(value, "item"):  # numpy scalars
+        return _jsonable(value.item())
+    return value
+
+
+def print_json(obj: Any) -> None:
+    """Print ``obj`` as JSON (NaN/inf become null, so the output is strict JSON)."""
+    json.dump(_jsonable(obj), sys.stdout, indent=2)
+    sys.stdout.write("\n")
+
+
+def print_table(rows: Iterable[Mapping[str, Any]], columns: Sequence[str] | None = None,
+                floatfmt: str = ".6g") -> None:
+    """Print rows as a small aligned table."""
+    from tabulate import tabulate
+
+    rows = list(rows)
+    columns = list(columns or (rows[0].keys() if rows else []))
+    print(tabulate([[r.get(c) for c in columns] for r in rows], headers=columns,
+                   floatfmt=floatfmt))

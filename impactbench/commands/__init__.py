@@ -1,0 +1,1 @@
+"""CLI subcommands. Each module exposes ``register(top, groups)`` (see :mod:`impactbench.cli`)."""

@@ -1,0 +1,242 @@
+"""Contact and structural force laws (SI units), each a small object.
+
+Ball on plate (MODELS.md §1):
+    :class:`HuntCrossley` — F(x, ẋ) = f(x)·(1 + b·ẋ) for x > 0, with f(x) = c·xⁿ or any
+    increasing callable f with f(0) = 0.
+
+Rigid–flexible 2-DOF (MODELS.md §2), local (contact) laws F1(Δx) ≥ 0, possibly with memory:
+    :class:`LinearLocal`, :class:`Elastoplastic`, :class:`StiffnessMutation`;
+structural laws F2(x2): :class:`LinearStructure`, :class:`SofteningStructure`.
+
+The stepping contract of a local law, used by the event-driven solver and by engine adapters
+in ``injected`` mode alike: ``force(dx)`` evaluates F1 at the current memory without changing
+it; ``update(dx)`` commits an accepted state (advances the memory); ``reset()`` forgets it.
+Adding a law means adding one class and one entry in :data:`LOCAL_LAWS` or
+:data:`STRUCTURAL_LAWS`.
+"""
+
+from __future__ import annotations
+
+import math
+from abc import ABC, abstractmethod
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import ClassVar
+
+from scipy import integrate
+
+from reference import validation as check
+
+
+@dataclass(frozen=True)
+class HuntCrossley:
+    """Hunt–Crossley contact F = f(x)·(1 + b·ẋ) for x > 0, else 0.
+
+    Args:
+        stiffness: c of the power law f = c·xⁿ (N/m^n). Ignored when ``elastic`` is given.
+        exponent: n (3/2 for a Hertz sphere, 1 for a linear spring).
+        damping: b (s/m); b = 0 is the elastic (Hertz) limit.
+        elastic: optional increasing callable f(x) (N) with f(0) = 0, replacing c·xⁿ.
+        potential: optional Π(x) = ∫₀ˣ f (J); computed by quadrature when omitted.
+    """
+
+    stiffness: float = 1.7135e10
+    exponent: float = 1.5
+    damping: float = 0.1
+    elastic: Callable[[float], float] | None = field(default=None, compare=False)
+    potential_fn: Callable[[float], float] | None = field(default=None, compare=False)
+
+    def __post_init__(self) -> None:
+        if self.elastic is None:
+            check.positive("stiffness", self.stiffness)
+            check.positive("exponent", self.exponent)
+        check.non_negative("damping", self.damping)
+
+    @property
+    def is_power_law(self) -> bool:
+        return self.elastic is None
+
+    def elastic_force(self, x: float) -> float:
+        """f(x) in N (0 for x ≤ 0)."""
+        if x <= 0.0:
+            return 0.0
+        if self.elastic is not None:
+            return float(self.elastic(x))
+        return self.stiffness * x**self.exponent
+
+    def potential(self, x: float) -> float:
+        """Π(x) = ∫₀ˣ f(s) ds in J (0 for x ≤ 0)."""
+        if x <= 0.0:
+            return 0.0
+        if self.elastic is None:
+            return self.stiffness * x ** (self.exponent + 1.0) / (self.exponent + 1.0)
+        if self.potential_fn is not None:
+            return float(self.potential_fn(x))
+        return float(integrate.quad(self.elastic_force, 0.0, x, epsabs=0.0, epsrel=1e-13)[0])
+
+    def force(self, x: float, rate: float) -> float:
+        """Contact force F(x, ẋ) in N; never negative (1 + b·ẋ > 0 on every trajectory)."""
+        if x <= 0.0:
+            return 0.0
+        return max(0.0, self.elastic_force(x) * (1.0 + self.damping * rate))
+
+
+class LocalLaw(ABC):
+    """Local (contact) law F1(Δx) ≥ 0 of the 2-DOF model, with optional memory."""
+
+    name: ClassVar[str]
+
+    def reset(self) -> None:  # noqa: B027 - stateless laws have nothing to forget
+        """Forget the loading history."""
+
+    @abstractmethod
+    def force(self, dx: float) -> float:
+        """F1 (N) at penetration Δx (m) with the current memory; does not change it."""
+
+    def update(self, dx: float) -> None:  # noqa: B027 - stateless laws keep no memory
+        """Commit the accepted penetration Δx (m): advance the memory."""
+
+
+@dataclass
+class LinearLocal(LocalLaw):
+    """F1 = k1·Δx for Δx > 0, else 0."""
+
+    k1: float
+    name: ClassVar[str] = "linear"
+
+    def force(self, dx: float) -> float:
+        return self.k1 * dx if dx > 0.0 else 0.0
+
+
+@dataclass
+class Elastoplastic(LocalLaw):
+    """Bilinear elastoplastic contact with memory.
+
+    Backbone: k1·Δx up to εs, then k1·εs + kt·(Δx − εs). Unloading from the largest
+    penetration reached, Δx_m (force F_m on the backbone), is elastic:
+    F1 = max(0, F_m − k1·(Δx_m − Δx)); reloading retraces that line, then the backbone.
+    The permanent set is Δx_m − F_m/k1.
+    """
+
+    k1: float
+    kt: float
+    eps_s: float
+    max_dx: float = 0.0
+    name: ClassVar[str] = "elastoplastic"
+
+    def backbone(self, dx: float) -> float:
+        if dx <= self.eps_s:
+            return self.k1 * dx
+        return self.k1 * self.eps_s + self.kt * (dx - self.eps_s)
+
+    @property
+    def permanent_set(self) -> float:
+        """Δx_m − F_m/k1 (m): where contact starts and ends after yielding."""
+        return self.max_dx - self.backbone(self.max_dx) / self.k1
+
+    def reset(self) -> None:
+        self.max_dx = 0.0
+
+    def force(self, dx: float) -> float:
+        if dx <= 0.0:
+            return 0.0
+        if dx >= self.max_dx:
+            return self.backbone(dx)
+        return max(0.0, self.backbone(self.max_dx) - self.k1 * (self.max_dx - dx))
+
+    def update(self, dx: float) -> None:
+        self.max_dx = max(self.max_dx, dx)
+
+
+@dataclass
+class StiffnessMutation(LocalLaw):
+    """One-off local failure: F1 = k1·Δx until the force first reaches F_m, then k1'·Δx.
+
+    The paper's eq. 5 is illegible in our copy; this irreversible stiffness drop is the
+    reading impactbench uses (MODELS.md §2). Swap the class to try another reading.
+    """
+
+    k1: float
+    k1_failed: float
+    fm: float
+    failed: bool = False
+    name: ClassVar[str] = "mutation"
+
+    def reset(self) -> None:
+        self.failed = False
+
+    def force(self, dx: float) -> float:
+        if dx <= 0.0:
+            return 0.0
+        if self.failed or self.k1 * dx >= self.fm:
+            return self.k1_failed * dx
+        return self.k1 * dx
+
+    def update(self, dx: float) -> None:
+        if self.k1 * dx >= self.fm:
+            self.failed = True
+
+
+class StructuralLaw(ABC):
+    """Structural law F2(x2) tying body 2 to the ground (stateless)."""
+
+    name: ClassVar[str]
+
+    @abstractmethod
+    def force(self, x2: float) -> float:
+        """Restoring force F2 (N) at displacement x2 (m)."""
+
+    @abstractmethod
+    def potential(self, x2: float) -> float:
+        """Stored energy (J) at displacement x2 (m)."""
+
+    @property
+    def collapse_energy(self) -> float:
+        """Energy (J) above which the structure runs away; inf if it never does."""
+        return math.inf
+
+
+@dataclass(frozen=True)
+class LinearStructure(StructuralLaw):
+    """F2 = k2·x2."""
+
+    k2: float
+    name: ClassVar[str] = "linear"
+
+    def force(self, x2: float) -> float:
+        return self.k2 * x2
+
+    def potential(self, x2: float) -> float:
+        return 0.5 * self.k2 * x2 * x2
+
+
+@dataclass(frozen=True)
+class SofteningStructure(StructuralLaw):
+    """Cubic softening F2 = k2·x2 − β·x2³; its potential peaks at k2²/(4β) at x2 = ±√(k2/β)."""
+
+    k2: float
+    beta: float
+    name: ClassVar[str] = "softening"
+
+    def force(self, x2: float) -> float:
+        return self.k2 * x2 - self.beta * x2**3
+
+    def potential(self, x2: float) -> float:
+        return 0.5 * self.k2 * x2**2 - 0.25 * self.beta * x2**4
+
+    @property
+    def collapse_energy(self) -> float:
+        return self.k2**2 / (4.0 * self.beta)
+
+    @property
+    def collapse_displacement(self) -> float:
+        """|x2| (m) at the potential's peak, beyond which the force pushes outward."""
+        return math.sqrt(self.k2 / self.beta)
+
+
+LOCAL_LAWS: dict[str, type[LocalLaw]] = {
+    cls.name: cls for cls in (LinearLocal, Elastoplastic, StiffnessMutation)
+}
+STRUCTURAL_LAWS: dict[str, type[StructuralLaw]] = {
+    cls.name: cls for cls in (LinearStructure, SofteningStructure)
+}

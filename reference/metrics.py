@@ -1,0 +1,163 @@
+"""The one metrics path: :class:`~reference.record.ImpactRecord` → impact metrics.
+
+The reference solvers and every engine adapter go through :func:`compute`, so any difference
+in a comparison table is a difference in physics or numerics, never in bookkeeping.
+
+Definitions (SI):
+
+- A *contact* is a maximal run of samples with normal force F > 0 (above a floor of
+  ``FORCE_FLOOR_REL`` × max F, which ignores round-off dust). Its start and end are located
+  between samples: at the zero crossing of the penetration when the penetration changes sign
+  in the bracketing step (Hunt–Crossley, linear laws), otherwise by extrapolating the force
+  linearly to zero from the two samples inside the contact, clamped to the bracketing step
+  (a clipped spring–damper lets go while still penetrating; an elastoplastic contact starts
+  and ends at its permanent set).
+- ``restitution`` k = −ẋ(end of last contact) / ẋ(start of first contact), relative normal
+  velocities interpolated at those instants.
+- ``duration_s``: the first contact's duration. ``pulse_width_s``: first contact's start to
+  the last contact's end. ``contact_time_s``: summed contact durations. ``impacts``: count.
+- ``peak_force_n``: the largest force sample; ``max_penetration_m``: the largest penetration
+  sample inside a contact.
+- ``impulse_ns``: ∫F dt (trapezoid over the record).
+- ``energy_loss_fraction``: the hysteresis loop area ∮F dx over the kinetic energy at the
+  first contact's start (½·m1·v1² + ½·m2·v2²). For a ball on a rigid plate it equals 1 − k².
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from reference.record import ImpactRecord
+
+FORCE_FLOOR_REL = 1e-9
+
+METRICS: tuple[str, ...] = (
+    "restitution",
+    "duration_s",
+    "peak_force_n",
+    "max_penetration_m",
+    "impulse_ns",
+    "energy_loss_fraction",
+    "pulse_width_s",
+    "contact_time_s",
+    "impacts",
+)
+
+BALL_METRICS: tuple[str, ...] = (
+    "restitution",
+    "duration_s",
+    "peak_force_n",
+    "max_penetration_m",
+    "energy_loss_fraction",
+)
+"""The five ball-on-plate metrics, in the order of the CLI's JSON output."""
+
+
+@dataclass(frozen=True)
+class Contact:
+    """One contact interval: located start/end times (s) and its first/last force samples."""
+
+    start_s: float
+    end_s: float
+    first: int
+    last: int
+
+    @property
+    def duration_s(self) -> float:
+        return self.end_s - self.start_s
+
+
+def _lerp_root(t0: float, y0: float, t1: float, y1: float) -> float:
+    """Time where the line through (t0, y0), (t1, y1) crosses zero."""
+    return t0 + (t1 - t0) * (-y0) / (y1 - y0)
+
+
+def _edge_time(rec: ImpactRecord, outside: int, inside: int, inner: int) -> float:
+    """Locate a contact edge between sample ``outside`` (no force) and ``inside`` (force).
+
+    ``inner`` is the next sample further inside the contact (used for force extrapolation).
+    """
+    t, x, f = rec.time_s, rec.penetration_m, rec.normal_force_n
+    lo, hi = sorted((t[outside], t[inside]))
+    if x[outside] <= 0.0 < x[inside]:
+        return _lerp_root(t[outside], x[outside], t[inside], x[inside])
+    if inner != inside and f[inner] != f[inside]:
+        root = _lerp_root(t[inside], f[inside], t[inner], f[inner])
+        return min(max(root, lo), hi)
+    return t[outside]
+
+
+def contacts(rec: ImpactRecord) -> list[Contact]:
+    """All contact intervals of ``rec``, in time order."""
+    f = rec.normal_force_n
+    n = f.size
+    if n == 0:
+        return []
+    fmax = float(np.max(f))
+    if not fmax > 0.0:
+        return []
+    active = f > FORCE_FLOOR_REL * fmax
+    edges = np.diff(active.astype(np.int8))
+    firsts = list(np.flatnonzero(edges == 1) + 1)
+    lasts = list(np.flatnonzero(edges == -1))
+    if active[0]:
+        firsts.insert(0, 0)
+    if active[-1]:
+        lasts.append(n - 1)
+    out = []
+    for i, j in zip(firsts, lasts, strict=True):
+        start = (
+            _edge_time(rec, i - 1, i, min(i + 1, j)) if i > 0 else float(rec.time_s[0])
+        )
+        end = (
+            _edge_time(rec, j + 1, j, max(j - 1, i)) if j < n - 1 else float(rec.time_s[-1])
+        )
+        out.append(Contact(float(start), float(end), int(i), int(j)))
+    return out
+
+
+def _interp(rec: ImpactRecord, y: np.ndarray, t: float) -> float:
+    return float(np.interp(t, rec.time_s, y))
+
+
+def compute(rec: ImpactRecord) -> dict[str, float]:
+    """Metrics of one record (see module docstring). All NaN (impacts 0) without contact."""
+    nan = math.nan
+    out: dict[str, float] = dict.fromkeys(METRICS, nan)
+    out["impacts"] = 0
+    cs = contacts(rec) if len(rec) else []
+    if not cs:
+        return out
+    first, last = cs[0], cs[-1]
+    v_in = _interp(rec, rec.penetration_rate_m_s, first.start_s)
+    v_out = _interp(rec, rec.penetration_rate_m_s, last.end_s)
+    f, x = rec.normal_force_n, rec.penetration_m
+    inside = np.zeros(f.size, dtype=bool)
+    for c in cs:
+        inside[c.first : c.last + 1] = True
+    v1 = _interp(rec, rec.velocity_1_m_s, first.start_s)
+    kinetic = 0.5 * rec.mass_1_kg * v1**2
+    if math.isfinite(rec.mass_2_kg):
+        kinetic += 0.5 * rec.mass_2_kg * _interp(rec, rec.velocity_2_m_s, first.start_s) ** 2
+    out.update(
+        restitution=-v_out / v_in if v_in != 0.0 else nan,
+        duration_s=first.duration_s,
+        peak_force_n=float(np.max(f)),
+        max_penetration_m=float(np.max(x[inside])),
+        impulse_ns=float(np.trapezoid(f, rec.time_s)),
+        energy_loss_fraction=float(np.trapezoid(f, x)) / kinetic if kinetic > 0 else nan,
+        pulse_width_s=last.end_s - first.start_s,
+        contact_time_s=float(sum(c.duration_s for c in cs)),
+        impacts=len(cs),
+    )
+    return out
+
+
+def relative_error(value: float, reference: float) -> float:
+    """Signed relative error (value − reference)/|reference|; NaN where undefined."""
+    if not (math.isfinite(value) and math.isfinite(reference)) or reference == 0.0:
+        return 0.0 if value == reference else math.nan
+    return (value - reference) / abs(reference)

@@ -1,0 +1,147 @@
+"""Physical set-ups shared by the reference solvers and every engine adapter.
+
+Frozen dataclasses with the papers' defaults, SI units in the field names, validated on
+construction: a bad value raises ``ValueError`` naming the field, the value and the rule.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, fields
+from typing import Any
+
+from reference import validation as check
+from reference.laws import (
+    LOCAL_LAWS,
+    STRUCTURAL_LAWS,
+    Elastoplastic,
+    HuntCrossley,
+    LinearLocal,
+    LinearStructure,
+    LocalLaw,
+    SofteningStructure,
+    StiffnessMutation,
+    StructuralLaw,
+)
+
+STEEL_YOUNG_PA = 2.0e11
+STEEL_POISSON = 0.25
+STEEL_DENSITY_KG_M3 = 7800.0
+
+
+def hertz_stiffness(radius_1_m: float, young_1_pa: float, poisson_1: float,
+                    radius_2_m: float = math.inf, young_2_pa: float = STEEL_YOUNG_PA,
+                    poisson_2: float = STEEL_POISSON) -> float:
+    """Hertz sphere contact constant c = (4/3)·E*·√R* in N/m^1.5.
+
+    1/E* = (1−ν₁²)/E₁ + (1−ν₂²)/E₂, 1/R* = 1/R₁ + 1/R₂ (a plate has R₂ = ∞).
+    """
+    e_star = 1.0 / ((1 - poisson_1**2) / young_1_pa + (1 - poisson_2**2) / young_2_pa)
+    r_star = 1.0 / (1.0 / radius_1_m + 1.0 / radius_2_m)
+    return 4.0 / 3.0 * e_star * math.sqrt(r_star)
+
+
+PAPER_RADIUS_M = 0.01452
+"""The card's ball radius (the preprint's m = 0.1 kg steel ball: R = 1.4517 cm)."""
+PAPER_STIFFNESS = 1.7135e10
+"""The preprint's c for that ball on a massive steel plate (N/m^1.5)."""
+PAPER_VELOCITIES_M_S: tuple[float, ...] = (0.5, 1.0, 2.0, 3.0, 4.0, 5.0)
+
+
+class _Scenario:
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)  # type: ignore[call-overload]
+
+    def replace(self, **changes: Any) -> Any:
+        from dataclasses import replace
+
+        return replace(self, **changes)  # type: ignore[type-var]
+
+    @classmethod
+    def field_names(cls) -> tuple[str, ...]:
+        return tuple(f.name for f in fields(cls))  # type: ignore[arg-type]
+
+
+@dataclass(frozen=True)
+class BallOnPlate(_Scenario):
+    """A steel ball hitting a massive fixed plate head-on (MODELS.md §1).
+
+    Hunt–Crossley contact F = c·xⁿ·(1 + b·ẋ). Gravity is off by default (the paper's
+    impact is collinear and gravity-free); ``gravity_m_s2 = 9.81`` turns it on in engines.
+    """
+
+    velocity_m_s: float = 1.0
+    mass_kg: float = 0.1
+    stiffness: float = PAPER_STIFFNESS
+    exponent: float = 1.5
+    damping_s_per_m: float = 0.1
+    radius_m: float = PAPER_RADIUS_M
+    gravity_m_s2: float = 0.0
+
+    def __post_init__(self) -> None:
+        check.positive("velocity_m_s", self.velocity_m_s)
+        check.positive("mass_kg", self.mass_kg)
+        check.positive("stiffness", self.stiffness)
+        check.positive("exponent", self.exponent)
+        check.non_negative("damping_s_per_m", self.damping_s_per_m)
+        check.positive("radius_m", self.radius_m)
+        check.non_negative("gravity_m_s2", self.gravity_m_s2)
+
+    @property
+    def alpha(self) -> float:
+        """α = b·V0, the only parameter restitution depends on."""
+        return self.damping_s_per_m * self.velocity_m_s
+
+    def law(self) -> HuntCrossley:
+        return HuntCrossley(self.stiffness, self.exponent, self.damping_s_per_m)
+
+
+@dataclass(frozen=True)
+class RigidFlexible(_Scenario):
+    """Rigid body 1 (m1) hitting flexible body 2 (m2) tied to the ground (MODELS.md §2).
+
+    Defaults are Zhou & Xiao's base parameters. ``local`` names the contact law
+    (linear, elastoplastic, mutation), ``structure`` the structural law (linear, softening).
+    """
+
+    velocity_m_s: float = 2.0
+    local: str = "linear"
+    structure: str = "linear"
+    m1_kg: float = 10.0
+    m2_kg: float = 10.0
+    k1_n_per_m: float = 1.0e5
+    k2_n_per_m: float = 1.0e5
+    kt_n_per_m: float = 2.0e4
+    k1_failed_n_per_m: float = 5.0e4
+    eps_s_m: float = 0.07
+    beta_n_per_m3: float = 3.0e6
+    fm_n: float = 1.0e3
+    max_time_s: float = 10.0
+
+    def __post_init__(self) -> None:
+        check.positive("velocity_m_s", self.velocity_m_s)
+        check.one_of("local", self.local, tuple(LOCAL_LAWS))
+        check.one_of("structure", self.structure, tuple(STRUCTURAL_LAWS))
+        for name in ("m1_kg", "m2_kg", "k1_n_per_m", "k2_n_per_m", "kt_n_per_m",
+                     "k1_failed_n_per_m", "eps_s_m", "fm_n", "max_time_s"):
+            check.positive(name, getattr(self, name))
+        check.non_negative("beta_n_per_m3", self.beta_n_per_m3)
+
+    def local_law(self) -> LocalLaw:
+        """A fresh local law object (its memory reset)."""
+        if self.local == "linear":
+            return LinearLocal(self.k1_n_per_m)
+        if self.local == "elastoplastic":
+            return Elastoplastic(self.k1_n_per_m, self.kt_n_per_m, self.eps_s_m)
+        return StiffnessMutation(self.k1_n_per_m, self.k1_failed_n_per_m, self.fm_n)
+
+    def structural_law(self) -> StructuralLaw:
+        if self.structure == "linear":
+            return LinearStructure(self.k2_n_per_m)
+        return SofteningStructure(self.k2_n_per_m, self.beta_n_per_m3)
+
+
+SCENARIOS: dict[str, type[BallOnPlate] | type[RigidFlexible]] = {
+    "ball-on-plate": BallOnPlate,
+    "rigid-flexible": RigidFlexible,
+}
