@@ -1,0 +1,142 @@
+"""Pieces every adapter shares: the step recorder, outcome classification and the
+closed-form conversion of a Hunt–Crossley ball impact to a linear spring–damper.
+
+Linear spring–damper with a unilateral (clipped, F ≥ 0) force, as MuJoCo, Bullet and most
+engines implement a soft contact: m·ẍ + d·ẋ + k·x = 0 while k·x + d·ẋ > 0, with
+ωn = √(k/m), ζ = d/(2·√(k·m)), ωd = ωn·√(1−ζ²) and x(t) = (V0/ωd)·e^(−ζωn t)·sin(ωd t).
+The force k·x + d·ẋ vanishes (the bodies let go, still overlapping) at the phase
+
+    θe = ωd·T = π − atan2(2ζ√(1−ζ²), 1 − 2ζ²)
+
+so the contact duration is T = θe/ωd and the restitution, a function of ζ alone, is
+
+    e(ζ) = −ẋ(T)/V0 = −e^(−ζθe/√(1−ζ²)) · (cos θe − ζ/√(1−ζ²)·sin θe).
+
+(Without the clip, θe = π and e = exp(−ζπ/√(1−ζ²)), the textbook values.)
+:func:`spring_damper_matching` inverts these: given a target restitution and duration at one
+reference velocity it returns k (N/m) and d (N·s/m). A linear spring–damper's restitution does
+not depend on velocity, so it can match Hunt–Crossley at that one velocity only.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import optimize
+
+from reference.record import ImpactRecord, Status
+
+ENERGY_GAIN_LIMIT = 0.01
+"""A run that ends with more than 1 % more kinetic energy than it started with diverged."""
+
+
+def clipped_phase(zeta: float) -> float:
+    """θe = ωd·T of the clipped spring–damper (rad), for 0 ≤ ζ < 1."""
+    s = math.sqrt(1.0 - zeta * zeta)
+    return math.pi - math.atan2(2.0 * zeta * s, 1.0 - 2.0 * zeta * zeta)
+
+
+def clipped_restitution(zeta: float) -> float:
+    """Restitution e(ζ) of the clipped linear spring–damper, for 0 ≤ ζ < 1."""
+    s = math.sqrt(1.0 - zeta * zeta)
+    th = clipped_phase(zeta)
+    return -math.exp(-zeta * th / s) * (math.cos(th) - zeta / s * math.sin(th))
+
+
+@dataclass(frozen=True)
+class SpringDamper:
+    """A linear contact: stiffness_n_per_m k and damping_ns_per_m d (physical units)."""
+
+    stiffness_n_per_m: float
+    damping_ns_per_m: float
+
+    def restitution(self, mass_kg: float) -> float:
+        return clipped_restitution(self.zeta(mass_kg))
+
+    def zeta(self, mass_kg: float) -> float:
+        return self.damping_ns_per_m / (2.0 * math.sqrt(self.stiffness_n_per_m * mass_kg))
+
+    def duration_s(self, mass_kg: float) -> float:
+        z = self.zeta(mass_kg)
+        wd = math.sqrt(self.stiffness_n_per_m / mass_kg) * math.sqrt(1.0 - z * z)
+        return clipped_phase(z) / wd
+
+
+def spring_damper_matching(mass_kg: float, restitution: float, duration_s: float) -> SpringDamper:
+    """The clipped linear spring–damper with this restitution and contact duration.
+
+    Solves e(ζ) = restitution for ζ (e decreases monotonically from 1 at ζ = 0), then
+    ωd = θe(ζ)/T, ωn = ωd/√(1−ζ²), k = m·ωn², d = 2ζ·√(k·m).
+    """
+    if not 0.0 < restitution <= 1.0:
+        raise ValueError(f"restitution = {restitution!r}: must be in (0, 1]")
+    if restitution == 1.0:
+        zeta = 0.0
+    else:
+        zeta = optimize.brentq(lambda z: clipped_restitution(z) - restitution, 0.0, 0.7,
+                               xtol=1e-15, rtol=1e-15)
+    wd = clipped_phase(zeta) / duration_s
+    wn = wd / math.sqrt(1.0 - zeta * zeta)
+    k = mass_kg * wn * wn
+    return SpringDamper(k, 2.0 * zeta * math.sqrt(k * mass_kg))
+
+
+class Recorder:
+    """Collects one sample per step into preallocated arrays, then builds an ImpactRecord.
+
+    Append the state at the start of a step together with the force that acts over that
+    step: sample k is (t_k, x_k, ẋ_k, F_k, v1_k, v2_k[, x2_k]).
+    """
+
+    _FIELDS = ("time_s", "penetration_m", "penetration_rate_m_s", "normal_force_n",
+               "velocity_1_m_s", "velocity_2_m_s", "displacement_2_m")
+
+    def __init__(self, capacity: int = 4096) -> None:
+        self._data = np.empty((len(self._FIELDS), max(16, int(capacity))))
+        self._n = 0
+
+    def append(self, t: float, x: float, xdot: float, force: float, v1: float,
+               v2: float = 0.0, x2: float = 0.0) -> None:
+        if self._n == self._data.shape[1]:
+            self._data = np.concatenate([self._data, np.empty_like(self._data)], axis=1)
+        self._data[:, self._n] = (t, x, xdot, force, v1, v2, x2)
+        self._n += 1
+
+    def __len__(self) -> int:
+        return self._n
+
+    def record(self, mass_1_kg: float, mass_2_kg: float = math.inf,
+               with_displacement_2: bool = False, **meta) -> ImpactRecord:
+        d = self._data[:, : self._n]
+        return ImpactRecord(
+            d[0], d[1], d[2], d[3], d[4], d[5], mass_1_kg=mass_1_kg, mass_2_kg=mass_2_kg,
+            displacement_2_m=d[6].copy() if with_displacement_2 else None, meta=dict(meta),
+        )
+
+
+def classify(rec: ImpactRecord, *, initial_kinetic_j: float, final_kinetic_j: float,
+             tunneled: bool = False, timed_out: bool = False) -> ImpactRecord:
+    """Set the record's status from what happened, in order of precedence:
+
+    diverged (NaN/inf anywhere, or final kinetic energy > (1 + 1 %) × initial), tunneled (the
+    body ended beyond the obstacle), no_contact (no positive force was ever reported),
+    max_time (still in contact or approaching at the time cap), else ok.
+    """
+    arrays = (rec.time_s, rec.penetration_m, rec.penetration_rate_m_s, rec.normal_force_n,
+              rec.velocity_1_m_s, rec.velocity_2_m_s)
+    if not all(np.all(np.isfinite(a)) for a in arrays) or not math.isfinite(final_kinetic_j):
+        rec.status, rec.message = Status.DIVERGED, "non-finite state"
+    elif final_kinetic_j > (1.0 + ENERGY_GAIN_LIMIT) * initial_kinetic_j:
+        gain = final_kinetic_j / initial_kinetic_j - 1.0
+        rec.status, rec.message = Status.DIVERGED, f"kinetic energy gained {gain:.1%}"
+    elif tunneled:
+        rec.status, rec.message = Status.TUNNELED, "the body ended beyond the obstacle"
+    elif rec.normal_force_n.size == 0 or not np.any(rec.normal_force_n > 0.0):
+        rec.status, rec.message = Status.NO_CONTACT, "the engine reported no contact force"
+    elif timed_out:
+        rec.status, rec.message = Status.MAX_TIME, "time cap reached before separation"
+    else:
+        rec.status = Status.OK
+    return rec
