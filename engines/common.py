@@ -28,6 +28,10 @@ from scipy import optimize
 
 from reference.record import ImpactRecord, Status
 
+NATIVE_REFERENCE_VELOCITY_M_S = 1.0
+"""The impact velocity at which native-mode conversions match the reference (the stated
+reference velocity; ``RunSettings.options["reference_velocity_m_s"]`` overrides it)."""
+
 ENERGY_GAIN_LIMIT = 0.01
 """A run that ends with more than 1 % more kinetic energy than it started with diverged."""
 
@@ -140,3 +144,16 @@ def classify(rec: ImpactRecord, *, initial_kinetic_j: float, final_kinetic_j: fl
     else:
         rec.status = Status.OK
     return rec
+
+
+def native_ball_spring_damper(scenario, reference_velocity_m_s: float | None = None
+                              ) -> SpringDamper:
+    """The clipped linear spring–damper matching the Hunt–Crossley reference's restitution
+    and contact duration for ``scenario`` at the reference velocity (default
+    :data:`NATIVE_REFERENCE_VELOCITY_M_S`), the conversion behind MuJoCo's and PyBullet's
+    native mode."""
+    from reference import hunt_crossley
+
+    v_ref = reference_velocity_m_s or NATIVE_REFERENCE_VELOCITY_M_S
+    ref = hunt_crossley.solve(scenario.replace(velocity_m_s=v_ref))
+    return spring_damper_matching(scenario.mass_kg, ref["restitution"], ref["duration_s"])

@@ -195,6 +195,10 @@ class StructuralLaw(ABC):
         """Energy (J) above which the structure runs away; inf if it never does."""
         return math.inf
 
+    @abstractmethod
+    def reach(self, energy_j: float) -> float:
+        """Largest |x2| (m) body 2 can reach with this mechanical energy (inf on collapse)."""
+
 
 @dataclass(frozen=True)
 class LinearStructure(StructuralLaw):
@@ -208,6 +212,9 @@ class LinearStructure(StructuralLaw):
 
     def potential(self, x2: float) -> float:
         return 0.5 * self.k2 * x2 * x2
+
+    def reach(self, energy_j: float) -> float:
+        return math.sqrt(2.0 * max(energy_j, 0.0) / self.k2)
 
 
 @dataclass(frozen=True)
@@ -226,12 +233,35 @@ class SofteningStructure(StructuralLaw):
 
     @property
     def collapse_energy(self) -> float:
-        return self.k2**2 / (4.0 * self.beta)
+        return self.k2**2 / (4.0 * self.beta) if self.beta > 0.0 else math.inf
+
+    def reach(self, energy_j: float) -> float:
+        """Root of ½k2x² − ¼βx⁴ = E inside the well: x² = (k2 − √(k2² − 4βE))/β."""
+        e = max(energy_j, 0.0)
+        if self.beta == 0.0:
+            return math.sqrt(2.0 * e / self.k2)
+        disc = self.k2**2 - 4.0 * self.beta * e
+        if disc <= 0.0:
+            return math.inf
+        # k2 − √disc written without cancellation: 4βE / (k2 + √disc)
+        return math.sqrt(4.0 * e / (self.k2 + math.sqrt(disc)))
 
     @property
     def collapse_displacement(self) -> float:
         """|x2| (m) at the potential's peak, beyond which the force pushes outward."""
         return math.sqrt(self.k2 / self.beta)
+
+
+def no_further_contact(x1: float, v1: float, x2: float, v2: float, m2: float,
+                       structure: StructuralLaw) -> bool:
+    """True when body 1 can never touch body 2 again (positions from first touch, m; m/s).
+
+    Body 2's mechanical energy E2 = ½·m2·v2² + Π(x2) bounds its reach |x2| ≤ reach(E2); body 1
+    moves freely at constant v1 between contacts. Contact needs x1 − x2 > 0 (after yielding,
+    more), so once v1 ≤ 0 and x1 < −reach(E2) no further contact is possible.
+    """
+    reach = structure.reach(0.5 * m2 * v2 * v2 + structure.potential(x2))
+    return v1 <= 0.0 and x1 < -reach
 
 
 LOCAL_LAWS: dict[str, type[LocalLaw]] = {
