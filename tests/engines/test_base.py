@@ -1,0 +1,53 @@
+"""The registry and the safe runner: unknown names, absent engines, crashes as statuses."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+from engines.base import ENGINES, EngineUnavailable, RunSettings, get_adapter, run_safely
+from reference.scenarios import BallOnPlate
+
+
+def test_unknown_engine_gets_a_hint() -> None:
+    with pytest.raises(ValueError, match="did you mean 'mujoco'"):
+        get_adapter("mujocco")
+    with pytest.raises(ValueError, match="engine = 'nope'"):
+        run_safely("nope", BallOnPlate())
+
+
+def test_unknown_mode_is_bad_input() -> None:
+    with pytest.raises(ValueError, match="mode = 'fast'"):
+        run_safely("mujoco", BallOnPlate(), mode="fast")
+
+
+def test_bad_settings_name_the_field() -> None:
+    with pytest.raises(ValueError, match="timestep_s = -1"):
+        RunSettings(timestep_s=-1)
+
+
+def test_engine_unavailable_names_the_pip_command() -> None:
+    exc = EngineUnavailable("drake")
+    assert "pip install drake" in str(exc)
+
+
+@pytest.mark.parametrize("engine", sorted(ENGINES))
+def test_absent_engine_becomes_status_unavailable(engine: str) -> None:
+    """In a fresh interpreter where the engine's package cannot be imported."""
+    module = {"drake": "pydrake"}.get(engine, engine)
+    code = (
+        "import sys, json\n"
+        f"sys.modules[{module!r}] = None  # makes `import {module}` raise ImportError\n"
+        "from engines.base import run_safely\n"
+        "from reference.scenarios import BallOnPlate\n"
+        f"rec = run_safely({engine!r}, BallOnPlate())\n"
+        "print(json.dumps({'status': str(rec.status), 'message': rec.message}))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True, timeout=120)
+    got = json.loads(out.stdout.strip().splitlines()[-1])
+    assert got["status"] == "unavailable"
+    assert f"pip install {engine}" in got["message"]
