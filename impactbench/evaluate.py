@@ -1,0 +1,81 @@
+"""One comparison: an engine run and the reference for the same scenario, side by side.
+
+The reference metrics come from the reference solvers; the engine's from
+``reference.metrics.compute`` of the engine's record (the one metrics path). Used by the
+``run`` command, the report, the tuner and the gates alike.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from engines.base import RunSettings, run_safely
+from reference import metrics
+from reference.record import ImpactRecord, Status
+from reference.scenarios import BallOnPlate, RigidFlexible
+
+Scenario = BallOnPlate | RigidFlexible
+
+RIGID_FLEXIBLE_METRICS: tuple[str, ...] = (
+    "peak_force_n",
+    "pulse_width_s",
+    "contact_time_s",
+    "impulse_ns",
+    "impacts",
+)
+SCENARIO_METRICS: dict[str, tuple[str, ...]] = {
+    "ball-on-plate": metrics.BALL_METRICS,
+    "rigid-flexible": RIGID_FLEXIBLE_METRICS,
+}
+
+
+def scenario_name(scenario: Scenario) -> str:
+    return "ball-on-plate" if isinstance(scenario, BallOnPlate) else "rigid-flexible"
+
+
+def reference_metrics(scenario: Scenario) -> dict[str, Any]:
+    """The reference command's object for ``scenario`` (same keys as its ``--json``)."""
+    if isinstance(scenario, BallOnPlate):
+        from reference import hunt_crossley
+
+        return dict(hunt_crossley.solve(scenario))
+    from reference import two_dof
+
+    ref = two_dof.solve(scenario)
+    return {"status": str(ref["status"]), **{k: ref[k] for k in RIGID_FLEXIBLE_METRICS}}
+
+
+def record_metrics(rec: ImpactRecord, scenario: Scenario) -> dict[str, Any]:
+    """The scenario's metrics of an engine record (NaN where the run failed)."""
+    names = SCENARIO_METRICS[scenario_name(scenario)]
+    if rec.status not in (Status.OK, Status.MAX_TIME, Status.STRUCTURE_COLLAPSED):
+        return {k: (0 if k == "impacts" else math.nan) for k in names}
+    got = metrics.compute(rec)
+    return {k: got[k] for k in names}
+
+
+def compare(engine: str, scenario: Scenario, mode: str,
+            settings: RunSettings | None = None,
+            reference: dict[str, Any] | None = None) -> tuple[dict[str, Any], ImpactRecord]:
+    """Run ``engine`` on ``scenario`` and compare with the reference.
+
+    Returns the ``run --json`` object (status, engine, engine_version, mode, timestep_s,
+    wall_s, the metrics, ``reference`` and ``rel_error``) and the engine's record.
+    """
+    rec = run_safely(engine, scenario, mode, settings)
+    ref = reference if reference is not None else reference_metrics(scenario)
+    got = record_metrics(rec, scenario)
+    out: dict[str, Any] = {
+        "status": str(rec.status),
+        "message": rec.message,
+        "engine": engine,
+        "engine_version": rec.meta.get("engine_version", ""),
+        "mode": mode,
+        "timestep_s": rec.meta.get("timestep_s", settings.timestep_s if settings else None),
+        "wall_s": rec.meta.get("wall_s", math.nan),
+        **got,
+        "reference": ref,
+        "rel_error": {k: metrics.relative_error(float(got[k]), float(ref[k])) for k in got},
+    }
+    return out, rec
