@@ -1,0 +1,194 @@
+"""The report configuration: a TOML file, validated into a frozen :class:`ReportConfig`.
+
+Schema (every key optional except where noted; defaults in ``impactbench/data/default.toml``):
+
+``[report]`` title (str), engines (list of engine names), modes (list of native, injected,
+tuned); ``[ball_on_plate]`` velocities_m_s (list of m/s > 0), physical parameters of
+:class:`~reference.scenarios.BallOnPlate` (mass_kg, stiffness, exponent, damping_s_per_m,
+radius_m, gravity_m_s2), ``[ball_on_plate.timestep_s]`` engine → s; ``[rigid_flexible]``
+velocities_m_s, local and structure (lists of law names), the physical parameters of
+:class:`~reference.scenarios.RigidFlexible`, ``[rigid_flexible.timestep_s]``;
+``[work_precision]`` velocity_m_s, timesteps_s, modes.
+
+A bad file raises ValueError with one line naming the key (``rigid_flexible.velocities_m_s``),
+the value and the rule. An empty velocity list drops that scenario.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from engines.base import ENGINES, MODES
+from reference.laws import LOCAL_LAWS, STRUCTURAL_LAWS
+from reference.scenarios import BallOnPlate, RigidFlexible
+
+DEFAULT_CONFIG = Path(__file__).parent / "data" / "default.toml"
+
+_SCENARIO_TABLES = {"ball_on_plate": BallOnPlate, "rigid_flexible": RigidFlexible}
+_SCENARIO_NAMES = {"ball_on_plate": "ball-on-plate", "rigid_flexible": "rigid-flexible"}
+
+
+@dataclass(frozen=True)
+class ScenarioMatrix:
+    """One scenario's part of the matrix."""
+
+    name: str
+    velocities_m_s: tuple[float, ...]
+    timestep_s: dict[str, float]
+    parameters: dict[str, Any]
+    local: tuple[str, ...] = ()
+    structure: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class WorkPrecision:
+    velocity_m_s: float
+    timesteps_s: tuple[float, ...]
+    modes: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class ReportConfig:
+    title: str
+    engines: tuple[str, ...]
+    modes: tuple[str, ...]
+    scenarios: tuple[ScenarioMatrix, ...]
+    work_precision: WorkPrecision | None
+    source: str = field(default="", compare=False)
+    raw: dict[str, Any] = field(default_factory=dict, compare=False)
+
+    @property
+    def hash(self) -> str:
+        """Short hash of the validated content (what produced the results)."""
+        blob = json.dumps(self.raw, sort_keys=True, default=str).encode()
+        return hashlib.sha256(blob).hexdigest()[:12]
+
+
+def _fail(key: str, value: Any, rule: str) -> ValueError:
+    return ValueError(f"{key} = {value!r}: {rule}")
+
+
+def _check_keys(table: dict[str, Any], allowed: set[str], prefix: str) -> None:
+    for key in table:
+        if key not in allowed:
+            import difflib
+
+            hint = difflib.get_close_matches(key, sorted(allowed), n=1)
+            more = f" (did you mean {hint[0]!r}?)" if hint else ""
+            raise ValueError(f"{prefix}{key}: unknown key{more}; allowed: "
+                             f"{', '.join(sorted(allowed))}")
+
+
+def _positive_list(key: str, value: Any) -> tuple[float, ...]:
+    if not isinstance(value, list):
+        raise _fail(key, value, "must be a list of numbers")
+    for v in value:
+        if isinstance(v, bool) or not isinstance(v, int | float):
+            raise _fail(key, value, "must be a list of numbers")
+        if not (math.isfinite(v) and v > 0):
+            raise _fail(key, v, "must be > 0 and finite")
+    return tuple(float(v) for v in value)
+
+
+def _names(key: str, value: Any, allowed: tuple[str, ...]) -> tuple[str, ...]:
+    if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+        raise _fail(key, value, "must be a list of strings")
+    for v in value:
+        if v not in allowed:
+            raise _fail(key, v, f"must be one of {', '.join(allowed)}")
+    return tuple(value)
+
+
+def _timesteps(key: str, value: Any, engines: tuple[str, ...]) -> dict[str, float]:
+    if not isinstance(value, dict):
+        raise _fail(key, value, "must be a table of engine = seconds")
+    _check_keys(value, set(ENGINES), f"{key}.")
+    out = {}
+    for engine, dt in value.items():
+        out[engine] = _positive_list(f"{key}.{engine}", [dt])[0]
+    return out
+
+
+def _scenario(table_name: str, table: dict[str, Any], engines: tuple[str, ...]
+              ) -> ScenarioMatrix:
+    cls = _SCENARIO_TABLES[table_name]
+    fields = set(cls.field_names()) - {"velocity_m_s", "local", "structure"}
+    allowed = {"velocities_m_s", "timestep_s"} | fields
+    if cls is RigidFlexible:
+        allowed |= {"local", "structure"}
+    _check_keys(table, allowed, f"{table_name}.")
+    velocities = _positive_list(f"{table_name}.velocities_m_s", table.get("velocities_m_s", []))
+    params = {k: table[k] for k in fields if k in table}
+    try:
+        cls(**params)  # validates values (one line naming the field)
+    except ValueError as exc:
+        raise ValueError(f"{table_name}.{exc}") from None
+    except TypeError as exc:
+        raise ValueError(f"{table_name}: {exc}") from None
+    local = structure = ()
+    if cls is RigidFlexible:
+        local = _names(f"{table_name}.local", table.get("local", list(LOCAL_LAWS)),
+                       tuple(LOCAL_LAWS))
+        structure = _names(f"{table_name}.structure",
+                           table.get("structure", list(STRUCTURAL_LAWS)),
+                           tuple(STRUCTURAL_LAWS))
+    return ScenarioMatrix(
+        name=_SCENARIO_NAMES[table_name],
+        velocities_m_s=velocities,
+        timestep_s=_timesteps(f"{table_name}.timestep_s", table.get("timestep_s", {}), engines),
+        parameters=params,
+        local=local,
+        structure=structure,
+    )
+
+
+def parse(data: dict[str, Any], source: str = "") -> ReportConfig:
+    """Validate a parsed TOML document into a :class:`ReportConfig`."""
+    _check_keys(data, {"report", "ball_on_plate", "rigid_flexible", "work_precision"}, "")
+    for key, value in data.items():
+        if not isinstance(value, dict):
+            raise _fail(key, value, "must be a table")
+    report = data.get("report", {})
+    _check_keys(report, {"title", "engines", "modes"}, "report.")
+    title = report.get("title", "impactbench report")
+    if not isinstance(title, str):
+        raise _fail("report.title", title, "must be a string")
+    engines = _names("report.engines", report.get("engines", list(ENGINES)), tuple(ENGINES))
+    modes = _names("report.modes", report.get("modes", list(MODES)), MODES)
+    scenarios = tuple(
+        _scenario(name, data[name], engines) for name in _SCENARIO_TABLES if name in data
+    )
+    wp = None
+    if "work_precision" in data:
+        t = data["work_precision"]
+        _check_keys(t, {"velocity_m_s", "timesteps_s", "modes"}, "work_precision.")
+        timesteps = _positive_list("work_precision.timesteps_s", t.get("timesteps_s", []))
+        if timesteps:
+            wp = WorkPrecision(
+                velocity_m_s=_positive_list("work_precision.velocity_m_s",
+                                            [t.get("velocity_m_s", 1.0)])[0],
+                timesteps_s=timesteps,
+                modes=_names("work_precision.modes", t.get("modes", ["native", "injected"]),
+                             ("native", "injected")),
+            )
+    return ReportConfig(title, engines, modes, scenarios, wp, source=source, raw=data)
+
+
+def load(path: str | Path | None = None) -> ReportConfig:
+    """Read and validate a config file (the packaged default when ``path`` is None)."""
+    path = Path(path) if path is not None else DEFAULT_CONFIG
+    try:
+        text = path.read_text()
+    except OSError as exc:
+        raise ValueError(f"config {str(path)!r}: cannot read ({exc.strerror})") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ValueError(f"config {str(path)!r}: not valid TOML ({exc})") from None
+    return parse(data, source=str(path))
