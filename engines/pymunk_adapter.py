@@ -1,0 +1,426 @@
+"""pymunk (Chipmunk2D) adapter: the ball is a circle, the 2-DOF bodies are circles on the x axis.
+
+pymunk is 2D and its contacts are *rigid*: one velocity-level impulse per step, with a
+restitution target ``vₙ⁺ = −e·vₙ⁻`` (e = the product of the two shapes' elasticities). A rigid
+contact has no compliance and hence no duration: what it reports is one impulse J in one step.
+Everything here is in SI units (m, kg, s, N); ``space.collision_slop = 0`` (its default, 0.1,
+would be 10 cm of allowed overlap) and ``space.iterations`` (default 10) is stated in the meta.
+
+Time stepping (checked on pymunk 7.3.1): ``space.step(dt)`` first drifts every body,
+x ← x + v·dt, then runs collision detection and the ``pre_solve`` callbacks at the *new*
+positions, then kicks, v ← v + (F/m + g)·dt, with the forces set in ``pre_solve``, then solves
+the rigid contacts and joints (``DampedSpring`` applies k·(L − d)·dt from the new positions
+too). A force applied in ``pre_solve`` is therefore semi-implicit (symplectic) Euler in its
+drift–kick form, x_{k+1} = x_k + v_k·dt, v_{k+1} = v_k + F(x_{k+1}, v_k)·dt/m — for an
+elastic force a symplectic (energy-bounded, leapfrog-equivalent) scheme, not the explicit Euler
+that a force set before ``space.step`` would give (that one gains energy like e^{+πω·dt/2}).
+The damping term sees the pre-kick velocity v_k, which lags the position by half a step: the
+restitution error it causes is first order in dt, ≈ +1e-4 relative at dt = 1e-7 s and
+≈ +1e-3 at dt = 1e-6 s for the paper's ball (measured; see the tests).
+
+Samples: reading the step as "kick at x_k, then drift", sample k is (t_k, x_k, v_k before the
+kick, the force of that kick) — the state at the start of the step and the force the engine
+applies over it (``engines.common.Recorder``'s contract).
+
+Ball-on-plate: a circle (radius R, mass m, infinite moment: friction is 0 and it must not spin)
+moving along −y onto a static segment at y = 0, starting 2.5 steps of free flight away;
+penetration x = R − y. Gravity ``scenario.gravity_m_s2`` acts along −y.
+
+- ``native``: rigid contact with circle elasticity e and plate elasticity 1, so the pair
+  restitution is e = k_ref, the reference's restitution at the reference velocity v_ref
+  (``engines.common.NATIVE_REFERENCE_VELOCITY_M_S``, 1 m/s, or
+  ``settings.options["reference_velocity_m_s"]``): e = hunt_crossley.solve(V0 = v_ref)
+  ["restitution"], as a user would set a constant coefficient of restitution. The force sample
+  is ``arbiter.total_impulse`` / dt from ``post_solve``. Honest consequence: restitution is
+  right at v_ref only (Hunt–Crossley's k falls with α = b·V0), and duration, peak force and
+  max penetration are one-step artefacts (duration ~ dt, peak = m·(1+e)·V0/dt, penetration
+  ≤ V0·dt) that say nothing about the physics.
+- ``injected`` (``settings.options["injection"] = "penalty"``, the default): a compliant
+  Hunt–Crossley penalty contact. In ``pre_solve`` the rigid contact is rejected
+  (``arbiter.process_collision = False``), x = R − y is read from the geometry (the handler runs
+  exactly while the shapes overlap, i.e. x > 0, so first touch is the first step that ends in
+  overlap) and F = c·xⁿ·(1 + b·ẋ) (the scenario's ``HuntCrossley`` object) is applied to the
+  ball. That force is the engine's contact output in this mode.
+- ``injected`` with ``injection = "restitution"``: the rigid contact kept, with
+  ``arbiter.restitution`` set in ``pre_solve`` to Hunt–Crossley's k(α = b·ẋ) for the current
+  approach speed ẋ (closed form, ``reference.hunt_crossley.restitution``). Restitution then
+  matches the reference at every velocity; duration and force stay one-step artefacts.
+- ``tuned``: ``settings.tuned["elasticity"]`` (pair restitution) replaces e; otherwise
+  ``unsupported``.
+
+Rigid–flexible: body 1 (circle, m1) moves along +x at v1 into body 2 (circle, m2), which a
+``GrooveJoint`` keeps on the x axis (infinite moments) and a ``DampedSpring`` (damping 0,
+anchored far to its right, rest length L) ties to the ground: force k2·x2 for the linear
+structure, the cubic softening k2·x2 − β·x2³ through a replaced ``force_func``. Positions are
+measured from first touch: x1 = x_body1 + h, x2 = x_body2 − h (h the circles' radius), Δx = x1 − x2.
+
+- ``native``: rigid contact with pair elasticity 1. A contact spring k1 without damping stores
+  and returns all the energy it takes, so the rigid model a user would pick for it is the
+  perfectly elastic one, e = 1. It cannot express k1: every impact is a one-step impulse, so
+  the pulse width is the time between the first and last impacts, and the peak force is an
+  impulse divided by dt (both dt artefacts; reported as they are).
+- ``injected``: the scenario's local law (``scenario.local_law()``, with its memory) as a penalty
+  force: in ``pre_solve`` F1 = law.force(Δx), then law.update(Δx) (every step is accepted),
+  applied as −F1 to body 1 and +F1 to body 2, the rigid contact rejected.
+- ``tuned``: ``settings.tuned["elasticity"]`` replaces e = 1.
+
+The run stops when ``reference.laws.no_further_contact`` holds, on collapse of the softening
+structure (body 2's energy above ``collapse_energy`` out of contact, or x2 beyond the
+potential's peak while body 1 pushes it: status ``structure_collapsed``), or at the time cap
+(``settings.max_time_s`` or ``scenario.max_time_s``; status ``max_time``).
+
+Default timesteps: ball 1e-6 s in every mode; rigid–flexible 1e-5 s (injected linear/linear
+and elastoplastic/linear at 3.3 m/s: peak, pulse width and impulse within 1e-3 of the reference).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from engines.base import Adapter, EngineUnavailable, RunSettings, Scenario
+from engines.common import NATIVE_REFERENCE_VELOCITY_M_S, Recorder, classify
+from reference import validation as check
+from reference.laws import no_further_contact
+from reference.record import ImpactRecord, Status
+from reference.scenarios import BallOnPlate, RigidFlexible
+
+INJECTIONS: tuple[str, ...] = ("penalty", "restitution")
+"""``settings.options["injection"]`` values for the ball in injected mode."""
+
+GAP_STEPS = 2.5
+"""Free flight before first touch, in steps (non-integer: touch falls inside a step)."""
+
+TAIL_STEPS = 2
+"""Samples recorded after the ball has let go (the metrics locate the end between samples)."""
+
+BALL_TIME_CAP_S = 2e-3
+"""Default ball time cap after first touch (s): ~20 contact durations of the paper's ball."""
+
+
+def _import_pymunk() -> Any:
+    try:
+        import pymunk
+    except ImportError as exc:
+        raise EngineUnavailable("pymunk", str(exc)) from None
+    return pymunk
+
+
+def _space(pymunk: Any, iterations: int, gravity_m_s2: float) -> Any:
+    space = pymunk.Space()
+    space.collision_slop = 0.0
+    space.iterations = iterations
+    space.gravity = (0.0, -gravity_m_s2)
+    return space
+
+
+def _iterations(settings: RunSettings) -> int:
+    it = settings.options.get("iterations", 10)
+    if isinstance(it, bool) or not isinstance(it, int) or it < 1:
+        raise ValueError(f"options.iterations = {it!r}: must be an integer >= 1")
+    return it
+
+
+class BallModel:
+    """The ball-on-plate space, with its contact handler installed.
+
+    Args:
+        scenario: the ball (mass, radius, velocity, law, gravity).
+        contact: ``"rigid"`` (elasticity ``elasticity``), ``"penalty"`` (Hunt–Crossley force)
+            or ``"restitution"`` (rigid, restitution k(b·ẋ) set each step).
+        dt: the timestep (s), for the impulse → force conversion and the initial gap.
+        measure: install the ``post_solve`` hook that reads the rigid impulse (the bare
+            benchmark loop leaves it out; the penalty force is the model itself).
+
+    ``force_n`` holds the contact force of the last step in which the handler ran; the
+    caller zeroes it before each step.
+    """
+
+    def __init__(self, scenario: BallOnPlate, contact: str, dt: float, *,
+                 elasticity: float = 1.0, iterations: int = 10, measure: bool = True) -> None:
+        pymunk = _import_pymunk()
+        self.scenario, self.contact, self.dt = scenario, contact, dt
+        self.gap_m = GAP_STEPS * scenario.velocity_m_s * dt
+        self.space = space = _space(pymunk, iterations, scenario.gravity_m_s2)
+        radius = scenario.radius_m
+        self.body = body = pymunk.Body(scenario.mass_kg, math.inf)
+        body.position = (0.0, radius + self.gap_m)
+        body.velocity = (0.0, -scenario.velocity_m_s)
+        ball = pymunk.Circle(body, radius)
+        half = 10.0 * radius
+        plate = pymunk.Segment(space.static_body, (-half, 0.0), (half, 0.0), 0.0)
+        ball.friction = plate.friction = 0.0
+        ball.elasticity, plate.elasticity = elasticity, 1.0
+        space.add(body, ball, plate)
+        self.force_n = 0.0
+        if contact == "penalty":
+            space.on_collision(pre_solve=self._penalty)
+            self._law = scenario.law()
+        elif contact == "restitution":
+            from reference.hunt_crossley import restitution
+
+            self._restitution, self._b = restitution, scenario.damping_s_per_m
+            space.on_collision(pre_solve=self._set_restitution,
+                               post_solve=self._impulse if measure else None)
+        elif contact == "rigid":
+            if measure:
+                space.on_collision(post_solve=self._impulse)
+        else:
+            raise ValueError(f"contact = {contact!r}: must be rigid, penalty or restitution")
+
+    def _penalty(self, arbiter: Any, _space: Any, _data: Any) -> None:
+        arbiter.process_collision = False
+        body = self.body
+        f = self._law.force(self.scenario.radius_m - body.position.y, -body.velocity.y)
+        body.force = (0.0, f)
+        self.force_n = f
+
+    def _set_restitution(self, arbiter: Any, _space: Any, _data: Any) -> None:
+        arbiter.restitution = float(self._restitution(-self._b * self.body.velocity.y))
+
+    def _impulse(self, arbiter: Any, _space: Any, _data: Any) -> None:
+        self.force_n = arbiter.total_impulse.length / self.dt
+
+
+def _flat_length(scenario: RigidFlexible) -> float:
+    """A length (m) comfortably beyond any displacement of the run: body radius and spring."""
+    soft = min(scenario.k1_n_per_m, scenario.kt_n_per_m, scenario.k1_failed_n_per_m,
+               scenario.k2_n_per_m)
+    amplitude = scenario.velocity_m_s * math.sqrt(max(scenario.m1_kg, scenario.m2_kg) / soft)
+    return max(1.0, 20.0 * amplitude)
+
+
+class RigidFlexibleModel:
+    """The 2-DOF space: two circles on the x axis, body 2 on a groove and a spring.
+
+    Args:
+        scenario: the 2-DOF set-up (masses, laws, v1).
+        contact: ``"rigid"`` (pair elasticity ``elasticity``) or ``"penalty"`` (local law).
+        dt: the timestep (s).
+        measure: install the ``post_solve`` impulse hook (rigid contact only).
+    """
+
+    def __init__(self, scenario: RigidFlexible, contact: str, dt: float, *,
+                 elasticity: float = 1.0, iterations: int = 10, measure: bool = True) -> None:
+        pymunk = _import_pymunk()
+        self.scenario, self.contact, self.dt = scenario, contact, dt
+        self.gap_m = GAP_STEPS * scenario.velocity_m_s * dt
+        self.h = h = _flat_length(scenario)
+        self.spring_length = length = h
+        self.space = space = _space(pymunk, iterations, 0.0)
+        self.body1 = b1 = pymunk.Body(scenario.m1_kg, math.inf)
+        self.body2 = b2 = pymunk.Body(scenario.m2_kg, math.inf)
+        b1.position, b1.velocity = (-h - self.gap_m, 0.0), (scenario.velocity_m_s, 0.0)
+        b2.position = (h, 0.0)
+        s1, s2 = pymunk.Circle(b1, h), pymunk.Circle(b2, h)
+        s1.friction = s2.friction = 0.0
+        s1.elasticity, s2.elasticity = elasticity, 1.0
+        self.structure = structure = scenario.structural_law()
+        spring = pymunk.DampedSpring(space.static_body, b2, (h + length, 0.0), (0.0, 0.0),
+                                     length, scenario.k2_n_per_m, 0.0)
+        if structure.name != "linear":
+            spring.force_func = lambda _s, dist: structure.force(length - dist)
+        groove = pymunk.GrooveJoint(space.static_body, b2, (-1e3 * h, 0.0), (1e3 * h, 0.0),
+                                    (0.0, 0.0))
+        space.add(b1, b2, s1, s2, spring, groove)
+        self.force_n = 0.0
+        if contact == "penalty":
+            self._law = scenario.local_law()
+            space.on_collision(pre_solve=self._penalty)
+        elif contact == "rigid":
+            if measure:
+                space.on_collision(post_solve=self._impulse)
+        else:
+            raise ValueError(f"contact = {contact!r}: must be rigid or penalty")
+
+    def positions(self) -> tuple[float, float]:
+        """(x1, x2) from first touch (m)."""
+        return self.body1.position.x + self.h, self.body2.position.x - self.h
+
+    def _penalty(self, arbiter: Any, _space: Any, _data: Any) -> None:
+        arbiter.process_collision = False
+        dx = self.body1.position.x - self.body2.position.x + 2.0 * self.h
+        law = self._law
+        f = law.force(dx)
+        law.update(dx)
+        self.body1.force = (-f, 0.0)
+        self.body2.force = (f, 0.0)
+        self.force_n = f
+
+    def _impulse(self, arbiter: Any, _space: Any, _data: Any) -> None:
+        self.force_n = arbiter.total_impulse.length / self.dt
+
+
+class PymunkAdapter(Adapter):
+    """pymunk 7 (Chipmunk2D): rigid contacts natively, penalty forces when injected."""
+
+    name = "pymunk"
+
+    def version(self) -> str:
+        return str(_import_pymunk().version)
+
+    def default_timestep_s(self, scenario: Scenario, mode: str) -> float:
+        return 1e-6 if isinstance(scenario, BallOnPlate) else 1e-5
+
+    def _run(self, scenario: Scenario, mode: str, settings: RunSettings) -> ImpactRecord:
+        if mode == "tuned" and settings.tuned is None:
+            return ImpactRecord.failed(
+                Status.UNSUPPORTED, "tuned mode needs settings.tuned = {'elasticity': e} "
+                "(no tuned-parameter file given)")
+        dt = float(settings.timestep_s)  # Adapter.run fills the default
+        iterations = _iterations(settings)
+        if isinstance(scenario, BallOnPlate):
+            model, meta = ball_model(scenario, mode, settings, dt, iterations)
+            return run_ball(model, settings, meta)
+        if isinstance(scenario, RigidFlexible):
+            model, meta = rigid_flexible_model(scenario, mode, settings, dt, iterations)
+            return run_rigid_flexible(model, settings, meta)
+        raise ValueError(f"scenario = {type(scenario).__name__}: must be BallOnPlate or "
+                         f"RigidFlexible")
+
+
+def _tuned_elasticity(settings: RunSettings) -> float:
+    value = (settings.tuned or {}).get("elasticity")
+    return check.non_negative("tuned.elasticity", value)
+
+
+def ball_model(scenario: BallOnPlate, mode: str, settings: RunSettings, dt: float,
+               iterations: int, measure: bool = True) -> tuple[BallModel, dict[str, Any]]:
+    """Build the ball space for ``mode``; returns it and the meta of its parameters."""
+    meta: dict[str, Any] = {"iterations": iterations, "collision_slop": 0.0}
+    if mode == "injected":
+        injection = settings.options.get("injection", "penalty")
+        check.one_of("options.injection", injection, INJECTIONS)
+        contact = "penalty" if injection == "penalty" else "restitution"
+        meta.update(injection=injection, contact=contact)
+        return BallModel(scenario, contact, dt, iterations=iterations, measure=measure), meta
+    if mode == "tuned":
+        e = _tuned_elasticity(settings)
+        meta.update(contact="rigid", elasticity=e, tuned=dict(settings.tuned or {}))
+    else:
+        from reference import hunt_crossley
+
+        v_ref = check.positive(
+            "options.reference_velocity_m_s",
+            settings.options.get("reference_velocity_m_s", NATIVE_REFERENCE_VELOCITY_M_S))
+        e = float(hunt_crossley.solve(scenario.replace(velocity_m_s=v_ref))["restitution"])
+        meta.update(contact="rigid", elasticity=e, reference_velocity_m_s=v_ref)
+    model = BallModel(scenario, "rigid", dt, elasticity=e, iterations=iterations,
+                      measure=measure)
+    return model, meta
+
+
+def rigid_flexible_model(scenario: RigidFlexible, mode: str, settings: RunSettings, dt: float,
+                         iterations: int, measure: bool = True
+                         ) -> tuple[RigidFlexibleModel, dict[str, Any]]:
+    """Build the 2-DOF space for ``mode``; returns it and the meta of its parameters."""
+    meta: dict[str, Any] = {"iterations": iterations, "collision_slop": 0.0}
+    if mode == "injected":
+        meta.update(contact="penalty", local_law=scenario.local)
+        model = RigidFlexibleModel(scenario, "penalty", dt, iterations=iterations,
+                                   measure=measure)
+        return model, meta
+    e = _tuned_elasticity(settings) if mode == "tuned" else 1.0
+    meta.update(contact="rigid", elasticity=e)
+    if mode == "tuned":
+        meta["tuned"] = dict(settings.tuned or {})
+    model = RigidFlexibleModel(scenario, "rigid", dt, elasticity=e, iterations=iterations,
+                               measure=measure)
+    return model, meta
+
+
+def run_ball(model: BallModel, settings: RunSettings, meta: dict[str, Any]) -> ImpactRecord:
+    """Step the ball from its gap until it has let go (or tunnels, diverges, times out)."""
+    sc, dt = model.scenario, model.dt
+    radius, v0 = sc.radius_m, sc.velocity_m_s
+    cap_s = settings.max_time_s or (model.gap_m / v0 + BALL_TIME_CAP_S)
+    n_max = max(1, math.ceil(cap_s / dt))
+    body, step = model.body, model.space.step
+    rec = Recorder(capacity=min(n_max + 1, 4096))
+    append = rec.append
+    x, v = -model.gap_m, v0
+    append(0.0, x, v, 0.0, v)
+    touched = tunneled = nonfinite = False
+    tail = -1
+    k = 0
+    for k in range(1, n_max + 1):
+        model.force_n = 0.0
+        step(dt)
+        f = model.force_n
+        x = radius - body.position.y
+        append(k * dt, x, v, f, v)
+        v = -body.velocity.y
+        if f > 0.0:
+            touched = True
+        elif tail > 0:
+            tail -= 1
+            if tail == 0:
+                break
+        elif touched and tail < 0 and v < 0.0 and x <= 0.0:
+            tail = TAIL_STEPS
+        if x > radius:  # the centre passed the plate's surface
+            tunneled = True
+            break
+        if not (math.isfinite(x) and math.isfinite(v)):
+            nonfinite = True
+            break
+    timed_out = k == n_max and tail != 0 and not (tunneled or nonfinite)
+    out = rec.record(sc.mass_kg, **meta)
+    out.meta["steps"] = k
+    vx, vy = body.velocity
+    return classify(out, initial_kinetic_j=0.5 * sc.mass_kg * v0 * v0,
+                    final_kinetic_j=0.5 * sc.mass_kg * (vx * vx + vy * vy),
+                    tunneled=tunneled, timed_out=timed_out)
+
+
+def run_rigid_flexible(model: RigidFlexibleModel, settings: RunSettings,
+                       meta: dict[str, Any]) -> ImpactRecord:
+    """Step the 2-DOF model until no further contact is possible, collapse, or the cap."""
+    sc, dt = model.scenario, model.dt
+    m1, m2, structure = sc.m1_kg, sc.m2_kg, model.structure
+    collapse_energy = structure.collapse_energy
+    collapse_x2 = getattr(structure, "collapse_displacement", math.inf)
+    cap_s = settings.max_time_s or sc.max_time_s
+    n_max = max(1, math.ceil(cap_s / dt))
+    b1, b2, step = model.body1, model.body2, model.space.step
+    off1, off2 = model.h, -model.h
+    rec = Recorder(capacity=min(n_max + 1, 65536))
+    append = rec.append
+    v1, v2 = sc.velocity_m_s, 0.0
+    append(0.0, -model.gap_m, v1, 0.0, v1, 0.0, 0.0)
+    done = collapsed = nonfinite = False
+    k = 0
+    for k in range(1, n_max + 1):
+        model.force_n = 0.0
+        step(dt)
+        f = model.force_n
+        x1 = b1.position.x + off1
+        x2 = b2.position.x + off2
+        append(k * dt, x1 - x2, v1 - v2, f, v1, v2, x2)
+        v1 = b1.velocity.x
+        v2 = b2.velocity.x
+        if not (math.isfinite(x1) and math.isfinite(x2) and math.isfinite(v1 + v2)):
+            nonfinite = True
+            break
+        if f > 0.0:
+            if x2 > collapse_x2:
+                collapsed = True
+                break
+            continue
+        if collapse_energy < math.inf and (
+                0.5 * m2 * v2 * v2 + structure.potential(x2) > collapse_energy):
+            collapsed = True
+            break
+        if no_further_contact(x1, v1, x2, v2, m2, structure):
+            done = True
+            break
+    out = rec.record(m1, m2, with_displacement_2=True, **meta)
+    out.meta["steps"] = k
+    initial = 0.5 * m1 * sc.velocity_m_s**2
+    final = 0.5 * m1 * v1 * v1 + 0.5 * m2 * v2 * v2 + structure.potential(x2)
+    out = classify(out, initial_kinetic_j=initial, final_kinetic_j=final,
+                   timed_out=not (done or collapsed or nonfinite))
+    if collapsed and out.status in (Status.OK, Status.MAX_TIME):
+        out.status = Status.STRUCTURE_COLLAPSED
+        out.message = "body 2's energy exceeds the softening structure's potential peak"
+    return out
