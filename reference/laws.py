@@ -81,10 +81,85 @@ class HuntCrossley:
         return max(0.0, self.elastic_force(x) * (1.0 + self.damping * rate))
 
 
+@dataclass(frozen=True)
+class Boundary:
+    """A switch of a piecewise-affine local law: g = cx·Δx + cv·Δẋ + c0 crossing zero.
+
+    ``direction`` is +1 (g rising through 0) or −1 (falling); ``kind`` names the event
+    (start, end, yield, turn, rejoin, fail); ``next_mode`` is the law's mode after it.
+    """
+
+    cx: float
+    cv: float
+    c0: float
+    direction: int
+    kind: str
+    next_mode: str
+
+    def value(self, dx: float, rate: float) -> float:
+        return self.cx * dx + self.cv * rate + self.c0
+
+
+@dataclass(frozen=True)
+class Piece:
+    """One smooth piece of a local law: F1 = stiffness·Δx + offset (N), valid until a boundary.
+
+    ``stiffness`` is 0 (and offset 0) in the free (no contact) mode.
+    """
+
+    mode: str
+    stiffness: float
+    offset: float
+    boundaries: tuple[Boundary, ...]
+
+    @property
+    def contact(self) -> bool:
+        return self.stiffness > 0.0
+
+    def force(self, dx: float) -> float:
+        return self.stiffness * dx + self.offset if self.stiffness > 0.0 else 0.0
+
+
+def _rising_dx(at: float, kind: str, next_mode: str) -> Boundary:
+    return Boundary(1.0, 0.0, -at, +1, kind, next_mode)
+
+
+def _falling_dx(at: float, kind: str, next_mode: str) -> Boundary:
+    return Boundary(1.0, 0.0, -at, -1, kind, next_mode)
+
+
+def _turn(next_mode: str, kind: str = "turn") -> Boundary:
+    return Boundary(0.0, 1.0, 0.0, -1, kind, next_mode)
+
+
 class LocalLaw(ABC):
-    """Local (contact) law F1(Δx) ≥ 0 of the 2-DOF model, with optional memory."""
+    """Local (contact) law F1(Δx) ≥ 0 of the 2-DOF model, with optional memory.
+
+    Besides the stepping contract (``force``/``update``/``reset``) every built-in law is
+    piecewise affine in Δx, which the event-driven solver uses: ``piece(mode)`` returns the
+    current :class:`Piece` and its :class:`Boundary` switches; on an event the solver calls
+    ``commit(kind, dx)`` (memory) and continues in ``boundary.next_mode``. Every law starts
+    in mode ``"free"``; the first contact starts with that mode's ``start`` boundary.
+    """
 
     name: ClassVar[str]
+
+    def piece(self, mode: str) -> Piece:
+        """The smooth piece of F1 in ``mode`` with the current memory."""
+        raise NotImplementedError(f"{type(self).__name__} does not describe its pieces")
+
+    def commit(self, kind: str, dx: float) -> None:
+        """Advance the memory at an event of ``kind`` reached at penetration Δx (m)."""
+        self.update(dx)
+
+    def contact_threshold(self) -> float:
+        """Δx (m) where contact starts and ends with the current memory (the permanent set)."""
+        return 0.0
+
+    def stored_energy(self, dx: float) -> float:
+        """Elastic energy (J) the contact would return on unloading from Δx (m)."""
+        f = self.force(dx)
+        return 0.0 if f <= 0.0 else 0.5 * f * max(dx - self.contact_threshold(), 0.0)
 
     def reset(self) -> None:  # noqa: B027 - stateless laws have nothing to forget
         """Forget the loading history."""
@@ -106,6 +181,11 @@ class LinearLocal(LocalLaw):
 
     def force(self, dx: float) -> float:
         return self.k1 * dx if dx > 0.0 else 0.0
+
+    def piece(self, mode: str) -> Piece:
+        if mode == "free":
+            return Piece(mode, 0.0, 0.0, (_rising_dx(0.0, "start", "contact"),))
+        return Piece(mode, self.k1, 0.0, (_falling_dx(0.0, "end", "free"),))
 
 
 @dataclass
@@ -147,6 +227,28 @@ class Elastoplastic(LocalLaw):
     def update(self, dx: float) -> None:
         self.max_dx = max(self.max_dx, dx)
 
+    def contact_threshold(self) -> float:
+        return 0.0 if self.max_dx <= self.eps_s else self.permanent_set
+
+    def stored_energy(self, dx: float) -> float:
+        f = self.force(dx)
+        return 0.5 * f * f / self.k1
+
+    def piece(self, mode: str) -> Piece:
+        """Modes: free, line (elastic unload/reload line), elastic (backbone ≤ εs), plastic."""
+        p, dm = self.contact_threshold(), self.max_dx
+        backbone_mode = "elastic" if dm < self.eps_s else "plastic"
+        if mode == "free":
+            return Piece(mode, 0.0, 0.0,
+                         (_rising_dx(p, "start", "line" if dm > 0.0 else "elastic"),))
+        if mode == "line":
+            return Piece(mode, self.k1, -self.k1 * p,
+                         (_falling_dx(p, "end", "free"), _rising_dx(dm, "rejoin", backbone_mode)))
+        if mode == "elastic":
+            return Piece(mode, self.k1, 0.0,
+                         (_rising_dx(self.eps_s, "yield", "plastic"), _turn("line")))
+        return Piece(mode, self.kt, (self.k1 - self.kt) * self.eps_s, (_turn("line"),))
+
 
 @dataclass
 class StiffnessMutation(LocalLaw):
@@ -175,6 +277,22 @@ class StiffnessMutation(LocalLaw):
     def update(self, dx: float) -> None:
         if self.k1 * dx >= self.fm:
             self.failed = True
+
+    def commit(self, kind: str, dx: float) -> None:
+        if kind == "fail":
+            self.failed = True
+        else:
+            self.update(dx)
+
+    def piece(self, mode: str) -> Piece:
+        """Modes: free, intact (k1), failed (k1')."""
+        if mode == "free":
+            return Piece(mode, 0.0, 0.0,
+                         (_rising_dx(0.0, "start", "failed" if self.failed else "intact"),))
+        if mode == "intact":
+            return Piece(mode, self.k1, 0.0, (_falling_dx(0.0, "end", "free"),
+                                              _rising_dx(self.fm / self.k1, "fail", "failed")))
+        return Piece(mode, self.k1_failed, 0.0, (_falling_dx(0.0, "end", "free"),))
 
 
 class StructuralLaw(ABC):
