@@ -20,6 +20,7 @@ from collections.abc import Sequence
 
 COMMAND_MODULES: tuple[str, ...] = (
     # one line per subcommand module; keep this list sorted
+    "impactbench.commands.gate",
     "impactbench.commands.report",
     "impactbench.commands.run",
 )

@@ -1,0 +1,81 @@
+"""``impactbench gate``: run the accuracy gates of a gate file (see :mod:`impactbench.gates`).
+
+Exit codes: 0 all checks pass, 1 any check fails (``--strict``: or is not comparable),
+2 a bad gate or baseline file. Writes JUnit XML with ``--junit`` and appends a Markdown summary
+to ``$GITHUB_STEP_SUMMARY`` when that variable is set.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from pathlib import Path
+
+from impactbench import gates
+
+HELP = "check engines against the reference with the tolerances of a gate file (CI)"
+
+
+def register(top: argparse._SubParsersAction, groups: dict) -> None:
+    p = top.add_parser("gate", help=HELP, description=HELP + ". Marks: pass, better, worse "
+                       "(error grew beyond the baseline margin: fails), fail, new-failure "
+                       "(fails now, passed in the baseline), not-comparable (engine or mode "
+                       "unavailable: passes unless --strict).")
+    p.add_argument("--config", type=Path, default=Path("gates.toml"), metavar="FILE",
+                   help="gate file (TOML); default gates.toml")
+    p.add_argument("--baseline", type=Path, default=None, metavar="FILE",
+                   help="baseline of measured values (JSON); default <config>_baseline.json "
+                   "beside the gate file, when it exists")
+    p.add_argument("--update-baseline", action="store_true",
+                   help="rewrite the baseline with this run's measured values")
+    p.add_argument("--junit", type=Path, default=None, metavar="FILE",
+                   help="write JUnit XML (one testcase per check)")
+    p.add_argument("--strict", action="store_true",
+                   help="not-comparable checks (missing engine, unsupported mode) fail too")
+    p.add_argument("--select", action="append", default=[], metavar="TEXT",
+                   help="only checks whose id contains TEXT (repeatable)")
+    p.add_argument("--jobs", type=int, default=2, metavar="N",
+                   help="worker processes (default 2; 0 runs in this process)")
+    p.set_defaults(func=main)
+
+
+def default_baseline(config: Path) -> Path:
+    """``gates.toml`` → ``gates_baseline.json`` in the same folder."""
+    return config.with_name(f"{config.stem}_baseline.json")
+
+
+def main(args: argparse.Namespace) -> int:
+    if args.jobs < 0:
+        raise ValueError(f"--jobs = {args.jobs}: must be >= 0")
+    gate_file = gates.load_gates(args.config)
+    checks = [c for c in gate_file.checks
+              if not args.select or any(s in c.id for s in args.select)]
+    if not checks:
+        raise ValueError(f"--select = {args.select}: matches no check of {args.config}")
+    baseline_path = args.baseline or default_baseline(args.config)
+    baseline = gates.load_baseline(baseline_path)
+    runs = gates.plan(checks)
+    print(f"impactbench gate: {len(checks)} checks need {len(runs)} engine runs "
+          f"({args.jobs or 'no'} worker processes)", file=sys.stderr)
+
+    def progress(run: gates.RunKey, out: dict) -> None:
+        print(f"  {out['status']:<12} {run.label}  ({out.get('wall_s', float('nan')):.3g} s)",
+              file=sys.stderr)
+
+    outcomes = gates.evaluate(checks, baseline, jobs=args.jobs, progress=progress)
+    if args.update_baseline:
+        baseline = gates.updated_baseline(outcomes, baseline)
+        gates.save_baseline(baseline_path, baseline)
+        outcomes = gates.rejudge(outcomes, baseline)
+        print(f"impactbench gate: baseline written to {baseline_path}", file=sys.stderr)
+    print(gates.format_table(outcomes))
+    print(gates.summary_line(outcomes, args.strict))
+    if args.junit:
+        args.junit.write_text(gates.junit_xml(outcomes, args.strict))
+    summary = os.environ.get("GITHUB_STEP_SUMMARY")
+    if summary:
+        with open(summary, "a", encoding="utf-8") as fh:
+            fh.write(gates.markdown_summary(outcomes, args.strict) + "\n")
+    return gates.exit_code(outcomes, args.strict)
+

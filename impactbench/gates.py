@@ -1,0 +1,677 @@
+"""CI accuracy gates: tolerated relative errors per engine × mode × scenario × metric.
+
+A gate file (TOML) lists gates; each expands into *checks* (one per engine, mode, velocity,
+timestep, law pair and metric). A check passes when the engine's metric is within its
+tolerance of the reference solution, ``|rel_error| ≤ tolerance`` with
+``rel_error = (engine − reference)/|reference|`` (dimensionless), and — when a baseline of
+earlier measured values exists — when its error has not grown beyond the baseline margin.
+
+Gate file schema::
+
+    [defaults]                      # optional
+    baseline_margin = 0.5           # |err| may grow by this fraction of the baseline |err| …
+    baseline_floor = 1e-4           # … plus this absolute amount (dimensionless) before `worse`
+
+    [[gate]]                        # any number of gates
+    engine = "mujoco"               # one name or a list (engines.base.ENGINES)
+    mode = ["injected", "tuned"]    # one name or a list (engines.base.MODES)
+    scenario = "ball-on-plate"      # ball-on-plate | rigid-flexible
+    velocities_m_s = [1.0, 5.0]     # optional; ball: the paper's 0.5…5 m/s, rigid-flexible: 2 m/s
+    timesteps_s = [1e-6]            # optional; default: the adapter's default for scenario and mode
+    local = "linear"                # rigid-flexible only; one law or a list; default "linear"
+    structure = "linear"            # rigid-flexible only; one law or a list; default "linear"
+    baseline_margin = 0.5           # optional per-gate overrides of [defaults]
+    baseline_floor = 1e-4
+    [gate.tolerance]                # metric -> tolerated |relative error| (≥ 0)
+    restitution = 0.005
+    duration_s = 0.01
+
+Two gates that produce the same check are an error (a check has one tolerance). Every error in
+the file raises one-line ``ValueError`` ``"<file>:<line>: gate <n>: <key> = <value>: <rule>"``
+(malformed TOML: tomllib's own message, which carries line and column).
+
+Marks (asv-style), and whether they fail the run:
+
+========================  ==================================================================
+``pass``                  within tolerance and not worse than the baseline (or no baseline)
+``better``                passes, and |err| shrank beyond the margin: consider
+                          ``--update-baseline`` (passes)
+``worse``                 within tolerance, but |err| > |err_base|·(1 + margin) + floor (fails)
+``fail``                  |err| > tolerance, or the engine produced no value (crashed,
+                          diverged, tunneled, no contact …), and the baseline failed too or
+                          there is none (fails)
+``new-failure``           as ``fail``, but the baseline passed this check (fails)
+``not-comparable``        the engine is not installed (``unavailable``) or the mode is not
+                          available for it (``unsupported``, e.g. tuned mode with no tuned
+                          file); passes unless ``strict`` (a user's machine may lack an
+                          engine; the project's own CI installs all and runs ``--strict``)
+========================  ==================================================================
+
+Planning deduplicates: one engine run per distinct (engine, mode, scenario, velocity,
+timestep, laws), however many checks need it. Runs go to spawned worker processes (default 2),
+so an engine that kills its process only marks its own runs ``crashed``.
+
+The baseline (JSON) maps check ids to measured values::
+
+    {"format": 1, "checks": {"<check id>": {"value": …, "reference": …, "rel_error": …,
+                                             "status": "ok", "engine_version": "…"}}}
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import multiprocessing
+import re
+import tomllib
+from collections.abc import Callable, Iterable, Mapping
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures.process import BrokenProcessPool
+from dataclasses import dataclass, field
+from functools import lru_cache
+from pathlib import Path
+from typing import Any
+
+from engines.base import ENGINES, MODES, RunSettings
+from reference import validation as check
+from reference.laws import LOCAL_LAWS, STRUCTURAL_LAWS
+from reference.scenarios import PAPER_VELOCITIES_M_S, SCENARIOS, RigidFlexible
+
+METRICS_OF: dict[str, tuple[str, ...]] = {}  # filled below from impactbench.evaluate
+
+DEFAULT_VELOCITIES_M_S: dict[str, tuple[float, ...]] = {
+    "ball-on-plate": PAPER_VELOCITIES_M_S,
+    "rigid-flexible": (RigidFlexible().velocity_m_s,),
+}
+DEFAULT_MARGIN = 0.5
+DEFAULT_FLOOR = 1e-4
+
+PASS, BETTER, WORSE, FAIL, NEW_FAILURE, NOT_COMPARABLE = (
+    "pass", "better", "worse", "fail", "new-failure", "not-comparable")
+MARKS: tuple[str, ...] = (PASS, BETTER, WORSE, FAIL, NEW_FAILURE, NOT_COMPARABLE)
+FAILING: frozenset[str] = frozenset({WORSE, FAIL, NEW_FAILURE})
+NOT_COMPARABLE_STATUSES: frozenset[str] = frozenset({"unavailable", "unsupported"})
+
+GATE_KEYS = ("engine", "mode", "scenario", "velocities_m_s", "timesteps_s", "local",
+             "structure", "tolerance", "baseline_margin", "baseline_floor")
+DEFAULT_KEYS = ("baseline_margin", "baseline_floor")
+
+
+def _metrics_of() -> dict[str, tuple[str, ...]]:
+    if not METRICS_OF:
+        from impactbench.evaluate import SCENARIO_METRICS
+
+        METRICS_OF.update(SCENARIO_METRICS)
+    return METRICS_OF
+
+
+# ----------------------------------------------------------------------------- data model
+
+
+@dataclass(frozen=True, order=True)
+class RunKey:
+    """One engine run: everything that determines its record."""
+
+    engine: str
+    mode: str
+    scenario: str
+    velocity_m_s: float
+    timestep_s: float | None  # None: the adapter's default could not be resolved here
+    local: str = ""
+    structure: str = ""
+
+    @property
+    def label(self) -> str:
+        laws = f"-{self.local}-{self.structure}" if self.scenario == "rigid-flexible" else ""
+        dt = "default" if self.timestep_s is None else f"{self.timestep_s:g}"
+        return (f"{self.engine}-{self.mode}-{self.scenario}{laws}"
+                f"-v{self.velocity_m_s:g}-dt{dt}")
+
+    def build_scenario(self) -> Any:
+        """The scenario object (papers' defaults, this velocity and these laws)."""
+        if self.scenario == "rigid-flexible":
+            return RigidFlexible(velocity_m_s=self.velocity_m_s, local=self.local,
+                                 structure=self.structure)
+        return SCENARIOS[self.scenario](velocity_m_s=self.velocity_m_s)
+
+
+@dataclass(frozen=True)
+class Check:
+    """One metric of one run against its tolerance (dimensionless relative error)."""
+
+    run: RunKey
+    metric: str
+    tolerance: float
+    margin: float = DEFAULT_MARGIN
+    floor: float = DEFAULT_FLOOR
+    gate: int = 0
+    line: int = 0
+
+    @property
+    def id(self) -> str:
+        return f"{self.run.label}-{self.metric}"
+
+
+@dataclass(frozen=True)
+class GateFile:
+    """A parsed, validated gate file."""
+
+    path: Path
+    checks: tuple[Check, ...]
+
+
+@dataclass
+class Outcome:
+    """The judged result of one check."""
+
+    check: Check
+    mark: str
+    status: str
+    value: float = math.nan
+    reference: float = math.nan
+    rel_error: float = math.nan
+    baseline_rel_error: float | None = None
+    engine_version: str = ""
+    wall_s: float = math.nan
+    message: str = ""
+    result: Mapping[str, Any] = field(default_factory=dict, repr=False)
+
+    @property
+    def failed(self) -> bool:
+        return self.mark in FAILING
+
+
+# ----------------------------------------------------------------------------- gate file
+
+
+_HEADER = re.compile(r"^\s*(\[\[?)\s*([^\]]+?)\s*\]")
+_KEY = re.compile(r"""^\s*("[^"]*"|'[^']*'|[A-Za-z0-9_.\-]+)\s*=""")
+_INLINE_KEY = re.compile(r"""[{,]\s*("[^"]*"|'[^']*'|[A-Za-z0-9_\-]+)\s*=""")
+
+
+class _LineIndex:
+    """Line numbers of tables and keys in TOML text (tomllib does not give them)."""
+
+    def __init__(self, text: str) -> None:
+        self.gates: list[int] = []
+        self.keys: dict[tuple[Any, ...], int] = {}
+        block: tuple[Any, ...] = ("",)
+        path: tuple[str, ...] = ()
+        for n, raw in enumerate(text.splitlines(), start=1):
+            line = raw.split("#", 1)[0]
+            head = _HEADER.match(line)
+            if head:
+                parts = tuple(p.strip().strip("\"'") for p in head[2].split("."))
+                if head[1] == "[[" and parts == ("gate",):
+                    self.gates.append(n)
+                    block, path = ("gate", len(self.gates)), ()
+                elif parts[0] == "gate" and self.gates:
+                    block, path = ("gate", len(self.gates)), parts[1:]
+                else:
+                    block, path = (parts[0],), parts[1:]
+                self.keys.setdefault((*block, *path), n)
+                continue
+            key = _KEY.match(line)
+            if key:
+                name = tuple(p.strip().strip("\"'") for p in key[1].split("."))
+                self.keys.setdefault((*block, *path, *name), n)
+                rest = line[key.end():]
+                for inner in _INLINE_KEY.finditer(rest):
+                    self.keys.setdefault((*block, *path, *name, inner[1].strip("\"'")), n)
+
+    def line(self, *key: Any) -> int:
+        """The line of ``key`` or of its nearest enclosing table (1 if none is found)."""
+        for end in range(len(key), 0, -1):
+            if key[:end] in self.keys:
+                return self.keys[key[:end]]
+        if key and key[0] == "gate" and len(key) > 1 and 0 < key[1] <= len(self.gates):
+            return self.gates[key[1] - 1]
+        return 1
+
+
+def _names(value: Any, field_name: str, choices: Iterable[str]) -> list[str]:
+    items = value if isinstance(value, list) else [value]
+    if not items:
+        raise ValueError(f"{field_name} = []: must name at least one")
+    return [check.one_of(field_name, v, tuple(choices)) for v in items]
+
+
+def _numbers(value: Any, field_name: str) -> list[float]:
+    items = value if isinstance(value, list) else [value]
+    if not items:
+        raise ValueError(f"{field_name} = []: must hold at least one number")
+    return [check.positive(field_name, v) for v in items]
+
+
+def _default_timestep(engine: str, mode: str, scenario: Any) -> float | None:
+    """The adapter's default step (s), or None when the adapter cannot be loaded here."""
+    try:
+        from engines.base import get_adapter
+
+        return float(get_adapter(engine).default_timestep_s(scenario, mode))
+    except Exception:
+        return None
+
+
+def _expand_gate(n: int, gate: Mapping[str, Any], defaults: Mapping[str, float],
+                 where: Callable[..., int]) -> list[Check]:
+    """Validate one ``[[gate]]`` table and expand it into checks."""
+
+    def fail(key: tuple[str, ...], exc: ValueError) -> ValueError:
+        return ValueError(f"line {where('gate', n, *key)}: gate {n}: {exc}")
+
+    for key in gate:
+        if key not in GATE_KEYS:
+            raise fail((key,), ValueError(
+                f"key {key!r}: unknown; must be one of {', '.join(GATE_KEYS)}"))
+    for key in ("engine", "mode", "scenario", "tolerance"):
+        if key not in gate:
+            raise fail((), ValueError(f"{key}: missing (required in every [[gate]])"))
+    try:
+        engines = _names(gate["engine"], "engine", ENGINES)
+    except ValueError as exc:
+        raise fail(("engine",), exc) from None
+    try:
+        modes = _names(gate["mode"], "mode", MODES)
+    except ValueError as exc:
+        raise fail(("mode",), exc) from None
+    try:
+        scenario = check.one_of("scenario", gate["scenario"], tuple(SCENARIOS))
+    except ValueError as exc:
+        raise fail(("scenario",), exc) from None
+    velocities: list[float] = list(DEFAULT_VELOCITIES_M_S[scenario])
+    timesteps: list[float | None] = [None]
+    try:
+        if "velocities_m_s" in gate:
+            velocities = _numbers(gate["velocities_m_s"], "velocities_m_s")
+    except ValueError as exc:
+        raise fail(("velocities_m_s",), exc) from None
+    try:
+        if "timesteps_s" in gate:
+            timesteps = list(_numbers(gate["timesteps_s"], "timesteps_s"))
+    except ValueError as exc:
+        raise fail(("timesteps_s",), exc) from None
+    laws: list[tuple[str, str]] = [("", "")]
+    for key in ("local", "structure"):
+        if key in gate and scenario != "rigid-flexible":
+            raise fail((key,), ValueError(f"{key} = {gate[key]!r}: only for rigid-flexible"))
+    if scenario == "rigid-flexible":
+        try:
+            locals_ = _names(gate.get("local", "linear"), "local", LOCAL_LAWS)
+        except ValueError as exc:
+            raise fail(("local",), exc) from None
+        try:
+            structures = _names(gate.get("structure", "linear"), "structure", STRUCTURAL_LAWS)
+        except ValueError as exc:
+            raise fail(("structure",), exc) from None
+        laws = [(lo, st) for lo in locals_ for st in structures]
+    margins = dict(defaults)
+    for key in DEFAULT_KEYS:
+        if key in gate:
+            try:
+                margins[key] = check.non_negative(key, gate[key])
+            except ValueError as exc:
+                raise fail((key,), exc) from None
+    tolerance = gate["tolerance"]
+    if not isinstance(tolerance, dict) or not tolerance:
+        raise fail(("tolerance",), ValueError(
+            "tolerance: must be a non-empty table of metric = tolerated |relative error|"))
+    metrics = _metrics_of()[scenario]
+    tol: dict[str, float] = {}
+    for metric, value in tolerance.items():
+        try:
+            check.one_of("tolerance key", metric, metrics)
+            tol[metric] = check.non_negative(f"tolerance.{metric}", value)
+        except ValueError as exc:
+            raise fail(("tolerance", metric), exc) from None
+    line = where("gate", n)
+    out = []
+    for engine in engines:
+        for mode in modes:
+            for local, structure in laws:
+                for v in velocities:
+                    for dt in timesteps:
+                        run = RunKey(engine, mode, scenario, v, dt, local, structure)
+                        if dt is None:
+                            dt = _default_timestep(engine, mode, run.build_scenario())
+                            run = RunKey(engine, mode, scenario, v, dt, local, structure)
+                        out.extend(Check(run, m, t, margins["baseline_margin"],
+                                         margins["baseline_floor"], n, line)
+                                   for m, t in tol.items())
+    return out
+
+
+def parse_gates(text: str, path: str | Path = "<gates>") -> GateFile:
+    """Validate gate-file text and expand it into checks (see the module docstring)."""
+    path = Path(path)
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ValueError(f"{path}: malformed TOML: {exc}") from None
+    lines = _LineIndex(text)
+    for key in data:
+        if key not in ("defaults", "gate"):
+            raise ValueError(f"{path}:{lines.line(key)}: {key}: unknown table or key; "
+                             "must be [defaults] or [[gate]]")
+    defaults = {"baseline_margin": DEFAULT_MARGIN, "baseline_floor": DEFAULT_FLOOR}
+    raw_defaults = data.get("defaults", {})
+    if not isinstance(raw_defaults, dict):
+        raise ValueError(f"{path}:{lines.line('defaults')}: defaults: must be a table")
+    for key, value in raw_defaults.items():
+        try:
+            check.one_of("defaults key", key, DEFAULT_KEYS)
+            defaults[key] = check.non_negative(f"defaults.{key}", value)
+        except ValueError as exc:
+            raise ValueError(f"{path}:{lines.line('defaults', key)}: {exc}") from None
+    gates = data.get("gate")
+    if not isinstance(gates, list) or not gates:
+        raise ValueError(f"{path}:1: gate: no [[gate]] tables; a gate file needs at least one")
+    checks: list[Check] = []
+    seen: dict[str, Check] = {}
+    for n, gate in enumerate(gates, start=1):
+        try:
+            expanded = _expand_gate(n, gate, defaults, lines.line)
+        except ValueError as exc:
+            raise ValueError(f"{path}:{str(exc).removeprefix('line ')}") from None
+        for c in expanded:
+            if c.id in seen:
+                raise ValueError(f"{path}:{c.line}: gate {n}: check {c.id} repeats gate "
+                                 f"{seen[c.id].gate} (line {seen[c.id].line}); one tolerance "
+                                 "per check")
+            seen[c.id] = c
+        checks.extend(expanded)
+    return GateFile(path, tuple(checks))
+
+
+def load_gates(path: str | Path) -> GateFile:
+    """Read and validate a gate file."""
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except OSError as exc:
+        raise ValueError(f"gate file {path}: cannot be read ({exc.strerror})") from None
+    return parse_gates(text, path)
+
+
+# ----------------------------------------------------------------------------- running
+
+
+def plan(checks: Iterable[Check]) -> list[RunKey]:
+    """The distinct engine runs the checks need (rigid–flexible first: they take longest)."""
+    runs = {c.run for c in checks}
+    return sorted(runs, key=lambda r: (r.scenario != "rigid-flexible", r.engine, r.mode,
+                                        r.local, r.structure, r.velocity_m_s,
+                                        r.timestep_s or 0.0))
+
+
+@lru_cache(maxsize=64)
+def _reference(scenario: Any) -> dict[str, Any]:
+    from impactbench.evaluate import reference_metrics
+
+    return reference_metrics(scenario)
+
+
+def _failed(status: str, message: str) -> dict[str, Any]:
+    return {"status": status, "message": message, "rel_error": {}, "reference": {},
+            "engine_version": "", "wall_s": math.nan}
+
+
+def run_one(run: RunKey) -> dict[str, Any]:
+    """Run one engine run and compare it with the reference; never raises.
+
+    Returns ``impactbench.evaluate.compare``'s object (status, metrics, ``reference``,
+    ``rel_error``); a failure of the reference or of the harness is status ``crashed``.
+    """
+    import traceback
+
+    from impactbench.evaluate import compare
+
+    try:
+        scenario = run.build_scenario()
+        try:
+            ref = _reference(scenario)
+        except Exception as exc:
+            last = traceback.format_exception_only(type(exc), exc)[-1].strip()
+            return _failed("crashed", f"reference solver failed: {last}")
+        tuned = None
+        if run.mode == "tuned":
+            from impactbench.tuned import load_tuned
+
+            tuned = load_tuned(run.engine, run.scenario)
+        settings = RunSettings(timestep_s=run.timestep_s, tuned=tuned)
+        out, _ = compare(run.engine, scenario, run.mode, settings, reference=ref)
+        return out
+    except Exception as exc:
+        last = traceback.format_exception_only(type(exc), exc)[-1].strip()
+        return _failed("crashed", last)
+
+
+def _pool(workers: int) -> ProcessPoolExecutor:
+    return ProcessPoolExecutor(max_workers=workers,
+                               mp_context=multiprocessing.get_context("spawn"))
+
+
+def execute(runs: Iterable[RunKey], jobs: int = 2,
+            progress: Callable[[RunKey, dict[str, Any]], None] | None = None,
+            ) -> dict[RunKey, dict[str, Any]]:
+    """Run every run (``jobs`` spawned workers; 0 runs in this process).
+
+    If a worker process dies (an engine crash), the runs it took down are retried one per
+    fresh process, so only the crashing run is marked ``crashed``.
+    """
+    runs = list(runs)
+    results: dict[RunKey, dict[str, Any]] = {}
+
+    def done(run: RunKey, out: dict[str, Any]) -> None:
+        results[run] = out
+        if progress is not None:
+            progress(run, out)
+
+    if jobs <= 0:
+        for run in runs:
+            done(run, run_one(run))
+        return results
+    if runs:
+        with _pool(min(jobs, len(runs))) as pool:
+            futures = {pool.submit(run_one, run): run for run in runs}
+            for fut in as_completed(futures):
+                try:
+                    done(futures[fut], fut.result())
+                except BrokenProcessPool:
+                    pass
+    for run in runs:
+        if run in results:
+            continue
+        try:
+            with _pool(1) as pool:
+                done(run, pool.submit(run_one, run).result())
+        except BrokenProcessPool:
+            done(run, _failed("crashed", "the engine's worker process died"))
+    return {run: results[run] for run in runs}
+
+
+# ----------------------------------------------------------------------------- judging
+
+
+def _float(value: Any) -> float:
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        return math.nan
+
+
+def judge(check_: Check, result: Mapping[str, Any],
+          baseline: Mapping[str, Mapping[str, Any]] | None = None) -> Outcome:
+    """Mark one check from its run's result and the baseline entry (if any)."""
+    status = str(result.get("status", "crashed"))
+    err = _float(result.get("rel_error", {}).get(check_.metric))
+    out = Outcome(check_, PASS, status, value=_float(result.get(check_.metric)),
+                  reference=_float(result.get("reference", {}).get(check_.metric)),
+                  rel_error=err, engine_version=str(result.get("engine_version", "")),
+                  wall_s=_float(result.get("wall_s")), result=result)
+    base = (baseline or {}).get(check_.id)
+    base_err = _float(base.get("rel_error")) if base else math.nan
+    out.baseline_rel_error = base_err if math.isfinite(base_err) else None
+    if status in NOT_COMPARABLE_STATUSES:
+        out.mark = NOT_COMPARABLE
+        out.message = f"{status}: {result.get('message', '')}".strip(": ")
+        return out
+    if not (math.isfinite(err) and abs(err) <= check_.tolerance):
+        base_passed = math.isfinite(base_err) and abs(base_err) <= check_.tolerance
+        out.mark = NEW_FAILURE if base_passed else FAIL
+        out.message = (f"|rel error| {abs(err):.3g} > tolerance {check_.tolerance:g}"
+                       if math.isfinite(err) else
+                       f"no value (status {status}: {result.get('message', '')})")
+        return out
+    if math.isfinite(base_err):
+        grown = abs(base_err) * (1.0 + check_.margin) + check_.floor
+        if abs(err) > grown:
+            out.mark = WORSE
+            out.message = (f"|rel error| {abs(err):.3g} > baseline {abs(base_err):.3g} "
+                           f"× (1 + {check_.margin:g}) + {check_.floor:g}")
+        elif abs(base_err) > abs(err) * (1.0 + check_.margin) + check_.floor:
+            out.mark = BETTER
+            out.message = f"|rel error| {abs(err):.3g} < baseline {abs(base_err):.3g}"
+    return out
+
+
+def evaluate(checks: Iterable[Check], baseline: Mapping[str, Mapping[str, Any]] | None = None,
+             jobs: int = 2, progress: Callable[[RunKey, dict[str, Any]], None] | None = None,
+             ) -> list[Outcome]:
+    """Plan, run (deduplicated, in parallel) and judge ``checks``, in their order."""
+    checks = list(checks)
+    results = execute(plan(checks), jobs=jobs, progress=progress)
+    return [judge(c, results[c.run], baseline) for c in checks]
+
+
+def rejudge(outcomes: Iterable[Outcome],
+            baseline: Mapping[str, Mapping[str, Any]] | None) -> list[Outcome]:
+    """Judge the same measurements again against another baseline (no engine runs)."""
+    return [judge(o.check, o.result, baseline) for o in outcomes]
+
+
+def exit_code(outcomes: Iterable[Outcome], strict: bool = False) -> int:
+    """0 when every check passes, 1 when any fails (``strict``: not-comparable fails too)."""
+    for o in outcomes:
+        if o.failed or (strict and o.mark == NOT_COMPARABLE):
+            return 1
+    return 0
+
+
+# ----------------------------------------------------------------------------- baseline
+
+
+def load_baseline(path: str | Path | None) -> dict[str, dict[str, Any]]:
+    """Check id → measured entry; empty when ``path`` is None or does not exist."""
+    if path is None or not Path(path).is_file():
+        return {}
+    try:
+        data = json.loads(Path(path).read_text())
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"baseline {path}:{exc.lineno}: not valid JSON ({exc.msg})") from None
+    if not isinstance(data, dict) or not isinstance(data.get("checks"), dict):
+        raise ValueError(f"baseline {path}: checks: missing (expected {{\"checks\": {{…}}}})")
+    return data["checks"]
+
+
+def updated_baseline(outcomes: Iterable[Outcome],
+                     previous: Mapping[str, Mapping[str, Any]] | None = None,
+                     ) -> dict[str, dict[str, Any]]:
+    """The previous baseline with every measured check replaced by its new value.
+
+    Checks that produced no number (not comparable, crashed) keep their previous entry, so a
+    machine without an engine does not erase that engine's baseline.
+    """
+    out = {k: dict(v) for k, v in (previous or {}).items()}
+    for o in outcomes:
+        if not math.isfinite(o.rel_error):
+            continue
+        out[o.check.id] = {"value": o.value, "reference": o.reference,
+                           "rel_error": o.rel_error, "status": o.status,
+                           "engine_version": o.engine_version}
+    return dict(sorted(out.items()))
+
+
+def save_baseline(path: str | Path, checks: Mapping[str, Mapping[str, Any]]) -> None:
+    """Write the baseline JSON (sorted, stable across runs)."""
+    Path(path).write_text(json.dumps({"format": 1, "checks": checks}, indent=1,
+                                     sort_keys=True) + "\n")
+
+
+# ----------------------------------------------------------------------------- reports
+
+
+def _fmt(value: float | None, spec: str = ".4g") -> str:
+    if value is None or not math.isfinite(value):
+        return "—"
+    return format(value, spec)
+
+
+def rows(outcomes: Iterable[Outcome]) -> list[dict[str, str]]:
+    """One table row per check (strings, for the terminal table and the Markdown summary)."""
+    return [{"mark": o.mark, "check": o.check.id, "value": _fmt(o.value),
+             "reference": _fmt(o.reference), "rel_error": _fmt(o.rel_error, "+.3g"),
+             "tolerance": _fmt(o.check.tolerance, "g"),
+             "baseline": _fmt(o.baseline_rel_error, "+.3g"), "note": o.message}
+            for o in outcomes]
+
+
+def counts(outcomes: Iterable[Outcome]) -> dict[str, int]:
+    out = dict.fromkeys(MARKS, 0)
+    for o in outcomes:
+        out[o.mark] += 1
+    return out
+
+
+def summary_line(outcomes: list[Outcome], strict: bool = False) -> str:
+    c = counts(outcomes)
+    verdict = "FAILED" if exit_code(outcomes, strict) else "OK"
+    return (f"gates {verdict}: {len(outcomes)} checks, "
+            + ", ".join(f"{n} {m}" for m, n in c.items() if n))
+
+
+def format_table(outcomes: list[Outcome], fmt: str = "simple") -> str:
+    from tabulate import tabulate
+
+    table = rows(outcomes)
+    return tabulate([list(r.values()) for r in table], headers=list(table[0]) if table else [],
+                    tablefmt=fmt, disable_numparse=True)
+
+
+def markdown_summary(outcomes: list[Outcome], strict: bool = False) -> str:
+    """A GitHub step summary: the verdict, failing checks first, then all in a fold."""
+    bad = [o for o in outcomes if o.failed or o.mark == NOT_COMPARABLE]
+    parts = [f"### impactbench accuracy gates\n\n**{summary_line(outcomes, strict)}**\n"]
+    if bad:
+        parts.append(format_table(bad, "github") + "\n")
+    parts.append("<details><summary>all checks</summary>\n\n"
+                 + format_table(outcomes, "github") + "\n\n</details>\n")
+    return "\n".join(parts)
+
+
+def junit_xml(outcomes: list[Outcome], strict: bool = False,
+              suite: str = "impactbench-gates") -> str:
+    """JUnit XML: one testcase per check; failing marks are <failure>, not comparable is
+    <skipped> (a <failure> under ``strict``)."""
+    import xml.etree.ElementTree as ET
+
+    c = counts(outcomes)
+    n_fail = sum(c[m] for m in FAILING) + (c[NOT_COMPARABLE] if strict else 0)
+    n_skip = 0 if strict else c[NOT_COMPARABLE]
+    total = sum(o.wall_s for o in outcomes if math.isfinite(o.wall_s))
+    root = ET.Element("testsuites")
+    ts = ET.SubElement(root, "testsuite", name=suite, tests=str(len(outcomes)),
+                       failures=str(n_fail), errors="0", skipped=str(n_skip),
+                       time=f"{total:.3f}")
+    for o, row in zip(outcomes, rows(outcomes), strict=True):
+        tc = ET.SubElement(ts, "testcase", classname=f"{suite}.{o.check.run.engine}",
+                           name=o.check.id,
+                           time=f"{o.wall_s:.3f}" if math.isfinite(o.wall_s) else "0")
+        text = ", ".join(f"{k}={v}" for k, v in row.items() if k != "check")
+        if o.failed or (strict and o.mark == NOT_COMPARABLE):
+            ET.SubElement(tc, "failure", message=f"{o.mark}: {o.message}", type=o.mark).text = text
+        elif o.mark == NOT_COMPARABLE:
+            ET.SubElement(tc, "skipped", message=o.message)
+        ET.SubElement(tc, "system-out").text = text
+    ET.indent(root)
+    return '<?xml version="1.0" encoding="utf-8"?>\n' + ET.tostring(root, encoding="unicode")
