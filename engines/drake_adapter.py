@@ -1,0 +1,522 @@
+"""Drake adapter: MultibodyPlant point contact (native, tuned) or the reference law applied as a
+generalized force (injected), integrated with a fixed step.
+
+Time stepping
+    The plant is *continuous* (``time_step = 0``) and integrated by Drake's ``runge_kutta3``
+    in fixed-step mode (error control off, every step exactly ``timestep_s``), so the timestep
+    setting is a real step size and a work-precision sweep over it means something. Why this
+    and not a discrete plant: in continuous mode Drake's point contact force is exactly
+    f = k·x·(1 + d·ẋ)₊ (checked to 1e-7 against a tight ODE), and a force injected through an
+    input port is evaluated at every Runge–Kutta stage, so the reference law enters the step at
+    third order; the discrete solvers (TAMSI/Similar/Lagged) linearise the contact implicitly at
+    first order (numerical damping at moderate ω·dt) and SAP ignores d altogether. Explicit
+    RK3 is only conditionally stable: a timestep far beyond 1/ω blows up and is reported as
+    ``diverged``/``tunneled`` rather than silently damped. ``options["integrator"]`` selects
+    another of Drake's schemes (still fixed-step), e.g. ``runge_kutta2``.
+
+Ball on plate (MODELS.md §1)
+    A sphere (mass m, radius R) on a prismatic joint along world z falls on a half-space at
+    z = 0 (the plate, welded to the world); penetration x = R − z, velocity_1 = −ż; gravity is
+    (0, 0, −g) with g = ``scenario.gravity_m_s2`` (0 by default); friction 0. The ball starts
+    ``FREE_FLIGHT_STEPS`` (2.5) steps of flight away from the plate.
+
+    * native: Drake's point contact, f = k·x·(1 + d·ẋ)₊ — linear Hunt–Crossley. Its
+      restitution depends on α = d·V0 alone, so d = b gives the reference's restitution at
+      every velocity. k is chosen so the *linear* HC duration equals the reference duration at
+      the reference velocity V_ref (``engines.common.NATIVE_REFERENCE_VELOCITY_M_S``, override
+      ``options["reference_velocity_m_s"]``). For n = 1 the problem is self-similar with
+      t* = √(m/k): T(k) = √(m/k)·τ(α), hence with T₁ = T(k = 1 N/m) at V_ref and
+      T_ref = the Hertz–HC reference duration at V_ref:
+
+          k = (T₁ / T_ref)²  [N/m],   d = b  [s/m].
+
+      Drake combines the two geometries' point stiffnesses in series and their dissipations
+      weighted by the other's stiffness (d = (k₂d₁ + k₁d₂)/(k₁ + k₂)); both geometries get
+      stiffness 2k and dissipation d so the *pair* has exactly k and d (verified by a run).
+    * injected: no collision geometry; a LeafSystem computes the reference law
+      F = c·xⁿ·(1 + b·ẋ)₊ (``scenario.law()``) from the plant state and feeds it to the plant's
+      applied-generalized-force input, so it acts inside every integrator stage. The recorded
+      force is that system's output — the force Drake applies.
+    * tuned: native with ``settings.tuned`` keys ``point_stiffness_n_per_m`` (pair k, N/m,
+      required) and ``hunt_crossley_dissipation_s_per_m`` (pair d, s/m; default b).
+
+Rigid–flexible (MODELS.md §2)
+    Two bodies on prismatic joints along world x, positions measured from first touch: body 1
+    (a sphere whose front surface is at q1) and body 2 (a box whose front face is at q2);
+    Δx = q1 − q2. The structural law is a ``PrismaticSpring`` of stiffness k2 on body 2's joint
+    plus, for cubic softening, the term +β·x2³ as an applied generalized force.
+
+    * native: point contact with pair stiffness k1 and dissipation 0 for every local law (a
+      user's natural mapping); tuned: ``point_stiffness_n_per_m`` (required) and
+      ``hunt_crossley_dissipation_s_per_m`` (default 0).
+    * injected: no contact geometry; the local law object (``scenario.local_law()``) is applied
+      as generalized forces (−F1 on body 1, +F1 on body 2), evaluated with its memory frozen
+      during a step; after each accepted step the simulator monitor commits it with
+      ``law.update(Δx)`` before anything evaluates the force at the new state.
+
+Measurement and stopping
+    One sample per step through the simulator monitor: sample k is the state at the start of
+    step k and the force Drake applies at that state — native: the plant's contact results
+    output port (sum of ``point_pair_contact_info(i).contact_force()`` along the axis);
+    injected: the applied-force system's output. The run stops when the ball moves away with
+    zero force, when no further contact is possible (``reference.laws.no_further_contact``),
+    on structural collapse (body 2's energy above ``collapse_energy``), when a body ends past
+    the other (``tunneled``), on a non-finite state, or at the time cap (``max_time``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+import numpy as np
+
+from engines.base import PIP, Adapter, EngineUnavailable, RunSettings, Scenario
+from engines.common import NATIVE_REFERENCE_VELOCITY_M_S, Recorder, classify
+from reference import validation as check
+from reference.laws import LocalLaw, StructuralLaw, no_further_contact
+from reference.record import ImpactRecord, Status
+from reference.scenarios import BallOnPlate, RigidFlexible
+
+FREE_FLIGHT_STEPS = 2.5
+"""Steps of free flight before first touch. Not an integer, so first touch falls mid-step
+and no sample sits on the contact edge (where the metrics' edge location degenerates)."""
+DEFAULT_INTEGRATOR = "runge_kutta3"
+BALL_TIMESTEP_S = 1e-6
+RIGID_FLEXIBLE_TIMESTEP_S = 1e-5
+BALL_TIME_CAP_DURATIONS = 100.0
+"""Default ball time cap: the free flight plus this many elastic (b = 0) contact durations."""
+
+_DRAKE: Any = None
+
+
+def _drake() -> Any:
+    """``pydrake.all``, imported once per process (it takes seconds)."""
+    global _DRAKE
+    if _DRAKE is None:
+        try:
+            import pydrake.all as drake_all
+        except ImportError as exc:
+            raise EngineUnavailable("drake", str(exc)) from exc
+        _DRAKE = drake_all
+    return _DRAKE
+
+
+# ----------------------------------------------------------------------------------------------
+# Parameter mapping
+# ----------------------------------------------------------------------------------------------
+
+
+def native_ball_point_contact(scenario: BallOnPlate, reference_velocity_m_s: float | None = None
+                              ) -> tuple[float, float]:
+    """Pair (k N/m, d s/m) of Drake's linear Hunt–Crossley point contact for the ball.
+
+    d = b (exact restitution at every velocity); k = (T₁/T_ref)², with T₁ the duration of the
+    linear HC contact of stiffness 1 N/m and T_ref the reference (power-law HC) duration, both
+    at the reference velocity.
+    """
+    from reference import hunt_crossley
+
+    v_ref = reference_velocity_m_s or NATIVE_REFERENCE_VELOCITY_M_S
+    at_ref = scenario.replace(velocity_m_s=v_ref)
+    t_ref = hunt_crossley.solve(at_ref)["duration_s"]
+    t_unit = hunt_crossley.solve(at_ref.replace(stiffness=1.0, exponent=1.0))["duration_s"]
+    return (t_unit / t_ref) ** 2, scenario.damping_s_per_m
+
+
+def _tuned_point_contact(tuned: dict[str, Any], default_dissipation: float) -> tuple[float, float]:
+    k = check.positive("point_stiffness_n_per_m", tuned.get("point_stiffness_n_per_m"))
+    d = check.non_negative("hunt_crossley_dissipation_s_per_m",
+                           tuned.get("hunt_crossley_dissipation_s_per_m", default_dissipation))
+    return k, d
+
+
+# ----------------------------------------------------------------------------------------------
+# Diagram building
+# ----------------------------------------------------------------------------------------------
+
+
+@dataclass
+class DrakeModel:
+    """A built diagram ready to step, with its initial state and force read-out.
+
+    ``force()`` returns the normal force (N) Drake applies at the simulator's current state.
+    ``reset()`` restores the initial state (and the local law's memory) and initialises the
+    simulator without a monitor, so a bare stepping loop can reuse the same model.
+    """
+
+    simulator: Any
+    plant: Any
+    context: Any
+    timestep_s: float
+    q0: np.ndarray
+    v0: np.ndarray
+    force: Callable[[], float]
+    law: LocalLaw | None = None
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    def reset(self) -> None:
+        plant_context = self.plant.GetMyMutableContextFromRoot(self.context)
+        self.context.SetTime(0.0)
+        self.plant.SetPositions(plant_context, self.q0)
+        self.plant.SetVelocities(plant_context, self.v0)
+        if self.law is not None:
+            self.law.reset()
+        self.simulator.clear_monitor()
+        self.simulator.Initialize()
+
+    def state(self) -> np.ndarray:
+        """[q…, v…] of the diagram's only continuous state (the plant's)."""
+        return self.context.get_continuous_state_vector().CopyToVector()
+
+
+def _contact_props(d: Any, stiffness: float, dissipation: float) -> Any:
+    props = d.ProximityProperties()
+    d.AddContactMaterial(dissipation=dissipation, point_stiffness=stiffness,
+                         friction=d.CoulombFriction(0.0, 0.0), properties=props)
+    return props
+
+
+def _add_applied_force(d: Any, builder: Any, plant: Any, nq: int,
+                       calc: Callable[[np.ndarray], np.ndarray]) -> Any:
+    """Add a LeafSystem mapping the plant state [q, v] to the generalized force τ = calc(state)
+    (N per prismatic joint), wired into the plant's applied-generalized-force input."""
+
+    class AppliedForce(d.LeafSystem):
+        def __init__(self) -> None:
+            super().__init__()
+            self._state = self.DeclareVectorInputPort("state", 2 * nq)
+            self.DeclareVectorOutputPort("generalized_force", nq, self._calc)
+
+        def _calc(self, context: Any, output: Any) -> None:
+            output.SetFromVector(calc(self._state.Eval(context)))
+
+    applied = builder.AddSystem(AppliedForce())
+    builder.Connect(plant.get_state_output_port(), applied.get_input_port(0))
+    builder.Connect(applied.get_output_port(0), plant.get_applied_generalized_force_input_port())
+    return applied
+
+
+def _simulator(d: Any, builder: Any, plant: Any, dt: float, integrator: str
+               ) -> tuple[Any, Any]:
+    diagram = builder.Build()
+    sim = d.Simulator(diagram)
+    config = d.SimulatorConfig(integration_scheme=integrator, max_step_size=dt,
+                               use_error_control=False, publish_every_time_step=False)
+    d.ApplySimulatorConfig(config, sim)
+    sim.get_mutable_integrator().set_fixed_step_mode(True)
+    return sim, sim.get_mutable_context()
+
+
+def _integrator(settings: RunSettings) -> str:
+    name = settings.options.get("integrator", DEFAULT_INTEGRATOR)
+    return check.one_of("integrator", name, tuple(_drake().GetIntegrationSchemes()))
+
+
+def build_ball(scenario: BallOnPlate, mode: str, settings: RunSettings) -> DrakeModel:
+    """The ball-on-plate diagram for ``mode`` (native, tuned or injected)."""
+    d = _drake()
+    dt = float(settings.timestep_s or BALL_TIMESTEP_S)
+    m, r = scenario.mass_kg, scenario.radius_m
+    builder = d.DiagramBuilder()
+    plant, _ = d.AddMultibodyPlantSceneGraph(builder, 0.0)
+    plant.set_contact_model(d.ContactModel.kPoint)
+    ball = plant.AddRigidBody("ball", d.SpatialInertia.SolidSphereWithMass(m, r))
+    plant.AddJoint(d.PrismaticJoint("z", plant.world_frame(), ball.body_frame(), [0.0, 0.0, 1.0]))
+    plant.mutable_gravity_field().set_gravity_vector([0.0, 0.0, -scenario.gravity_m_s2])
+    meta: dict[str, Any] = {"plant": "continuous (time_step = 0), point contact"}
+    applied = None
+    if mode == "injected":
+        law = scenario.law()
+
+        def calc(s: np.ndarray) -> np.ndarray:
+            return np.array([law.force(r - s[0], -s[1])])
+
+        plant.Finalize()
+        applied = _add_applied_force(d, builder, plant, 1, calc)
+        meta.update(force_source="applied generalized force (reference Hunt–Crossley law)")
+    else:
+        if mode == "tuned":
+            k, diss = _tuned_point_contact(settings.tuned or {}, scenario.damping_s_per_m)
+        else:
+            v_ref = settings.options.get("reference_velocity_m_s")
+            v_ref = check.positive("reference_velocity_m_s", v_ref) if v_ref is not None else None
+            k, diss = native_ball_point_contact(scenario, v_ref)
+            meta["reference_velocity_m_s"] = v_ref or NATIVE_REFERENCE_VELOCITY_M_S
+        props = _contact_props(d, 2.0 * k, diss)  # series: the pair gets k; weighted mean: d
+        plant.RegisterCollisionGeometry(ball, d.RigidTransform(), d.Sphere(r), "ball", props)
+        plant.RegisterCollisionGeometry(plant.world_body(), d.RigidTransform(), d.HalfSpace(),
+                                        "plate", props)
+        plant.Finalize()
+        meta.update(force_source="contact results output port (point pair contact force)",
+                    native_parameters={"point_stiffness_n_per_m": k,
+                                       "hunt_crossley_dissipation_s_per_m": diss,
+                                       "geometry_point_stiffness_n_per_m": 2.0 * k})
+    integrator = _integrator(settings)
+    sim, context = _simulator(d, builder, plant, dt, integrator)
+    meta["integrator"] = f"{integrator}, fixed step"
+    gap = FREE_FLIGHT_STEPS * scenario.velocity_m_s * dt
+    model = DrakeModel(sim, plant, context, dt, np.array([r + gap]),
+                       np.array([-scenario.velocity_m_s]), lambda: 0.0, meta=meta)
+    model.force = _force_reader(model, axis=2, applied=applied, sign=1.0)
+    return model
+
+
+def build_rigid_flexible(scenario: RigidFlexible, mode: str, settings: RunSettings
+                         ) -> DrakeModel:
+    """The rigid–flexible diagram for ``mode`` (native, tuned or injected)."""
+    d = _drake()
+    dt = float(settings.timestep_s or RIGID_FLEXIBLE_TIMESTEP_S)
+    s = scenario
+    structure = s.structural_law()
+    builder = d.DiagramBuilder()
+    plant, _ = d.AddMultibodyPlantSceneGraph(builder, 0.0)
+    plant.set_contact_model(d.ContactModel.kPoint)
+    plant.mutable_gravity_field().set_gravity_vector([0.0, 0.0, 0.0])
+    size = _body_size_m(s)
+    body1 = plant.AddRigidBody("body1", d.SpatialInertia.SolidSphereWithMass(s.m1_kg, size))
+    side = 2.0 * size
+    body2 = plant.AddRigidBody("body2", d.SpatialInertia.SolidBoxWithMass(s.m2_kg, side, side,
+                                                                          side))
+    axis = [1.0, 0.0, 0.0]
+    plant.AddJoint(d.PrismaticJoint("x1", plant.world_frame(), body1.body_frame(), axis))
+    joint2 = plant.AddJoint(d.PrismaticJoint("x2", plant.world_frame(), body2.body_frame(), axis))
+    plant.AddForceElement(d.PrismaticSpring(joint2, 0.0, s.k2_n_per_m))
+    meta: dict[str, Any] = {"plant": "continuous (time_step = 0), point contact",
+                            "structure": "PrismaticSpring k2"
+                            + (" + cubic applied force" if s.structure != "linear" else "")}
+    law = s.local_law() if mode == "injected" else None
+    if mode != "injected":
+        if mode == "tuned":
+            k, diss = _tuned_point_contact(settings.tuned or {}, 0.0)
+        else:
+            k, diss = s.k1_n_per_m, 0.0
+        props = _contact_props(d, 2.0 * k, diss)
+        plant.RegisterCollisionGeometry(body1, d.RigidTransform([-size, 0.0, 0.0]),
+                                        d.Sphere(size), "body1", props)
+        plant.RegisterCollisionGeometry(body2, d.RigidTransform([size, 0.0, 0.0]),
+                                        d.Box(side, side, side), "body2", props)
+        meta.update(force_source="contact results output port (point pair contact force)",
+                    native_parameters={"point_stiffness_n_per_m": k,
+                                       "hunt_crossley_dissipation_s_per_m": diss,
+                                       "geometry_point_stiffness_n_per_m": 2.0 * k})
+    else:
+        meta.update(force_source=f"applied generalized force (reference {law.name} local law)")
+    plant.Finalize()
+    applied = None
+    if law is not None or s.structure != "linear":
+        calc = _rigid_flexible_forces(law, structure, s.k2_n_per_m)
+        applied = _add_applied_force(d, builder, plant, 2, calc)
+    integrator = _integrator(settings)
+    sim, context = _simulator(d, builder, plant, dt, integrator)
+    meta.update(integrator=f"{integrator}, fixed step", body_size_m=size)
+    gap = FREE_FLIGHT_STEPS * s.velocity_m_s * dt
+    model = DrakeModel(sim, plant, context, dt, np.array([-gap, 0.0]),
+                       np.array([s.velocity_m_s, 0.0]), lambda: 0.0, law=law, meta=meta)
+    # injected: τ[0] = −F1 acts on body 1
+    model.force = _force_reader(model, axis=0, applied=applied if law else None, sign=-1.0)
+    return model
+
+
+def _body_size_m(s: RigidFlexible) -> float:
+    """Sphere radius / half box size (m): several times any penetration the energy allows.
+
+    Δx ≤ εs + √(m1·v1²/k_min) bounds the overlap, k_min the softest local stiffness.
+    """
+    k_min = min(s.k1_n_per_m, s.kt_n_per_m, s.k1_failed_n_per_m)
+    return max(1.0, 4.0 * (s.eps_s_m + math.sqrt(s.m1_kg * s.velocity_m_s**2 / k_min)))
+
+
+def _rigid_flexible_forces(law: LocalLaw | None, structure: StructuralLaw, k2: float
+                           ) -> Callable[[np.ndarray], np.ndarray]:
+    """τ = [−F1, F1 − (F2(x2) − k2·x2)]: the local law (if injected) and the structure's
+    non-linear part (the PrismaticSpring supplies −k2·x2)."""
+
+    def calc(state: np.ndarray) -> np.ndarray:
+        q1, q2 = state[0], state[1]
+        f1 = law.force(q1 - q2) if law is not None else 0.0
+        extra = structure.force(q2) - k2 * q2
+        return np.array([-f1, f1 - extra])
+
+    return calc
+
+
+def _force_reader(model: DrakeModel, axis: int, applied: Any = None, sign: float = 1.0
+                  ) -> Callable[[], float]:
+    """The normal force Drake applies at the current state (N, ≥ 0).
+
+    Native/tuned: the plant's contact results (point pairs, force component on ``axis``).
+    Injected: ``sign`` × the first generalized force of the ``applied`` system's output.
+    """
+    plant, context = model.plant, model.context
+    if applied is not None:
+        port, sub = applied.get_output_port(0), applied.GetMyContextFromRoot(context)
+
+        def read_injected() -> float:
+            return sign * float(port.Eval(sub)[0])
+
+        return read_injected
+    port, plant_context = plant.get_contact_results_output_port(), plant.GetMyContextFromRoot(
+        context)
+
+    def read_contact() -> float:
+        results = port.Eval(plant_context)
+        return sum(abs(float(results.point_pair_contact_info(i).contact_force()[axis]))
+                   for i in range(results.num_point_pair_contacts()))
+
+    return read_contact
+
+
+# ----------------------------------------------------------------------------------------------
+# The adapter
+# ----------------------------------------------------------------------------------------------
+
+
+class DrakeAdapter(Adapter):
+    """Drake (pydrake) behind the adapter contract; see the module docstring for the physics."""
+
+    name: ClassVar[str] = "drake"
+    pip: ClassVar[str] = PIP["drake"]
+
+    def version(self) -> str:
+        _drake()
+        from importlib.metadata import PackageNotFoundError, version
+
+        try:
+            return version("drake")
+        except PackageNotFoundError:
+            return "unknown"
+
+    def default_timestep_s(self, scenario: Scenario, mode: str) -> float:
+        if isinstance(scenario, BallOnPlate):
+            return BALL_TIMESTEP_S
+        return RIGID_FLEXIBLE_TIMESTEP_S
+
+    def build(self, scenario: Scenario, mode: str, settings: RunSettings) -> DrakeModel:
+        """The diagram the adapter steps (public for the benchmark's bare stepping loop)."""
+        if isinstance(scenario, BallOnPlate):
+            return build_ball(scenario, mode, settings)
+        return build_rigid_flexible(scenario, mode, settings)
+
+    def _run(self, scenario: Scenario, mode: str, settings: RunSettings) -> ImpactRecord:
+        if mode == "tuned" and not settings.tuned:
+            return ImpactRecord.failed(
+                Status.UNSUPPORTED, "tuned mode needs tuned parameters "
+                "(point_stiffness_n_per_m, hunt_crossley_dissipation_s_per_m); none given")
+        model = self.build(scenario, mode, settings)
+        if isinstance(scenario, BallOnPlate):
+            return _run_ball(model, scenario, settings)
+        return _run_rigid_flexible(model, scenario, settings)
+
+
+def _advance(model: DrakeModel, monitor: Callable[[Any], bool], t_cap: float
+             ) -> tuple[bool, str]:
+    """Step to ``t_cap`` calling ``monitor(state)`` after each step; True = it stopped the run.
+
+    Returns (stopped_by_monitor, error message if Drake raised)."""
+    d = _drake()
+    stop = d.EventStatus.ReachedTermination(None, "separated")
+    go = d.EventStatus.DidNothing()
+
+    def on_step(_context: Any) -> Any:
+        return stop if monitor(model.state()) else go
+
+    model.reset()
+    monitor(model.state())  # sample 0: the initial state
+    model.simulator.set_monitor(on_step)
+    try:
+        status = model.simulator.AdvanceTo(t_cap)
+    except RuntimeError as exc:  # e.g. a non-finite state caught by Drake
+        return True, str(exc).splitlines()[0]
+    finally:
+        model.simulator.clear_monitor()
+    return status.reason() == status.ReturnReason.kReachedTerminationCondition, ""
+
+
+def _ball_time_cap(scenario: BallOnPlate, settings: RunSettings, dt: float) -> float:
+    if settings.max_time_s is not None:
+        return settings.max_time_s
+    s = scenario
+    n = s.exponent
+    x_max = ((n + 1) * s.mass_kg * s.velocity_m_s**2 / (2 * s.stiffness)) ** (1 / (n + 1))
+    elastic = (2 * x_max / s.velocity_m_s) * math.sqrt(math.pi) * math.gamma(
+        1 + 1 / (n + 1)) / math.gamma(0.5 + 1 / (n + 1))
+    return (FREE_FLIGHT_STEPS + 1) * dt + max(BALL_TIME_CAP_DURATIONS * elastic, 1000 * dt)
+
+
+def _run_ball(model: DrakeModel, scenario: BallOnPlate, settings: RunSettings) -> ImpactRecord:
+    r, dt = scenario.radius_m, model.timestep_s
+    rec = Recorder(int(250e-6 / dt) + 64)
+    flags = {"contact": False, "tunneled": False, "bad": False}
+    context = model.context
+
+    def monitor(state: np.ndarray) -> bool:
+        x, rate = r - state[0], -state[1]
+        force = model.force()
+        rec.append(context.get_time(), x, rate, force, rate)
+        if not (math.isfinite(x) and math.isfinite(rate) and math.isfinite(force)):
+            flags["bad"] = True
+            return True
+        if force > 0.0:
+            flags["contact"] = True
+        if x >= 2.0 * r:  # the whole ball is past the plate's surface
+            flags["tunneled"] = True
+            return True
+        return flags["contact"] and x < 0.0 and rate < 0.0 and force == 0.0
+
+    stopped, error = _advance(model, monitor, _ball_time_cap(scenario, settings, dt))
+    out = rec.record(scenario.mass_kg, **model.meta)
+    v_end = out.velocity_1_m_s[-1] if len(out) else math.nan
+    out = classify(out, initial_kinetic_j=0.5 * scenario.mass_kg * scenario.velocity_m_s**2,
+                   final_kinetic_j=0.5 * scenario.mass_kg * v_end**2,
+                   tunneled=flags["tunneled"], timed_out=not stopped)
+    if error and out.status is not Status.DIVERGED:
+        out.status, out.message = Status.DIVERGED, f"Drake stopped: {error}"
+    return out
+
+
+def _run_rigid_flexible(model: DrakeModel, scenario: RigidFlexible, settings: RunSettings
+                        ) -> ImpactRecord:
+    s = scenario
+    structure = s.structural_law()
+    collapse = structure.collapse_energy
+    size = model.meta["body_size_m"]
+    law, context = model.law, model.context
+    rec = Recorder(4096)
+    flags = {"collapsed": False, "tunneled": False, "contact": False}
+
+    def monitor(state: np.ndarray) -> bool:
+        q1, q2, v1, v2 = state
+        dx = q1 - q2
+        if law is not None:
+            law.update(dx)  # commit the accepted step before the force is evaluated here
+        force = model.force()
+        rec.append(context.get_time(), dx, v1 - v2, force, v1, v2, q2)
+        if not np.all(np.isfinite(state)) or not math.isfinite(force):
+            return True
+        flags["contact"] = flags["contact"] or force > 0.0
+        if 0.5 * s.m2_kg * v2 * v2 + structure.potential(q2) > collapse:
+            flags["collapsed"] = True
+            return True
+        if law is None and dx > size:  # body 1's centre is past body 2's face
+            flags["tunneled"] = True
+            return True
+        return flags["contact"] and no_further_contact(q1, v1, q2, v2, s.m2_kg, structure)
+
+    t_cap = settings.max_time_s if settings.max_time_s is not None else s.max_time_s
+    stopped, error = _advance(model, monitor, t_cap)
+    out = rec.record(s.m1_kg, s.m2_kg, with_displacement_2=True, **model.meta)
+    final = math.nan
+    if len(out):
+        v1, v2, x2 = out.velocity_1_m_s[-1], out.velocity_2_m_s[-1], out.displacement_2_m[-1]
+        final = 0.5 * s.m1_kg * v1**2 + 0.5 * s.m2_kg * v2**2 + structure.potential(x2)
+    out = classify(out, initial_kinetic_j=0.5 * s.m1_kg * s.velocity_m_s**2,
+                   final_kinetic_j=final, tunneled=flags["tunneled"], timed_out=not stopped)
+    if error and out.status is not Status.DIVERGED:
+        out.status, out.message = Status.DIVERGED, f"Drake stopped: {error}"
+    elif flags["collapsed"] and out.status is not Status.DIVERGED:
+        out.status = Status.STRUCTURE_COLLAPSED
+        out.message = "body 2's energy exceeded the softening structure's collapse energy"
+    return out
