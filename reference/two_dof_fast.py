@@ -1,0 +1,362 @@
+"""Compiled fast path of the 2-DOF solver for the built-in laws (numba, optional).
+
+Same physics, pieces, events and end rules as :mod:`reference.two_dof` (see there), for the
+three built-in local laws (linear, elastoplastic, mutation) and the structural law
+F2 = k2·x2 − β·x2³ (β = 0: linear). Differences from the reference path, by design:
+
+- each piece is integrated with fixed 8th-order steps (the DOP853 tableau, 8th-order
+  solution) of h = ``STEP_RAD`` / ω_max, ω_max bounding the fastest mode of the piece;
+- every event (law switch, contact end, collapse, no further contact) is located by
+  safeguarded Newton iteration on the step length, each iterate a fresh 8th-order step from
+  the step's start, to |Δt| ≤ 1e-13 s;
+- the metrics come from the events directly: peak force = the largest force at a step end,
+  an event or a located velocity reversal inside a contact; impulse = m1·(v1(0) − v1(end))
+  (body 1 feels F1 only); contact edges are event times.
+
+``tests/reference/test_two_dof.py`` shows it equals ``metrics.compute(simulate(...))``.
+Without numba the kernel runs as plain Python (correct, slow).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.integrate._ivp import dop853_coefficients as _dc
+
+try:  # numba is an optional accelerator
+    from numba import njit
+except ImportError:  # pragma: no cover - exercised only without numba
+    def njit(*args, **kwargs):  # type: ignore[no-redef]
+        if args and callable(args[0]):
+            return args[0]
+        return lambda f: f
+
+STEP_RAD = 0.1
+"""Step length in radians of the fastest mode (h·ω_max)."""
+
+LOCAL_CODES = {"linear": 0, "elastoplastic": 1, "mutation": 2}
+STATUS_NAMES = ("ok", "structure_collapsed", "max_time")
+
+_A = np.ascontiguousarray(_dc.A[:12, :12])
+_B = np.ascontiguousarray(_dc.B)
+_C = np.ascontiguousarray(_dc.C[:12])
+
+# event kinds
+_START, _END, _YIELD, _TURN, _REJOIN, _FAIL, _COLLAPSE, _DONE = range(8)
+_MAX_EVENTS = 100_000
+
+
+@njit(cache=True)
+def _rhs(y, k, f0, m1, m2, k2, beta, out):
+    dx = y[0] - y[1]
+    f1 = k * dx + f0 if k > 0.0 else 0.0
+    out[0] = y[2]
+    out[1] = y[3]
+    out[2] = -f1 / m1
+    out[3] = (f1 - (k2 * y[1] - beta * y[1] ** 3)) / m2
+
+
+@njit(cache=True)
+def _step(y, h, k, f0, m1, m2, k2, beta, K, tmp, out):
+    """One 8th-order Runge–Kutta step of length h from y into out."""
+    _rhs(y, k, f0, m1, m2, k2, beta, K[0])
+    for s in range(1, 12):
+        for j in range(4):
+            acc = 0.0
+            for r in range(s):
+                acc += _A[s, r] * K[r, j]
+            tmp[j] = y[j] + h * acc
+        _rhs(tmp, k, f0, m1, m2, k2, beta, K[s])
+    for j in range(4):
+        acc = 0.0
+        for r in range(12):
+            acc += _B[r] * K[r, j]
+        out[j] = y[j] + h * acc
+
+
+@njit(cache=True)
+def _piece(code, mode, k1, kt, k1f, eps_s, fm, max_dx, failed, bnd):
+    """Stiffness, offset and boundaries (rows: cx, cv, c0, direction, kind, next_mode)."""
+    n = 0
+    k = 0.0
+    f0 = 0.0
+    p = 0.0
+    if code == 1 and max_dx > eps_s:
+        fmax = k1 * eps_s + kt * (max_dx - eps_s)
+        p = max_dx - fmax / k1
+    if mode == 0:  # free
+        nxt = 1
+        if code == 1:
+            nxt = 1 if max_dx > 0.0 else 2
+        elif code == 2:
+            nxt = 2 if failed else 1
+        bnd[0, 0], bnd[0, 1], bnd[0, 2], bnd[0, 3], bnd[0, 4], bnd[0, 5] = (
+            1.0, 0.0, -p, 1.0, _START, nxt)
+        n = 1
+    elif code == 0:
+        k = k1
+        bnd[0, 0], bnd[0, 1], bnd[0, 2], bnd[0, 3], bnd[0, 4], bnd[0, 5] = (
+            1.0, 0.0, 0.0, -1.0, _END, 0)
+        n = 1
+    elif code == 1:
+        if mode == 1:  # line
+            k = k1
+            f0 = -k1 * p
+            bb = 2 if max_dx < eps_s else 3
+            bnd[0, 0], bnd[0, 1], bnd[0, 2], bnd[0, 3], bnd[0, 4], bnd[0, 5] = (
+                1.0, 0.0, -p, -1.0, _END, 0)
+            bnd[1, 0], bnd[1, 1], bnd[1, 2], bnd[1, 3], bnd[1, 4], bnd[1, 5] = (
+                1.0, 0.0, -max_dx, 1.0, _REJOIN, bb)
+            n = 2
+        elif mode == 2:  # elastic backbone
+            k = k1
+            bnd[0, 0], bnd[0, 1], bnd[0, 2], bnd[0, 3], bnd[0, 4], bnd[0, 5] = (
+                1.0, 0.0, -eps_s, 1.0, _YIELD, 3)
+            bnd[1, 0], bnd[1, 1], bnd[1, 2], bnd[1, 3], bnd[1, 4], bnd[1, 5] = (
+                0.0, 1.0, 0.0, -1.0, _TURN, 1)
+            n = 2
+        else:  # plastic backbone
+            k = kt
+            f0 = (k1 - kt) * eps_s
+            bnd[0, 0], bnd[0, 1], bnd[0, 2], bnd[0, 3], bnd[0, 4], bnd[0, 5] = (
+                0.0, 1.0, 0.0, -1.0, _TURN, 1)
+            n = 1
+    else:
+        if mode == 1:  # intact
+            k = k1
+            bnd[0, 0], bnd[0, 1], bnd[0, 2], bnd[0, 3], bnd[0, 4], bnd[0, 5] = (
+                1.0, 0.0, 0.0, -1.0, _END, 0)
+            bnd[1, 0], bnd[1, 1], bnd[1, 2], bnd[1, 3], bnd[1, 4], bnd[1, 5] = (
+                1.0, 0.0, -fm / k1, 1.0, _FAIL, 2)
+            n = 2
+        else:  # failed
+            k = k1f
+            bnd[0, 0], bnd[0, 1], bnd[0, 2], bnd[0, 3], bnd[0, 4], bnd[0, 5] = (
+                1.0, 0.0, 0.0, -1.0, _END, 0)
+            n = 1
+    return k, f0, n, p
+
+
+@njit(cache=True)
+def _reach(e, k2, beta):
+    e = max(e, 0.0)
+    if beta == 0.0:
+        return math.sqrt(2.0 * e / k2)
+    disc = k2 * k2 - 4.0 * beta * e
+    if disc <= 0.0:
+        return math.inf
+    return math.sqrt(4.0 * e / (k2 + math.sqrt(disc)))
+
+
+@njit(cache=True)
+def _g(kind, row, y, m2, k2, beta, ec, reach_p, k, f0, out_dg):
+    """Event function value; its time derivative into out_dg[0]."""
+    if kind == 0:  # a law boundary, linear in (Δx, Δẋ)
+        return 0.0
+    if kind == 1:  # collapse: E2 − k2²/(4β)
+        dx = y[0] - y[1]
+        f1 = k * dx + f0
+        out_dg[0] = f1 * y[3]
+        return 0.5 * m2 * y[3] ** 2 + 0.5 * k2 * y[1] ** 2 - 0.25 * beta * y[1] ** 4 - ec
+    # done: x1 − p + reach
+    out_dg[0] = y[2]
+    return y[0] + reach_p
+
+
+@njit(cache=True)
+def _ev(which, nb, bnd, y, ydot, m2, k2, beta, ec, reach_p, k, f0, dg):
+    """Value and derivative of event ``which`` (< nb: boundary; nb: collapse; nb+1: done;
+    nb+2: velocity reversal, the peak)."""
+    if which < nb:
+        dg[0] = bnd[which, 0] * (ydot[0] - ydot[1]) + bnd[which, 1] * (ydot[2] - ydot[3])
+        return bnd[which, 0] * (y[0] - y[1]) + bnd[which, 1] * (y[2] - y[3]) + bnd[which, 2]
+    if which == nb:
+        return _g(1, 0, y, m2, k2, beta, ec, reach_p, k, f0, dg)
+    if which == nb + 1:
+        return _g(2, 0, y, m2, k2, beta, ec, reach_p, k, f0, dg)
+    dg[0] = ydot[2] - ydot[3]
+    return y[2] - y[3]
+
+
+@njit(cache=True)
+def _locate(which, nb, bnd, y0, h, ga, gb, k, f0, m1, m2, k2, beta, ec, reach_p,
+            K, tmp, ys, ydot, dg):
+    """Step length s in (0, h] where event ``which`` crosses zero (safeguarded Newton)."""
+    a, b = 0.0, h
+    s = h * ga / (ga - gb)
+    for _ in range(60):
+        if not (a < s < b):
+            s = 0.5 * (a + b)
+        _step(y0, s, k, f0, m1, m2, k2, beta, K, tmp, ys)
+        _rhs(ys, k, f0, m1, m2, k2, beta, ydot)
+        g = _ev(which, nb, bnd, ys, ydot, m2, k2, beta, ec, reach_p, k, f0, dg)
+        if g == 0.0:
+            return s
+        if (g > 0.0) == (ga > 0.0):
+            a = s
+        else:
+            b = s
+        snew = s - g / dg[0] if dg[0] != 0.0 else 0.5 * (a + b)
+        if abs(snew - s) <= 1e-13 or b - a <= 1e-13:
+            if a < snew < b:
+                return snew
+            return b
+        s = snew
+    return b
+
+
+@njit(cache=True)
+def solve_kernel(code, v0, m1, m2, k1, k2, kt, k1f, eps_s, beta, fm, tmax, step_rad):
+    """One impact. Returns (status 0 ok / 1 collapsed / 2 max_time, peak_force_n,
+    pulse_width_s, contact_time_s, impulse_ns, impacts, t_end, x1, x2, v1, v2, max_dx,
+    failed)."""
+    y = np.zeros(4)
+    y[2] = v0
+    ynew = np.zeros(4)
+    ys = np.zeros(4)
+    ydot = np.zeros(4)
+    dg = np.zeros(1)
+    K = np.zeros((12, 4))
+    tmp = np.zeros(4)
+    bnd = np.zeros((2, 6))
+    ec = k2 * k2 / (4.0 * beta) if beta > 0.0 else math.inf
+    t = 0.0
+    max_dx = 0.0
+    failed = False
+    peak = 0.0
+    contact_time = 0.0
+    last_end = 0.0
+    contact_start = 0.0
+    impacts = 1
+    status = 2
+    # the first contact starts at t = 0
+    mode = 2 if code == 1 else 1
+    for _ in range(_MAX_EVENTS):
+        k, f0, nb, p = _piece(code, mode, k1, kt, k1f, eps_s, fm, max_dx, failed, bnd)
+        contact = k > 0.0
+        omega = math.sqrt(k / m1 + (k + k2) / m2)
+        h0 = step_rad / omega
+        reach_p = math.inf
+        use_done = False
+        if not contact:
+            e2 = 0.5 * m2 * y[3] ** 2 + 0.5 * k2 * y[1] ** 2 - 0.25 * beta * y[1] ** 4
+            r = _reach(e2, k2, beta)
+            if y[2] <= 0.0 and y[0] - p < -r:
+                status = 0
+                break
+            if y[2] < 0.0:
+                use_done = True
+                reach_p = r - p
+        use_collapse = contact and ec < math.inf
+        use_peak = contact and not (code == 1 and mode >= 2)
+        nev = nb + 3
+        # event values at the start of the piece
+        gold = np.zeros(nev)
+        gnew = np.zeros(nev)
+        _rhs(y, k, f0, m1, m2, k2, beta, ydot)
+        for w in range(nev):
+            gold[w] = _ev(w, nb, bnd, y, ydot, m2, k2, beta, ec, reach_p, k, f0, dg)
+        found = -1
+        s_found = 0.0
+        while True:
+            s_peak = -1.0
+            f_peak = 0.0
+            h = h0
+            last = False
+            if t + h >= tmax:
+                h = tmax - t
+                last = True
+            _step(y, h, k, f0, m1, m2, k2, beta, K, tmp, ynew)
+            _rhs(ynew, k, f0, m1, m2, k2, beta, ydot)
+            best = h + 1.0
+            for w in range(nev):
+                if w == nb and not use_collapse:
+                    continue
+                if w == nb + 1 and not use_done:
+                    continue
+                if w == nb + 2 and not use_peak:
+                    continue
+                gnew[w] = _ev(w, nb, bnd, ynew, ydot, m2, k2, beta, ec, reach_p, k, f0, dg)
+                if w < nb:
+                    d = bnd[w, 3]
+                elif w == nb:
+                    d = 1.0
+                else:
+                    d = -1.0
+                if (d > 0.0 and gold[w] < 0.0 and gnew[w] >= 0.0) or (
+                        d < 0.0 and gold[w] > 0.0 and gnew[w] <= 0.0):
+                    s = _locate(w, nb, bnd, y, h, gold[w], gnew[w], k, f0, m1, m2, k2, beta,
+                                ec, reach_p, K, tmp, ys, ydot, dg)
+                    if w == nb + 2:  # velocity reversal: a force maximum, not a switch
+                        _step(y, s, k, f0, m1, m2, k2, beta, K, tmp, ys)
+                        s_peak = s
+                        f_peak = k * (ys[0] - ys[1]) + f0
+                        continue
+                    if s < best:
+                        best = s
+                        found = w
+            if s_peak >= 0.0 and (found < 0 or s_peak <= best) and f_peak > peak:
+                peak = f_peak
+            if found >= 0:
+                s_found = best
+                break
+            for j in range(4):
+                y[j] = ynew[j]
+            for w in range(nev):
+                gold[w] = gnew[w]
+            t += h
+            if contact:
+                fn = k * (y[0] - y[1]) + f0
+                if fn > peak:
+                    peak = fn
+            if last:
+                break
+        if found < 0:  # time cap
+            status = 2
+            break
+        _step(y, s_found, k, f0, m1, m2, k2, beta, K, tmp, ynew)
+        for j in range(4):
+            y[j] = ynew[j]
+        t += s_found
+        dx = y[0] - y[1]
+        if contact:
+            fn = k * dx + f0
+            if fn > peak:
+                peak = fn
+        if found == nb:
+            status = 1
+            break
+        if found == nb + 1:
+            status = 0
+            break
+        kind = int(bnd[found, 4])
+        if kind == _START:
+            impacts += 1
+            contact_start = t
+        elif kind == _END:
+            contact_time += t - contact_start
+            last_end = t
+        elif kind == _TURN:
+            max_dx = max(max_dx, dx)
+        elif kind == _FAIL:
+            failed = True
+        if code == 1 and kind != _TURN:
+            max_dx = max(max_dx, dx)
+        mode = int(bnd[found, 5])
+    in_contact = mode != 0
+    if in_contact:
+        contact_time += t - contact_start
+        last_end = t
+    impulse = m1 * (v0 - y[2])
+    return (status, peak, last_end, contact_time, impulse, impacts, t, y[0], y[1], y[2], y[3],
+            max_dx, 1.0 if failed else 0.0)
+
+
+def run(scenario, step_rad: float = STEP_RAD) -> tuple:
+    """The kernel's raw tuple for a RigidFlexible scenario with a built-in local law."""
+    sc = scenario
+    beta = sc.beta_n_per_m3 if sc.structure == "softening" else 0.0
+    return solve_kernel(LOCAL_CODES[sc.local], sc.velocity_m_s, sc.m1_kg, sc.m2_kg,
+                        sc.k1_n_per_m, sc.k2_n_per_m, sc.kt_n_per_m, sc.k1_failed_n_per_m,
+                        sc.eps_s_m, beta, sc.fm_n, sc.max_time_s, step_rad)
