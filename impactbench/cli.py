@@ -22,6 +22,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     # one line per subcommand module; keep this list sorted
     "impactbench.commands.gate",
     "impactbench.commands.report",
+    "impactbench.commands.rigid_flexible",
     "impactbench.commands.run",
 )
 
