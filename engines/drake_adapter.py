@@ -406,9 +406,10 @@ class DrakeAdapter(Adapter):
                 Status.UNSUPPORTED, "tuned mode needs tuned parameters "
                 "(point_stiffness_n_per_m, hunt_crossley_dissipation_s_per_m); none given")
         model = self.build(scenario, mode, settings)
-        if isinstance(scenario, BallOnPlate):
-            return _run_ball(model, scenario, settings)
-        return _run_rigid_flexible(model, scenario, settings)
+        with np.errstate(over="ignore", invalid="ignore"):  # a blow-up is a status, not noise
+            if isinstance(scenario, BallOnPlate):
+                return _run_ball(model, scenario, settings)
+            return _run_rigid_flexible(model, scenario, settings)
 
 
 def _advance(model: DrakeModel, monitor: Callable[[Any], bool], t_cap: float
