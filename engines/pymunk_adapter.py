@@ -382,8 +382,9 @@ def run_ball(model: BallModel, settings: RunSettings, meta: dict[str, Any]) -> I
     n_max = max(1, math.ceil(cap_s / dt))
     step = model.space.step
     position, velocity, handle = _readers(model.body)
+    impulsive = model.contact != "penalty"
     x, v = -model.gap_m, v0
-    flat = [x, v, 0.0]
+    flat = [] if impulsive else [x, v, 0.0]
     push = flat.extend
     touched = tunneled = nonfinite = False
     tail = -1
@@ -391,8 +392,12 @@ def run_ball(model: BallModel, settings: RunSettings, meta: dict[str, Any]) -> I
         model.force_n = 0.0
         step(dt)
         f = model.force_n
-        x = radius - position(handle).y
-        push((x, v, f))
+        if impulsive:
+            push((x, v, f))
+            x = radius - position(handle).y
+        else:
+            x = radius - position(handle).y
+            push((x, v, f))
         v = -velocity(handle).y
         if f > 0.0:
             touched = True
@@ -408,6 +413,8 @@ def run_ball(model: BallModel, settings: RunSettings, meta: dict[str, Any]) -> I
         if not (math.isfinite(x) and math.isfinite(v)):
             nonfinite = True
             break
+    if impulsive:
+        push((x, v, 0.0))
     xs, vs, fs = _columns(flat, 3)
     steps = xs.size - 1
     timed_out = steps == n_max and tail != 0 and not (tunneled or nonfinite)
@@ -438,17 +445,21 @@ def run_rigid_flexible(model: RigidFlexibleModel, settings: RunSettings,
     position, velocity, h1 = _readers(model.body1)
     h2 = _readers(model.body2)[2]
     off1, off2 = model.h, -model.h
+    impulsive = model.contact != "penalty"
     x1, x2, v1, v2 = -model.gap_m, 0.0, sc.velocity_m_s, 0.0
-    flat = [x1, x2, 0.0, v1, v2]
+    flat = [] if impulsive else [x1, x2, 0.0, v1, v2]
     push = flat.extend
     done = collapsed = nonfinite = False
     for _ in range(n_max):
         model.force_n = 0.0
         step(dt)
         f = model.force_n
+        if impulsive:
+            push((x1, x2, f, v1, v2))
         x1 = position(h1).x + off1
         x2 = position(h2).x + off2
-        push((x1, x2, f, v1, v2))
+        if not impulsive:
+            push((x1, x2, f, v1, v2))
         v1 = velocity(h1).x
         v2 = velocity(h2).x
         if not (math.isfinite(x1) and math.isfinite(x2) and math.isfinite(v1 + v2)):
@@ -462,6 +473,8 @@ def run_rigid_flexible(model: RigidFlexibleModel, settings: RunSettings,
             if no_further_contact(x1 - p, v1, x2, v2, m2, structure):
                 done = True
                 break
+    if impulsive:
+        push((x1, x2, 0.0, v1, v2))
     x1s, x2s, fs, v1s, v2s = _columns(flat, 5)
     out = ImpactRecord(np.arange(fs.size) * dt, x1s - x2s, v1s - v2s, fs, v1s, v2s,
                        mass_1_kg=m1, mass_2_kg=m2, displacement_2_m=x2s,
