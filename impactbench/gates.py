@@ -48,8 +48,9 @@ Marks (asv-style), and whether they fail the run:
 ========================  ==================================================================
 
 Planning deduplicates: one engine run per distinct (engine, mode, scenario, velocity,
-timestep, laws), however many checks need it. Runs go to spawned worker processes (default 2),
-so an engine that kills its process only marks its own runs ``crashed``.
+timestep, laws), however many checks need it. Runs go to spawned worker processes (default 2)
+through :func:`impactbench.matrix.run_jobs`, so an engine that kills its process only marks its
+own run ``crashed``.
 
 The baseline (JSON) maps check ids to measured values::
 
@@ -61,18 +62,14 @@ from __future__ import annotations
 
 import json
 import math
-import multiprocessing
 import re
 import tomllib
 from collections.abc import Callable, Iterable, Mapping
-from concurrent.futures import ProcessPoolExecutor, as_completed
-from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
-from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
-from engines.base import ENGINES, MODES, RunSettings
+from engines.base import ENGINES, MODES
 from reference import validation as check
 from reference.laws import LOCAL_LAWS, STRUCTURAL_LAWS
 from reference.scenarios import PAPER_VELOCITIES_M_S, SCENARIOS, RigidFlexible
@@ -404,90 +401,35 @@ def plan(checks: Iterable[Check]) -> list[RunKey]:
                                         r.timestep_s or 0.0))
 
 
-@lru_cache(maxsize=64)
-def _reference(scenario: Any) -> dict[str, Any]:
-    from impactbench.evaluate import reference_metrics
+def _job(run: RunKey) -> Any:
+    from impactbench.matrix import Job
 
-    return reference_metrics(scenario)
-
-
-def _failed(status: str, message: str) -> dict[str, Any]:
-    return {"status": status, "message": message, "rel_error": {}, "reference": {},
-            "engine_version": "", "wall_s": math.nan}
-
-
-def run_one(run: RunKey) -> dict[str, Any]:
-    """Run one engine run and compare it with the reference; never raises.
-
-    Returns ``impactbench.evaluate.compare``'s object (status, metrics, ``reference``,
-    ``rel_error``); a failure of the reference or of the harness is status ``crashed``.
-    """
-    import traceback
-
-    from impactbench.evaluate import compare
-
-    try:
-        scenario = run.build_scenario()
-        try:
-            ref = _reference(scenario)
-        except Exception as exc:
-            last = traceback.format_exception_only(type(exc), exc)[-1].strip()
-            return _failed("crashed", f"reference solver failed: {last}")
-        tuned = None
-        if run.mode == "tuned":
-            from impactbench.tuned import load_tuned
-
-            tuned = load_tuned(run.engine, run.scenario)
-        settings = RunSettings(timestep_s=run.timestep_s, tuned=tuned)
-        out, _ = compare(run.engine, scenario, run.mode, settings, reference=ref)
-        return out
-    except Exception as exc:
-        last = traceback.format_exception_only(type(exc), exc)[-1].strip()
-        return _failed("crashed", last)
-
-
-def _pool(workers: int) -> ProcessPoolExecutor:
-    return ProcessPoolExecutor(max_workers=workers,
-                               mp_context=multiprocessing.get_context("spawn"))
+    return Job("gate", run.engine, run.scenario, run.mode, run.velocity_m_s, run.timestep_s,
+               (), run.local, run.structure)
 
 
 def execute(runs: Iterable[RunKey], jobs: int = 2,
-            progress: Callable[[RunKey, dict[str, Any]], None] | None = None,
-            ) -> dict[RunKey, dict[str, Any]]:
-    """Run every run (``jobs`` spawned workers; 0 runs in this process).
+            progress: Callable[[int], None] | None = None) -> dict[RunKey, dict[str, Any]]:
+    """Run every run and compare it with the reference: run → ``evaluate.compare``'s object.
 
-    If a worker process dies (an engine crash), the runs it took down are retried one per
-    fresh process, so only the crashing run is marked ``crashed``.
+    Built on :func:`impactbench.matrix.run_jobs` (``jobs`` spawned workers; an engine that
+    kills its worker process becomes a ``crashed`` run, the others are unaffected);
+    ``jobs = 0`` runs in this process (no crash isolation; for debugging).
     """
+    from impactbench import matrix
+
     runs = list(runs)
-    results: dict[RunKey, dict[str, Any]] = {}
-
-    def done(run: RunKey, out: dict[str, Any]) -> None:
-        results[run] = out
-        if progress is not None:
-            progress(run, out)
-
+    by_job = {_job(run): run for run in runs}
     if jobs <= 0:
-        for run in runs:
-            done(run, run_one(run))
-        return results
-    if runs:
-        with _pool(min(jobs, len(runs))) as pool:
-            futures = {pool.submit(run_one, run): run for run in runs}
-            for fut in as_completed(futures):
-                try:
-                    done(futures[fut], fut.result())
-                except BrokenProcessPool:
-                    pass
-    for run in runs:
-        if run in results:
-            continue
-        try:
-            with _pool(1) as pool:
-                done(run, pool.submit(run_one, run).result())
-        except BrokenProcessPool:
-            done(run, _failed("crashed", "the engine's worker process died"))
-    return {run: results[run] for run in runs}
+        results = []
+        for job in by_job:
+            results.append(matrix.execute(job))
+            if progress:
+                progress(1)
+    else:
+        results = matrix.run_jobs(list(by_job), workers=jobs, progress=progress)
+    out = {by_job[r.job]: r.run for r in results}
+    return {run: out[run] for run in runs}
 
 
 # ----------------------------------------------------------------------------- judging
@@ -504,6 +446,8 @@ def judge(check_: Check, result: Mapping[str, Any],
           baseline: Mapping[str, Mapping[str, Any]] | None = None) -> Outcome:
     """Mark one check from its run's result and the baseline entry (if any)."""
     status = str(result.get("status", "crashed"))
+    if status == "crashed" and "EngineUnavailable:" in str(result.get("message", "")):
+        status = "unavailable"  # raised inside Adapter.run, where run_safely calls it a crash
     err = _float(result.get("rel_error", {}).get(check_.metric))
     out = Outcome(check_, PASS, status, value=_float(result.get(check_.metric)),
                   reference=_float(result.get("reference", {}).get(check_.metric)),
@@ -536,8 +480,7 @@ def judge(check_: Check, result: Mapping[str, Any],
 
 
 def evaluate(checks: Iterable[Check], baseline: Mapping[str, Mapping[str, Any]] | None = None,
-             jobs: int = 2, progress: Callable[[RunKey, dict[str, Any]], None] | None = None,
-             ) -> list[Outcome]:
+             jobs: int = 2, progress: Callable[[int], None] | None = None) -> list[Outcome]:
     """Plan, run (deduplicated, in parallel) and judge ``checks``, in their order."""
     checks = list(checks)
     results = execute(plan(checks), jobs=jobs, progress=progress)

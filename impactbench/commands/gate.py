@@ -59,11 +59,11 @@ def main(args: argparse.Namespace) -> int:
     print(f"impactbench gate: {len(checks)} checks need {len(runs)} engine runs "
           f"({args.jobs or 'no'} worker processes)", file=sys.stderr)
 
-    def progress(run: gates.RunKey, out: dict) -> None:
-        print(f"  {out['status']:<12} {run.label}  ({out.get('wall_s', float('nan')):.3g} s)",
-              file=sys.stderr)
+    from impactbench.matrix import progress_bar
 
-    outcomes = gates.evaluate(checks, baseline, jobs=args.jobs, progress=progress)
+    update, close = progress_bar(len(runs), "gate runs")
+    outcomes = gates.evaluate(checks, baseline, jobs=args.jobs, progress=update)
+    close()
     if args.update_baseline:
         baseline = gates.updated_baseline(outcomes, baseline)
         gates.save_baseline(baseline_path, baseline)

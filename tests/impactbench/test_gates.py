@@ -1,0 +1,214 @@
+"""Accuracy gates: gate-file validation, marks, exit codes, JUnit, baseline, missing engines.
+
+Real engines only. The checks run the rigid–flexible linear/linear case at 2 m/s in injected
+mode (a few thousand steps) with the first engine that runs it, and judge the same real
+measurements against edited baselines and tolerances.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import subprocess
+import sys
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import pytest
+
+from engines.base import ENGINES, run_safely
+from impactbench import gates
+from impactbench.cli import main
+from reference.scenarios import RigidFlexible
+
+RF = RigidFlexible(velocity_m_s=2.0)
+ENGINE_MODULES = {"mujoco": "mujoco", "pybullet": "pybullet", "pymunk": "pymunk",
+                  "drake": "pydrake"}
+
+
+@pytest.fixture(scope="module")
+def engine() -> str:
+    """The first registered engine that runs the rigid–flexible case here."""
+    for name in ENGINES:
+        if run_safely(name, RF, "injected").ok:
+            return name
+    pytest.skip("no engine runs the rigid-flexible case in injected mode here")
+
+
+def gate_text(engine: str, tolerance: str = "peak_force_n = 0.01\nimpulse_ns = 0.01",
+              extra: str = "") -> str:
+    return (f'[[gate]]\nengine = "{engine}"\nmode = "injected"\nscenario = "rigid-flexible"\n'
+            f"velocities_m_s = [2.0]\n{extra}[gate.tolerance]\n{tolerance}\n")
+
+
+def write(tmp_path: Path, text: str, name: str = "gates.toml") -> Path:
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+# ------------------------------------------------------------------ bad gate files: exit 2
+
+
+@pytest.mark.parametrize(("body", "line", "words"), [
+    ('[[gate]]\nengine = "mujoco"\nmode = "injected"\nscenario = "ball-on-plate"\n'
+     "[gate.tolerance]\nrestitution = 0.01\nrestitutoin = 0.01\n", 7,
+     ("restitutoin", "did you mean 'restitution'")),
+    ('[[gate]]\nengine = "mujoco"\nmode = "injected"\nscenario = "ball-on-plate"\n'
+     "[gate.tolerance]\nrestitution = 0.01\n\n[[gate]]\nengine = \"pymunk\"\n"
+     'mode = "injected"\nscenario = "rigid-flexible"\ntolerance = { impulse_ns = -0.1 }\n',
+     12, ("tolerance.impulse_ns = -0.1", ">= 0", "gate 2")),
+    ('[[gate]]\nengine = "mujoco"\nmode = "injected"\nscenario = "ball-on-plate"\n'
+     "[gate.tolerance]\nrestitution = 0.01,\n", 6, ("malformed TOML",)),
+    ('[defaults]\nbaseline_margin = 0.5\n[[gate]]\nengine = "mujoco"\nmode = "fast"\n'
+     'scenario = "ball-on-plate"\n[gate.tolerance]\nrestitution = 0.01\n', 5, ("mode = 'fast'",)),
+    ('[[gate]]\nengine = "mujoco"\nmode = "injected"\nscenario = "ball-on-plate"\n'
+     'local = "linear"\n[gate.tolerance]\nrestitution = 0.01\n', 5,
+     ("local", "only for rigid-flexible")),
+])
+def test_bad_gate_file_exits_2_naming_the_line(tmp_path, capsys, body, line, words) -> None:
+    path = write(tmp_path, body)
+    assert main(["gate", "--config", str(path)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1, err
+    assert f"line {line}" in err or f"{path}:{line}" in err, err
+    for w in words:
+        assert w in err, err
+
+
+def test_repeated_check_is_rejected(tmp_path) -> None:
+    text = gate_text("pymunk") + gate_text("pymunk", "impulse_ns = 0.02")
+    with pytest.raises(ValueError, match=r"gates.toml:\d+: gate 2: check .*impulse_ns repeats"):
+        gates.parse_gates(text, tmp_path / "gates.toml")
+
+
+def test_runs_are_deduplicated_across_metrics_and_gates() -> None:
+    text = (gate_text("pymunk", "peak_force_n = 0.01\nimpulse_ns = 0.01")
+            + gate_text("pymunk", "pulse_width_s = 0.01", 'timesteps_s = [1e-5, 2e-5]\n'))
+    parsed = gates.parse_gates(text)
+    assert len(parsed.checks) == 4
+    # pymunk's default rigid-flexible step is one of the explicit ones or a third
+    default_dt = parsed.checks[0].run.timestep_s
+    assert len(gates.plan(parsed.checks)) == len({default_dt, 1e-5, 2e-5})
+
+
+# ------------------------------------------------------------------ real runs
+
+
+@pytest.fixture(scope="module")
+def measured(engine) -> list[gates.Outcome]:
+    parsed = gates.parse_gates(gate_text(engine))
+    return gates.evaluate(parsed.checks, jobs=0)
+
+
+def test_injected_gate_passes_and_tolerance_zero_fails(engine, measured) -> None:
+    assert [o.mark for o in measured] == [gates.PASS, gates.PASS], gates.format_table(measured)
+    assert gates.exit_code(measured) == 0
+    strict = gates.parse_gates(gate_text(engine, "peak_force_n = 0\nimpulse_ns = 0")).checks
+    # the same measurements against tolerance 0: nonzero error must fail (a real error is
+    # never exactly zero in floating point)
+    judged = [gates.judge(c, o.result) for c, o in zip(strict, measured, strict=True)]
+    assert all(o.rel_error != 0 for o in measured)
+    assert [o.mark for o in judged] == [gates.FAIL, gates.FAIL]
+    assert gates.exit_code(judged) == 1
+
+
+def test_baseline_marks_worse_better_new_failure(engine, measured) -> None:
+    peak = measured[0]
+    err = abs(peak.rel_error)
+    c = peak.check
+    # a baseline with a much smaller error: within tolerance but grown -> worse
+    tiny = {c.id: {"rel_error": (err - c.floor) / (1 + c.margin) / 10}}
+    if err > c.floor * 1.01:
+        assert gates.judge(c, peak.result, tiny).mark == gates.WORSE
+    # a baseline with a larger error -> better (passes)
+    large = {c.id: {"rel_error": err * (1 + c.margin) + 2 * c.floor}}
+    assert gates.judge(c, peak.result, large).mark == gates.BETTER
+    # fails now (tolerance below the error) but passed in the baseline -> new-failure
+    tight = gates.Check(c.run, c.metric, err / 2, c.margin, c.floor)
+    assert gates.judge(tight, peak.result, {tight.id: {"rel_error": 0.0}}).mark == \
+        gates.NEW_FAILURE
+    assert gates.judge(tight, peak.result, {tight.id: {"rel_error": err}}).mark == gates.FAIL
+    assert gates.judge(tight, peak.result, {}).mark == gates.FAIL
+
+
+def test_must_fail_gate_exits_1_with_junit_failure(engine, tmp_path, capsys,
+                                                    monkeypatch) -> None:
+    path = write(tmp_path, gate_text(engine, "peak_force_n = 0.01\nimpulse_ns = 0"))
+    junit = tmp_path / "junit.xml"
+    summary = tmp_path / "summary.md"
+    monkeypatch.setenv("GITHUB_STEP_SUMMARY", str(summary))
+    rc = main(["gate", "--config", str(path), "--junit", str(junit), "--jobs", "1"])
+    out = capsys.readouterr().out
+    assert rc == 1, out
+    suite = ET.parse(junit).getroot().find("testsuite")
+    assert suite.get("tests") == "2" and suite.get("failures") == "1"
+    failed = [tc.get("name") for tc in suite.iter("testcase") if tc.find("failure") is not None]
+    assert failed == [f"{engine}-injected-rigid-flexible-linear-linear-v2-dt"
+                      f"{gates.parse_gates(path.read_text()).checks[0].run.timestep_s:g}"
+                      "-impulse_ns"]
+    assert "gates FAILED" in out and "fail" in out
+    md = summary.read_text()
+    assert "impactbench accuracy gates" in md and "| fail" in md
+
+
+def test_update_baseline_then_worse_is_caught(engine, tmp_path, capsys) -> None:
+    path = write(tmp_path, gate_text(engine))
+    base = tmp_path / "gates_baseline.json"
+    assert main(["gate", "--config", str(path), "--update-baseline", "--jobs", "0"]) == 0
+    stored = json.loads(base.read_text())["checks"]
+    assert len(stored) == 2 and all(math.isfinite(v["rel_error"]) for v in stored.values())
+    # the default baseline beside the gate file is read: same measurements -> pass
+    assert main(["gate", "--config", str(path), "--jobs", "0"]) == 0
+    # pretend the baseline was far better: the run is now "worse" and fails
+    for v in stored.values():
+        v["rel_error"] = 0.0
+    gates.save_baseline(base, stored)
+    floor = gates.DEFAULT_FLOOR
+    grown = [k for k, v in gates.load_baseline(base).items()]
+    rc = main(["gate", "--config", str(path), "--jobs", "0"])
+    out = capsys.readouterr().out
+    errors = [abs(o.rel_error) for o in gates.evaluate(
+        gates.load_gates(path).checks, jobs=0)]
+    if any(e > floor for e in errors):
+        assert rc == 1 and "worse" in out
+    else:
+        assert rc == 0, f"errors {errors} are below the floor {floor}: {grown}"
+
+
+def test_missing_engine_is_not_comparable(engine, tmp_path) -> None:
+    """Block the engine's package import in a child process: `unavailable` → not-comparable,
+    exit 0; --strict makes it fail."""
+    shim = tmp_path / "shim"
+    shim.mkdir()
+    (shim / f"{ENGINE_MODULES[engine]}.py").write_text(
+        "raise ImportError('blocked by the impactbench gate test')\n")
+    path = write(tmp_path, gate_text(engine))
+    junit = tmp_path / "junit.xml"
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(
+        [str(shim), *filter(None, [os.environ.get("PYTHONPATH")])])}
+    env.pop("GITHUB_STEP_SUMMARY", None)
+    cmd = [sys.executable, "-m", "impactbench.cli", "gate", "--config", str(path),
+           "--junit", str(junit), "--jobs", "1"]
+    done = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=300)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert done.stdout.count("not-comparable") == 2, done.stdout
+    assert "unavailable" in done.stdout
+    suite = ET.parse(junit).getroot().find("testsuite")
+    assert suite.get("skipped") == "2" and suite.get("failures") == "0"
+    strict = subprocess.run([*cmd, "--strict"], capture_output=True, text=True, env=env,
+                            timeout=300)
+    assert strict.returncode == 1, strict.stdout + strict.stderr
+
+
+def test_update_baseline_keeps_entries_it_could_not_measure(engine, measured) -> None:
+    c = measured[0].check
+    other = gates.Check(gates.RunKey("drake", "tuned", "rigid-flexible", 2.0, 1e-5, "linear",
+                                     "linear"), "impulse_ns", 0.01)
+    nc = gates.judge(other, {"status": "unavailable", "message": "not installed"})
+    assert nc.mark == gates.NOT_COMPARABLE
+    previous = {other.id: {"rel_error": 0.001}}
+    new = gates.updated_baseline([*measured, nc], previous)
+    assert new[other.id] == {"rel_error": 0.001}
+    assert new[c.id]["rel_error"] == measured[0].rel_error
