@@ -1,0 +1,7 @@
+"""Figure writers behind ``impactbench figures``.
+
+Each module named in :data:`FIGURE_MODULES` exposes ``write(out_dir: Path) -> list[Path]``,
+writes its PNGs into ``out_dir`` (Agg backend) and returns their paths.
+"""
+
+FIGURE_MODULES: tuple[str, ...] = ("impactbench.figures.hunt_crossley",)
