@@ -218,7 +218,9 @@ class _Sim:
         spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
         s0 = np.empty(mujoco.mj_stateSize(m, spec))
         mujoco.mj_getState(m, d, s0, spec)
-        states, sensors = mujoco.rollout.rollout(m, d, s0[None], nstep=n)
+        warm = d.qacc_warmstart.copy()  # carried over, so chunking does not change the bits
+        states, sensors = mujoco.rollout.rollout(m, d, s0[None], nstep=n,
+                                                 initial_warmstart=warm[None])
         states, sensors = states[0], sensors[0]
         mujoco.mj_setState(m, d, states[-1], spec)
         pre = np.vstack([s0[None], states[:-1]])
