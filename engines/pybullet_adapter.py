@@ -78,7 +78,7 @@ first touch between two samples, so the shared metrics locate it by the penetrat
 crossing instead of extrapolating the force."""
 BREAKING_THRESHOLD_M = 1e-12
 PLATE_HALF_THICKNESS_M = 0.01
-RF_SPHERE_RADIUS_M = 0.05
+RF_MIN_RADIUS_M = 0.05
 INJECTIONS = ("explicit", "secant")
 BALL_DEFAULT_DT_S = 1e-6
 RF_DEFAULT_DT_S = 1e-5
@@ -155,7 +155,7 @@ class FlexWorld:
     def __init__(self, p: Any, scenario: RigidFlexible, dt: float, k: float, d: float) -> None:
         self.p, self.dt = p, dt
         self.cid = cid = _connect(p, dt)
-        r = RF_SPHERE_RADIUS_M
+        r = self.radius_m = rf_sphere_radius_m(scenario)
         self.gap_m = FLIGHT_STEPS * scenario.velocity_m_s * dt
         sphere = p.createCollisionShape(p.GEOM_SPHERE, radius=r, physicsClientId=cid)
         origin, no_turn = [0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]
@@ -189,6 +189,14 @@ class FlexWorld:
 
     def close(self) -> None:
         self.p.disconnect(self.cid)
+
+
+def rf_sphere_radius_m(s: RigidFlexible) -> float:
+    """Collider radius (m) for the rigid–flexible bodies: ten times the largest overlap body 1
+    could reach against a wall with the softest local stiffness, so the spheres never pass
+    through each other (a sphere–sphere overlap is 2r − distance; r ≫ Δx changes nothing)."""
+    k_min = min(s.k1_n_per_m, s.kt_n_per_m, s.k1_failed_n_per_m)
+    return max(RF_MIN_RADIUS_M, 10.0 * s.velocity_m_s * math.sqrt(s.m1_kg / k_min))
 
 
 def _hertz_duration_s(s: BallOnPlate) -> float:
@@ -349,7 +357,8 @@ def _run_flex(p: Any, s: RigidFlexible, mode: str, settings: RunSettings, dt: fl
         body, cid, gap = world.body, world.cid, world.gap_m
         states, contacts, step = p.getJointStates, p.getContactPoints, p.stepSimulation
         motor, torque, set_contact = p.setJointMotorControl2, p.TORQUE_CONTROL, world.set_contact
-        touched = timed_out = False
+        touched = timed_out = tunneled = False
+        overlap_limit = 2.0 * world.radius_m
         t = 0.0
         u1 = u2 = x2_end = 0.0
         for _ in range(n_max):
@@ -381,7 +390,8 @@ def _run_flex(p: Any, s: RigidFlexible, mode: str, settings: RunSettings, dt: fl
                 touched = True
             elif touched and no_further_contact(x1, u1, x2, u2, m2, structure):
                 break
-            if not (math.isfinite(x) and math.isfinite(x2)):
+            if not (math.isfinite(x) and math.isfinite(x2)) or x > overlap_limit:
+                tunneled = x > overlap_limit
                 break
         else:
             timed_out = True
@@ -392,7 +402,7 @@ def _run_flex(p: Any, s: RigidFlexible, mode: str, settings: RunSettings, dt: fl
     kinetic_0 = 0.5 * m1 * s.velocity_m_s**2
     final = 0.5 * m1 * u1 * u1 + 0.5 * m2 * u2 * u2 + structure.potential(x2_end)
     out = classify(out, initial_kinetic_j=kinetic_0, final_kinetic_j=final,
-                   timed_out=timed_out)
+                   tunneled=tunneled, timed_out=timed_out)
     if status is not None and out.status in (Status.OK, Status.MAX_TIME):
         out.status, out.message = status
     return out
