@@ -42,15 +42,15 @@ from reference.laws import LocalLaw, Piece, StructuralLaw
 from reference.record import ImpactRecord, Status
 from reference.scenarios import RigidFlexible
 
-RTOL = 1e-12
-ATOL_M = 1e-15
+RTOL = 1e-11
+ATOL_M = 1e-14
 """Default integration tolerances of :func:`simulate` (relative; absolute in m and m/s)."""
 
 CONTACT_SAMPLES_PER_RAD = 2000.0
 """Samples per radian of the fastest mode inside a contact (trapezoid ∫F dt to ~1e-8)."""
 FREE_SAMPLES_PER_RAD = 20.0
 MAX_EVENTS = 100_000
-MAX_STEP_RAD = 0.25
+MAX_STEP_RAD = 0.05
 """Largest integration step, in radians of the fastest mode of the piece."""
 
 METRIC_KEYS: tuple[str, ...] = (

@@ -207,6 +207,37 @@ def _locate(which, nb, bnd, y0, h, ga, gb, k, f0, m1, m2, k2, beta, ec, reach_p,
 
 
 @njit(cache=True)
+def _hermite_extremum(g0, d0, g1, d1, h):
+    """Step fraction s in (0, h) of an interior extremum of the cubic Hermite interpolant of g
+    (values g0, g1 and slopes d0, d1 at 0 and h) where it reaches the other sign; −1 if none."""
+    # g(τ) = g0 + d0·h·τ + c2·τ² + c3·τ³ on τ ∈ [0, 1]
+    c2 = 3.0 * (g1 - g0) - h * (2.0 * d0 + d1)
+    c3 = 2.0 * (g0 - g1) + h * (d0 + d1)
+    a, b, c = 3.0 * c3, 2.0 * c2, d0 * h
+    roots = np.empty(2)
+    n = 0
+    if abs(a) < 1e-300:
+        if b != 0.0:
+            roots[0] = -c / b
+            n = 1
+    else:
+        disc = b * b - 4.0 * a * c
+        if disc >= 0.0:
+            q = -0.5 * (b + math.copysign(math.sqrt(disc), b))
+            roots[0] = q / a
+            roots[1] = c / q if q != 0.0 else -1.0
+            n = 2
+    best = -1.0
+    for i in range(n):
+        tau = roots[i]
+        if 0.0 < tau < 1.0:
+            gv = g0 + (d0 * h + (c2 + c3 * tau) * tau) * tau
+            if (gv >= 0.0) != (g0 >= 0.0) and (best < 0.0 or tau * h < best):
+                best = tau * h
+    return best
+
+
+@njit(cache=True)
 def solve_kernel(code, v0, m1, m2, k1, k2, kt, k1f, eps_s, beta, fm, tmax, step_rad):
     """One impact. Returns (status 0 ok / 1 collapsed / 2 max_time, peak_force_n,
     pulse_width_s, contact_time_s, impulse_ns, impacts, t_end, x1, x2, v1, v2, max_dx,
@@ -217,6 +248,8 @@ def solve_kernel(code, v0, m1, m2, k1, k2, kt, k1f, eps_s, beta, fm, tmax, step_
     ys = np.zeros(4)
     ydot = np.zeros(4)
     dg = np.zeros(1)
+    dg2 = np.zeros(1)
+    ydot2 = np.zeros(4)
     K = np.zeros((12, 4))
     tmp = np.zeros(4)
     bnd = np.zeros((2, 6))
@@ -254,9 +287,12 @@ def solve_kernel(code, v0, m1, m2, k1, k2, kt, k1f, eps_s, beta, fm, tmax, step_
         # event values at the start of the piece
         gold = np.zeros(nev)
         gnew = np.zeros(nev)
+        dgold = np.zeros(nev)
+        dgnew = np.zeros(nev)
         _rhs(y, k, f0, m1, m2, k2, beta, ydot)
         for w in range(nev):
             gold[w] = _ev(w, nb, bnd, y, ydot, m2, k2, beta, ec, reach_p, k, f0, dg)
+            dgold[w] = dg[0]
         found = -1
         s_found = 0.0
         while True:
@@ -278,16 +314,32 @@ def solve_kernel(code, v0, m1, m2, k1, k2, kt, k1f, eps_s, beta, fm, tmax, step_
                 if w == nb + 2 and not use_peak:
                     continue
                 gnew[w] = _ev(w, nb, bnd, ynew, ydot, m2, k2, beta, ec, reach_p, k, f0, dg)
+                dgnew[w] = dg[0]
                 if w < nb:
                     d = bnd[w, 3]
                 elif w == nb:
                     d = 1.0
                 else:
                     d = -1.0
-                if (d > 0.0 and gold[w] < 0.0 and gnew[w] >= 0.0) or (
-                        d < 0.0 and gold[w] > 0.0 and gnew[w] <= 0.0):
-                    s = _locate(w, nb, bnd, y, h, gold[w], gnew[w], k, f0, m1, m2, k2, beta,
-                                ec, reach_p, K, tmp, ys, ydot, dg)
+                hit = (d > 0.0 and gold[w] < 0.0 and gnew[w] >= 0.0) or (
+                    d < 0.0 and gold[w] > 0.0 and gnew[w] <= 0.0)
+                hb = h
+                gb = gnew[w]
+                if not hit and w < nb and d * gold[w] < 0.0 and d * gnew[w] < 0.0:
+                    # a crossing and return inside the step (a graze): the cubic Hermite
+                    # interpolant of g (g' known at both ends) peaks on the far side?
+                    sm = _hermite_extremum(gold[w], dgold[w], gnew[w], dg[0], h)
+                    if sm > 0.0:
+                        _step(y, sm, k, f0, m1, m2, k2, beta, K, tmp, ys)
+                        _rhs(ys, k, f0, m1, m2, k2, beta, ydot2)
+                        gm = _ev(w, nb, bnd, ys, ydot2, m2, k2, beta, ec, reach_p, k, f0, dg2)
+                        if d * gm >= 0.0:
+                            hit = True
+                            hb = sm
+                            gb = gm
+                if hit:
+                    s = _locate(w, nb, bnd, y, hb, gold[w], gb, k, f0, m1, m2, k2, beta,
+                                ec, reach_p, K, tmp, ys, ydot2, dg2)
                     if w == nb + 2:  # velocity reversal: a force maximum, not a switch
                         _step(y, s, k, f0, m1, m2, k2, beta, K, tmp, ys)
                         s_peak = s
@@ -305,6 +357,7 @@ def solve_kernel(code, v0, m1, m2, k1, k2, kt, k1f, eps_s, beta, fm, tmax, step_
                 y[j] = ynew[j]
             for w in range(nev):
                 gold[w] = gnew[w]
+                dgold[w] = dgnew[w]
             t += h
             if contact:
                 fn = k * (y[0] - y[1]) + f0
