@@ -527,7 +527,7 @@ def updated_baseline(outcomes: Iterable[Outcome],
     """
     out = {k: dict(v) for k, v in (previous or {}).items()}
     for o in outcomes:
-        if not math.isfinite(o.rel_error):
+        if o.mark == NOT_COMPARABLE or not math.isfinite(o.rel_error):
             continue
         out[o.check.id] = {"value": o.value, "reference": o.reference,
                            "rel_error": o.rel_error, "status": o.status,
