@@ -266,11 +266,16 @@ class _Outcome:
     unstable: bool = False
 
 
-def _drive(sim: _Sim, n_max: int, first: int, chunk: int,
-           find_end: Callable[[np.ndarray, np.ndarray, np.ndarray], int | None]) -> _Outcome:
+EndFinder = Callable[[np.ndarray, np.ndarray, np.ndarray, int], int | None]
+"""find_end(qpos, qvel, force, start) → index of the last sample to keep, or None; samples
+before ``start`` were already searched."""
+
+
+def _drive(sim: _Sim, n_max: int, first: int, chunk: int, find_end: EndFinder) -> _Outcome:
     """Step in chunks until ``find_end`` returns the last sample to keep, or n_max steps."""
     n = max(1, min(first, n_max))
     while True:
+        start = sim.steps
         sim.step_chunk(n)
         q, v, f = sim.arrays()
         unstable = sim.unstable()
@@ -280,11 +285,12 @@ def _drive(sim: _Sim, n_max: int, first: int, chunk: int,
             reset = np.flatnonzero(~np.any(q, axis=1) & ~np.any(v, axis=1))
             stop = int(reset[0]) if reset.size else len(f)
             q, v, f = q[:stop], v[:stop], f[:stop]
-        finite = np.all(np.isfinite(q), axis=1) & np.all(np.isfinite(v), axis=1)
+        start = min(start, len(f))
+        finite = np.all(np.isfinite(q[start:]), axis=1) & np.all(np.isfinite(v[start:]), axis=1)
         if not np.all(finite):
-            stop = int(np.flatnonzero(~finite)[0]) + 1
+            stop = start + int(np.flatnonzero(~finite)[0]) + 1
             return _Outcome(q[:stop], v[:stop], f[:stop])
-        end = find_end(q, v, f) if len(f) else None
+        end = find_end(q, v, f, start) if len(f) > start else None
         if end is not None:
             return _Outcome(q[:end + 1], v[:end + 1], f[:end + 1])
         if unstable:
@@ -382,13 +388,17 @@ def run_ball(s: BallOnPlate, mode: str, settings: RunSettings) -> ImpactRecord:
     first = math.ceil(GAP_STEPS) + math.ceil(t_est / dt) + 2
     chunk = max(8, math.ceil(0.05 * t_est / dt))
 
-    def find_end(q: np.ndarray, v: np.ndarray, f: np.ndarray) -> int | None:
-        touched = np.flatnonzero(f > 0.0)
-        if touched.size == 0:
-            return None
-        i0 = int(touched[0])
-        away = np.flatnonzero((f[i0:] <= 0.0) & (v[i0:, 0] > 0.0))  # zero force, moving away
-        return i0 + int(away[0]) if away.size else None
+    touch: list[int] = []
+
+    def find_end(q: np.ndarray, v: np.ndarray, f: np.ndarray, start: int) -> int | None:
+        if not touch:
+            touched = np.flatnonzero(f[start:] > 0.0)
+            if touched.size == 0:
+                return None
+            touch.append(start + int(touched[0]))
+        lo = max(start, touch[0])
+        away = np.flatnonzero((f[lo:] <= 0.0) & (v[lo:, 0] > 0.0))  # zero force, moving away
+        return lo + int(away[0]) if away.size else None
 
     sim = _Sim(model, data, hook)
     out = _drive(sim, n_max, first, chunk, find_end)
@@ -470,19 +480,28 @@ def run_rigid_flexible(s: RigidFlexible, mode: str, settings: RunSettings) -> Im
     first = chunk if beta else math.ceil(GAP_STEPS) + math.ceil(2.0 * t_contact / dt)
     collapsed: list[int] = []
 
-    def find_end(q: np.ndarray, v: np.ndarray, f: np.ndarray) -> int | None:
+    touch: list[int] = []
+
+    def find_end(q: np.ndarray, v: np.ndarray, f: np.ndarray, start: int) -> int | None:
         x1, x2, u1, u2 = q[:, 0], q[:, 1], v[:, 0], v[:, 1]
         end = None
         if math.isfinite(structure.collapse_energy):
-            e2 = 0.5 * s.m2_kg * u2 * u2 + structure.potential(x2)
+            e2 = 0.5 * s.m2_kg * u2[start:] ** 2 + structure.potential(x2[start:])
             over = np.flatnonzero(e2 > structure.collapse_energy)
             if over.size:
-                end = int(over[0])
-        free = (f <= 0.0) & (u1 <= 0.0) & (x1 < x2)
-        if np.any(f > 0.0):
-            free[: int(np.flatnonzero(f > 0.0)[0])] = False
+                end = start + int(over[0])
+        if not touch:
+            touched = np.flatnonzero(f[start:] > 0.0)
+            if touched.size == 0:
+                return end
+            touch.append(start + int(touched[0]))
+        # within one free flight the predicate is monotone, and it was false where the
+        # previous chunk ended, so searching from the new samples on is enough
+        lo = max(start, touch[0])
+        free = (f[lo:] <= 0.0) & (u1[lo:] <= 0.0) & (x1[lo:] < x2[lo:])
         sep = _first_separated(free, lambda i: no_further_contact(
-            x1[i], u1[i], x2[i], u2[i], s.m2_kg, structure))
+            x1[lo + i], u1[lo + i], x2[lo + i], u2[lo + i], s.m2_kg, structure))
+        sep = None if sep is None else lo + sep
         if sep is not None and (end is None or sep < end):
             return sep
         if end is not None:
