@@ -1,0 +1,99 @@
+"""PyBullet adapter overhead: adapter wall time against a bare ``stepSimulation`` loop.
+
+For each case the adapter runs the scenario (world building, the native conversion, stepping,
+reading the state and the contact force each step, recording, classifying). The bare loop
+builds the same world (the adapter's own ``BallWorld`` / ``FlexWorld``, same contact
+parameters and initial state) and calls ``stepSimulation`` as many times as the adapter's
+record has samples, reading nothing; for rigid–flexible it also applies the structural force
+each step, which is part of the model. Both are the best of several repeats (the machine is
+shared; the minimum is the least noisy estimate). Target: ratio ≤ 1.3.
+
+``p.connect(DIRECT)`` and building the world cost ~10 ms, more than a whole ball impact, so
+the table also shows that fixed cost (the bare loop with 0 steps) and the per-step ratio
+(adapter − build) / (bare − build), which is what the recording itself costs.
+
+Run: ``python -m benchmarks bench_engine_pybullet`` (or this file directly).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from typing import Any
+
+from engines.base import RunSettings, get_adapter
+from engines.pybullet_adapter import BallWorld, FlexWorld, _import_engine
+from reference.scenarios import BallOnPlate, RigidFlexible
+
+REPEATS = 11
+
+CASES: tuple[tuple[str, Any, str, float], ...] = (
+    ("ball V0=1 native dt=1e-6", BallOnPlate(velocity_m_s=1.0), "native", 1e-6),
+    ("ball V0=1 native dt=1e-7", BallOnPlate(velocity_m_s=1.0), "native", 1e-7),
+    ("ball V0=5 injected dt=1e-7", BallOnPlate(velocity_m_s=5.0), "injected", 1e-7),
+    ("rf lin/lin v1=3.3 native dt=1e-5", RigidFlexible(velocity_m_s=3.3), "native", 1e-5),
+    ("rf lin/soft v1=3.3 native dt=1e-5",
+     RigidFlexible(velocity_m_s=3.3, structure="softening"), "native", 1e-5),
+    ("rf ep/lin v1=3.3 injected dt=1e-5",
+     RigidFlexible(velocity_m_s=3.3, local="elastoplastic"), "injected", 1e-5),
+)
+
+
+def _best(fn: Callable[[], Any], repeats: int = REPEATS) -> float:
+    best = float("inf")
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
+def bare_loop(scenario: Any, dt: float, steps: int, k: float, d: float) -> None:
+    """Build the same world and step it ``steps`` times, recording nothing."""
+    p = _import_engine()
+    if isinstance(scenario, BallOnPlate):
+        world = BallWorld(p, scenario, dt, k, d)
+        try:
+            step, cid = p.stepSimulation, world.cid
+            for _ in range(steps):
+                step(physicsClientId=cid)
+        finally:
+            world.close()
+        return
+    world = FlexWorld(p, scenario, dt, k, d)
+    try:
+        step, cid, body = p.stepSimulation, world.cid, world.body
+        state, motor, torque = p.getJointState, p.setJointMotorControl2, p.TORQUE_CONTROL
+        spring = scenario.structural_law().force
+        for _ in range(steps):
+            motor(body, 1, torque, force=-spring(state(body, 1, physicsClientId=cid)[0]),
+                  physicsClientId=cid)
+            step(physicsClientId=cid)
+    finally:
+        world.close()
+
+
+def main() -> None:
+    adapter = get_adapter("pybullet")
+    print(f"PyBullet {adapter.version()}: adapter vs bare stepSimulation loop "
+          f"(best of {REPEATS})")
+    header = (f"{'case':36s} {'steps':>7s} {'adapter ms':>10s} {'bare ms':>8s} {'ratio':>6s} "
+              f"{'build ms':>8s} {'per-step':>8s}")
+    print(header)
+    print("-" * len(header))
+    for label, scenario, mode, dt in CASES:
+        settings = RunSettings(timestep_s=dt)
+        rec = adapter.run(scenario, mode, settings)  # warm-up
+        steps = len(rec)
+        k = rec.meta.get("contact_stiffness", 0.0)
+        d = rec.meta.get("contact_damping", 0.0)
+        t_adapter = _best(lambda s=scenario, m=mode, st=settings: adapter.run(s, m, st))
+        t_bare = _best(lambda s=scenario, h=dt, n=steps, kk=k, dd=d: bare_loop(s, h, n, kk, dd))
+        t_build = _best(lambda s=scenario, h=dt, kk=k, dd=d: bare_loop(s, h, 0, kk, dd))
+        per_step = (t_adapter - t_build) / max(t_bare - t_build, 1e-9)
+        print(f"{label:36s} {steps:7d} {t_adapter * 1e3:10.3f} {t_bare * 1e3:8.3f} "
+              f"{t_adapter / t_bare:6.2f} {t_build * 1e3:8.3f} {per_step:8.2f}  [{rec.status}]")
+
+
+if __name__ == "__main__":
+    main()
