@@ -12,15 +12,28 @@ positions, then kicks, v ← v + (F/m + g)·dt, with the forces set in ``pre_sol
 the rigid contacts and joints (``DampedSpring`` applies k·(L − d)·dt from the new positions
 too). A force applied in ``pre_solve`` is therefore semi-implicit (symplectic) Euler in its
 drift–kick form, x_{k+1} = x_k + v_k·dt, v_{k+1} = v_k + F(x_{k+1}, v_k)·dt/m — for an
-elastic force a symplectic (energy-bounded, leapfrog-equivalent) scheme, not the explicit Euler
-that a force set before ``space.step`` would give (that one gains energy like e^{+πω·dt/2}).
-The damping term sees the pre-kick velocity v_k, which lags the position by half a step: the
-restitution error it causes is first order in dt, ≈ +1e-4 relative at dt = 1e-7 s and
-≈ +1e-3 at dt = 1e-6 s for the paper's ball (measured; see the tests).
+elastic force a symplectic, leapfrog-equivalent scheme, not the explicit Euler that a force
+set before ``space.step`` would give. Measured on the paper's ball at V0 = 5 m/s, elastic
+(b = 0): restitution 0.99994 at dt = 1e-6 s and 0.9999999 at 1e-7 s (explicit Euler, force
+from the state before the step: 1.078 and 1.0075 — it gains energy).
+The damping term sees the pre-kick velocity v_k, half a step behind x_{k+1}: that adds
+≈ b·|ẍ|·dt/2 relative to the force (≈ 1e-3 at the V0 = 5 m/s peak at dt = 1e-7 s), an
+error of first order in dt on peak force, duration and max penetration (at dt = 1e-7 s:
++6.1e-4, −3.5e-4, −2.6e-4 at 5 m/s; +1.1e-4, −5.9e-5, −4.2e-5 at 1 m/s), which cancels
+between compression and restitution in the restitution (−1.1e-7 at 1e-7 s, −2.7e-5 at 1e-6 s).
 
-Samples: reading the step as "kick at x_k, then drift", sample k is (t_k, x_k, v_k before the
-kick, the force of that kick) — the state at the start of the step and the force the engine
-applies over it (``engines.common.Recorder``'s contract).
+Samples (``engines.common.Recorder``'s layout: sample k = the state at the start of a step and
+the force the engine applies over it; t_k = k·dt; the samples are gathered in a flat list and
+turned into arrays once, because ``Recorder.append``'s per-sample numpy write costs ~0.4 µs,
+a third of a bare pymunk step):
+
+- penalty force: the force is computed from the post-drift position, so the step is read as
+  kick-then-drift: sample k = (x_k after k drifts, the velocity entering the kick, the force
+  F(x_k, ·) of that kick). Force and penetration stay aligned (∮F dx is right).
+- rigid impulse: sample k = (x_k, v_k before ``space.step``, J/dt of that step's impulse), the
+  next sample carrying the velocity after it — the velocity jump sits between the two samples,
+  where the metrics' interpolation expects it, so the measured restitution is exactly the
+  solver's.
 
 Ball-on-plate: a circle (radius R, mass m, infinite moment: friction is 0 and it must not spin)
 moving along −y onto a static segment at y = 0, starting 2.5 steps of free flight away;
@@ -32,9 +45,11 @@ penetration x = R − y. Gravity ``scenario.gravity_m_s2`` acts along −y.
   ``settings.options["reference_velocity_m_s"]``): e = hunt_crossley.solve(V0 = v_ref)
   ["restitution"], as a user would set a constant coefficient of restitution. The force sample
   is ``arbiter.total_impulse`` / dt from ``post_solve``. Honest consequence: restitution is
-  right at v_ref only (Hunt–Crossley's k falls with α = b·V0), and duration, peak force and
-  max penetration are one-step artefacts (duration ~ dt, peak = m·(1+e)·V0/dt, penetration
-  ≤ V0·dt) that say nothing about the physics.
+  right at v_ref only (Hunt–Crossley's k falls with α = b·V0: 0.937 at 1 m/s, 0.748 at
+  5 m/s), and duration, peak force, max penetration and the loss fraction are one-step
+  artefacts (duration 2·dt as located by the metrics, peak = m·(1+e)·V0/dt, the penetration
+  sample is the pre-step one) that say nothing about the physics: a rigid contact has no
+  duration.
 - ``injected`` (``settings.options["injection"] = "penalty"``, the default): a compliant
   Hunt–Crossley penalty contact. In ``pre_solve`` the rigid contact is rejected
   (``arbiter.process_collision = False``), x = R − y is read from the geometry (the handler runs
@@ -64,13 +79,20 @@ measured from first touch: x1 = x_body1 + h, x2 = x_body2 − h (h the circles' 
   applied as −F1 to body 1 and +F1 to body 2, the rigid contact rejected.
 - ``tuned``: ``settings.tuned["elasticity"]`` replaces e = 1.
 
-The run stops when ``reference.laws.no_further_contact`` holds, on collapse of the softening
-structure (body 2's energy above ``collapse_energy`` out of contact, or x2 beyond the
-potential's peak while body 1 pushes it: status ``structure_collapsed``), or at the time cap
-(``settings.max_time_s`` or ``scenario.max_time_s``; status ``max_time``).
+The run stops when ``reference.laws.no_further_contact`` holds (with the local law's permanent
+set), on collapse of the softening structure (body 2's energy ½·m2·v2² + Π(x2) rising above
+``collapse_energy`` = k2²/(4β) in a contact, the reference's rule: status
+``structure_collapsed``), or at the time cap (``settings.max_time_s`` or
+``scenario.max_time_s``; status ``max_time``). The ball stops a few steps after it lets go
+(moving away, no force, no overlap), or as ``tunneled`` once its centre is past the plate.
 
-Default timesteps: ball 1e-6 s in every mode; rigid–flexible 1e-5 s (injected linear/linear
-and elastoplastic/linear at 3.3 m/s: peak, pulse width and impulse within 1e-3 of the reference).
+Options (``settings.options``): ``injection`` (ball, injected mode: penalty | restitution),
+``reference_velocity_m_s`` (native ball), ``iterations`` (pymunk solver iterations, default
+10). Tuned keys (``settings.tuned``): ``elasticity`` (pair restitution, both scenarios).
+
+Default timesteps: ball 1e-6 s in every mode; rigid–flexible 1e-5 s (injected at 3.3 m/s:
+linear/linear and elastoplastic/linear within 2e-7 of the reference on peak, pulse width and
+impulse, mutation within 4e-5).
 """
 
 from __future__ import annotations
@@ -430,9 +452,11 @@ def run_rigid_flexible(model: RigidFlexibleModel, settings: RunSettings,
                        meta: dict[str, Any]) -> ImpactRecord:
     """Step the 2-DOF model until no further contact is possible, collapse, or the cap.
 
-    Collapse (softening structure) is body 2's energy E2 = ½·m2·v2² + Π(x2) above the
-    potential's peak k2²/(4β): E2 only rises while v2 > 0 (dE2/dt = F1·v2), so from then on
-    x2 runs away — the reference's rule. Recording as in :func:`run_ball`.
+    Collapse (softening structure) is body 2's energy E2 = ½·m2·v2² + Π(x2) rising above the
+    potential's peak k2²/(4β) during a contact: E2 only changes in contact and only rises
+    while v2 > 0 (dE2/dt = F1·v2), so from then on x2 runs away — the reference's rule.
+    No further contact: ``no_further_contact(x1 − p, …)`` with p the local law's permanent
+    set (``contact_threshold()``, 0 for the rigid contact). Recording as in :func:`run_ball`.
     """
     sc, dt = model.scenario, model.dt
     m1, m2, structure = sc.m1_kg, sc.m2_kg, model.structure
@@ -465,12 +489,13 @@ def run_rigid_flexible(model: RigidFlexibleModel, settings: RunSettings,
         if not (math.isfinite(x1) and math.isfinite(x2) and math.isfinite(v1 + v2)):
             nonfinite = True
             break
-        if softening and 0.5 * m2 * v2 * v2 + structure.potential(x2) > collapse_energy:
-            collapsed = True
-            break
-        if f == 0.0 and v1 <= 0.0:
+        if f > 0.0:
+            if softening and 0.5 * m2 * v2 * v2 + structure.potential(x2) > collapse_energy:
+                collapsed = True
+                break
+        elif v1 <= 0.0:
             p = threshold() if threshold is not None else 0.0
-            if no_further_contact(x1 - p, v1, x2, v2, m2, structure):
+            if x1 < p and no_further_contact(x1 - p, v1, x2, v2, m2, structure):
                 done = True
                 break
     if impulsive:
