@@ -99,6 +99,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from functools import lru_cache
 from typing import Any
 
 import numpy as np
@@ -315,6 +316,14 @@ def _tuned_elasticity(settings: RunSettings) -> float:
     return check.non_negative("tuned.elasticity", value)
 
 
+@lru_cache(maxsize=256)
+def _reference_restitution(scenario: BallOnPlate) -> float:
+    """Hunt–Crossley restitution of ``scenario`` (cached: sweeps map the same v_ref again)."""
+    from reference import hunt_crossley
+
+    return float(hunt_crossley.solve(scenario)["restitution"])
+
+
 def ball_model(scenario: BallOnPlate, mode: str, settings: RunSettings, dt: float,
                iterations: int, measure: bool = True) -> tuple[BallModel, dict[str, Any]]:
     """Build the ball space for ``mode``; returns it and the meta of its parameters."""
@@ -329,12 +338,10 @@ def ball_model(scenario: BallOnPlate, mode: str, settings: RunSettings, dt: floa
         e = _tuned_elasticity(settings)
         meta.update(contact="rigid", elasticity=e, tuned=dict(settings.tuned or {}))
     else:
-        from reference import hunt_crossley
-
         v_ref = check.positive(
             "options.reference_velocity_m_s",
             settings.options.get("reference_velocity_m_s", NATIVE_REFERENCE_VELOCITY_M_S))
-        e = float(hunt_crossley.solve(scenario.replace(velocity_m_s=v_ref))["restitution"])
+        e = _reference_restitution(scenario.replace(velocity_m_s=v_ref))
         meta.update(contact="rigid", elasticity=e, reference_velocity_m_s=v_ref)
     model = BallModel(scenario, "rigid", dt, elasticity=e, iterations=iterations,
                       measure=measure)
