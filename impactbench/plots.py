@@ -124,7 +124,7 @@ def error_heatmap(df: pd.DataFrame, scenario: str, metric_names: tuple[str, ...]
     if scenario == "rigid-flexible":
         point = rows.local.str[:4] + "/" + rows.structure.str[:4] + " " + point
     rows["col"] = rows.metric.map(lambda m: LABELS.get(m, m)) + "\n" + point
-    rows["row"] = rows.engine + " " + rows.mode
+    rows["row"] = rows.engine + " " + rows["mode"]
     cols = list(dict.fromkeys(rows.sort_values(["metric", "local", "structure",
                                                 "velocity_m_s"]).col))
     index = sorted(rows.row.unique())
