@@ -99,7 +99,9 @@ def fig4_histories(path: Path) -> Path:
 
 
 def fig5_maxima(path: Path) -> Path:
-    v = np.linspace(0.05, 5.0, 400)
+    v = np.linspace(0.1, 5.0, 400)
+    pts = hc.sweep(PAPER_VELOCITIES_M_S, mass_kg=CASE.mass_kg, stiffness=CASE.stiffness,
+                   exponent=CASE.exponent, damping_s_per_m=CASE.damping_s_per_m)
     df = hc.sweep(v, mass_kg=CASE.mass_kg, stiffness=CASE.stiffness, exponent=CASE.exponent,
                   damping_s_per_m=CASE.damping_s_per_m)
     fig, axes = plt.subplots(1, 3, figsize=(13, 4.2))
@@ -108,6 +110,7 @@ def fig5_maxima(path: Path) -> Path:
               ("duration_s", 1e6, "contact duration T (µs)"))
     for ax, (col, scale, label) in zip(axes, panels, strict=True):
         ax.plot(v, df[col] * scale, label=f"b = {CASE.damping_s_per_m:g} s/m")
+        ax.plot(pts["velocity_m_s"], pts[col] * scale, "o", label="the six V0 of Fig. 4")
         ax.set_xlabel("impact velocity V0 (m/s)")
         ax.set_ylabel(label)
         ax.legend(fontsize=8)
