@@ -24,7 +24,7 @@ from engines import pymunk_adapter as pa
 from engines.base import RunSettings, get_adapter
 from reference.scenarios import BallOnPlate, RigidFlexible
 
-REPEATS = 5
+REPEATS = 15
 
 CASES = (
     ("ball V0=5 injected (penalty) dt=1e-7", BallOnPlate(velocity_m_s=5.0), "injected", 1e-7,
