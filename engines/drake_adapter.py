@@ -462,7 +462,7 @@ def _ball_time_cap(scenario: BallOnPlate, settings: RunSettings, dt: float) -> f
 def _run_ball(model: DrakeModel, scenario: BallOnPlate, settings: RunSettings) -> ImpactRecord:
     r, dt = scenario.radius_m, model.timestep_s
     rec = Recorder(int(250e-6 / dt) + 64)
-    flags = {"contact": False, "tunneled": False}
+    flags = {"tunneled": False}
     context = model.context
 
     def monitor(state: list[float]) -> bool:
@@ -471,10 +471,8 @@ def _run_ball(model: DrakeModel, scenario: BallOnPlate, settings: RunSettings) -
         rec.append(context.get_time(), x, rate, force, rate)
         if not math.isfinite(x + rate + force):
             return True
-        if force > 0.0:
-            flags["contact"] = True
-        elif x < 0.0 and rate < 0.0 and flags["contact"]:
-            return True  # moving away, no force: separated
+        if x < 0.0 and rate < 0.0:
+            return True  # outside the plate and moving away (the force is 0 there): separated
         if x >= 2.0 * r:  # the whole ball is past the plate's surface
             flags["tunneled"] = True
             return True
@@ -482,10 +480,14 @@ def _run_ball(model: DrakeModel, scenario: BallOnPlate, settings: RunSettings) -
 
     stopped, error = _advance(model, monitor, _ball_time_cap(scenario, settings, dt))
     out = rec.record(scenario.mass_kg, **model.meta)
-    v_end = out.velocity_1_m_s[-1] if len(out) else math.nan
-    out = classify(out, initial_kinetic_j=0.5 * scenario.mass_kg * scenario.velocity_m_s**2,
-                   final_kinetic_j=0.5 * scenario.mass_kg * v_end**2,
-                   tunneled=flags["tunneled"], timed_out=not stopped)
+    m, g = scenario.mass_kg, scenario.gravity_m_s2
+
+    def energy(v: float, x: float) -> float:  # kinetic + gravity potential (height −x)
+        return 0.5 * m * v * v - m * g * x
+
+    final = energy(out.velocity_1_m_s[-1], out.penetration_m[-1]) if len(out) else math.nan
+    out = classify(out, initial_kinetic_j=energy(scenario.velocity_m_s, r - model.q0[0]),
+                   final_kinetic_j=final, tunneled=flags["tunneled"], timed_out=not stopped)
     if error and out.status is not Status.DIVERGED:
         out.status, out.message = Status.DIVERGED, f"Drake stopped: {error}"
     return out
