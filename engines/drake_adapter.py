@@ -58,10 +58,18 @@ Measurement and stopping
     One sample per step through the simulator monitor: sample k is the state at the start of
     step k and the force Drake applies at that state — native: the plant's contact results
     output port (sum of ``point_pair_contact_info(i).contact_force()`` along the axis);
-    injected: the applied-force system's output. The run stops when the ball moves away with
-    zero force, when no further contact is possible (``reference.laws.no_further_contact``),
+    injected: the applied-force system's output. The run stops when the ball is outside the
+    plate and moving away (x < 0, ẋ < 0: point contact has no margin, so the force is 0),
+    when no further contact is possible (``reference.laws.no_further_contact``),
     on structural collapse (body 2's energy above ``collapse_energy``), when a body ends past
     the other (``tunneled``), on a non-finite state, or at the time cap (``max_time``).
+    Energy check (``engines.common.classify``): kinetic energy (+ gravity potential for the
+    ball; + structural potential for the 2-DOF model) at the end against the start.
+
+Cost
+    Stepping runs inside one ``Simulator.AdvanceTo`` with a per-step monitor (no Python call
+    per step besides the monitor); ``benchmarks/bench_engine_drake.py`` compares it with a bare
+    ``AdvanceTo`` loop over the same diagram and step count.
 """
 
 from __future__ import annotations
