@@ -137,9 +137,14 @@ def test_huge_timestep_is_a_status_not_a_number(adapter, mode: str, dt: float) -
     assert rec.status in (Status.TUNNELED, Status.DIVERGED), rec.status
 
 
-@pytest.mark.parametrize("local", ["linear", "elastoplastic"])
-def test_injected_rigid_flexible_reproduces_the_reference(adapter, local: str) -> None:
-    sc = RigidFlexible(velocity_m_s=3.3, local=local, structure="linear")
+@pytest.mark.parametrize("local,velocity", [
+    ("linear", 3.3),
+    ("elastoplastic", 3.3),  # below yield at 3.3 m/s
+    ("elastoplastic", 10.0),  # yields; re-contact 1.7 ms after the first contact ends
+])
+def test_injected_rigid_flexible_reproduces_the_reference(adapter, local: str,
+                                                         velocity: float) -> None:
+    sc = RigidFlexible(velocity_m_s=velocity, local=local, structure="linear")
     rec = adapter.run(sc, "injected")
     assert rec.meta["timestep_s"] == 1e-5
     got = metrics.compute(rec)
