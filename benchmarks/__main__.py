@@ -1,0 +1,36 @@
+"""``python -m benchmarks [NAME…]``: run every ``bench_*`` module's ``main()``, or the named ones.
+
+A NAME is a module name with or without its ``bench_`` prefix (``reference_ball`` or
+``bench_reference_ball``). Exit 2 on an unknown name.
+"""
+
+from __future__ import annotations
+
+import importlib
+import sys
+from pathlib import Path
+
+
+def available() -> list[str]:
+    return sorted(p.stem for p in Path(__file__).parent.glob("bench_*.py"))
+
+
+def main(argv: list[str]) -> int:
+    names = available()
+    chosen = []
+    for arg in argv:
+        name = arg if arg.startswith("bench_") else f"bench_{arg}"
+        name = name.removesuffix(".py")
+        if name not in names:
+            print(f"benchmarks: error: {arg!r} is not one of {', '.join(names)}", file=sys.stderr)
+            return 2
+        chosen.append(name)
+    for name in chosen or names:
+        print(f"== {name} ==", flush=True)
+        importlib.import_module(f"benchmarks.{name}").main()
+        print(flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
