@@ -15,9 +15,9 @@ Time stepping
     another of Drake's schemes (still fixed-step), e.g. ``runge_kutta2``.
 
 Ball on plate (MODELS.md §1)
-    A sphere (mass m, radius R) on a prismatic joint along world z falls on a half-space at
-    z = 0 (the plate, welded to the world); penetration x = R − z, velocity_1 = −ż; gravity is
-    (0, 0, −g) with g = ``scenario.gravity_m_s2`` (0 by default); friction 0. The ball starts
+    A sphere (mass m, radius R) on a prismatic joint along world z hits the plate, the top face
+    z = 0 of a 1 m box welded to the world; penetration x = R − z, velocity_1 = −ż; gravity
+    is (0, 0, −g) with g = ``scenario.gravity_m_s2`` (0 by default); friction 0. The ball starts
     ``FREE_FLIGHT_STEPS`` (2.5) steps of flight away from the plate.
 
     * native: Drake's point contact, f = k·x·(1 + d·ẋ)₊ — linear Hunt–Crossley. Its
@@ -95,6 +95,9 @@ and no sample sits on the contact edge (where the metrics' edge location degener
 DEFAULT_INTEGRATOR = "runge_kutta3"
 BALL_TIMESTEP_S = 1e-6
 RIGID_FLEXIBLE_TIMESTEP_S = 1e-5
+PLATE_SIDE_M = 1.0
+"""Side of the cubic plate (m), top face at z = 0 (a box, not a HalfSpace: Drake warns about
+half-spaces on every registration)."""
 BALL_TIME_CAP_DURATIONS = 100.0
 """Default ball time cap: the free flight plus this many elastic (b = 0) contact durations."""
 
@@ -265,8 +268,9 @@ def build_ball(scenario: BallOnPlate, mode: str, settings: RunSettings) -> Drake
             meta["reference_velocity_m_s"] = v_ref or NATIVE_REFERENCE_VELOCITY_M_S
         props = _contact_props(d, 2.0 * k, diss)  # series: the pair gets k; weighted mean: d
         plant.RegisterCollisionGeometry(ball, d.RigidTransform(), d.Sphere(r), "ball", props)
-        plant.RegisterCollisionGeometry(plant.world_body(), d.RigidTransform(), d.HalfSpace(),
-                                        "plate", props)
+        side = PLATE_SIDE_M  # a thick box whose top face is the plane z = 0
+        plant.RegisterCollisionGeometry(plant.world_body(), d.RigidTransform([0, 0, -side / 2]),
+                                        d.Box(side, side, side), "plate", props)
         plant.Finalize()
         meta.update(force_source="contact results output port (point pair contact force)",
                     native_parameters={"point_stiffness_n_per_m": k,
