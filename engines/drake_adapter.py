@@ -404,8 +404,15 @@ class DrakeAdapter(Adapter):
     name: ClassVar[str] = "drake"
     pip: ClassVar[str] = PIP["drake"]
 
+    def __init__(self) -> None:
+        self._import_engine()  # a missing pydrake raises EngineUnavailable here (the registry)
+
+    @staticmethod
+    def _import_engine() -> Any:
+        """``pydrake.all`` (imported once per process); EngineUnavailable if not installed."""
+        return _drake()
+
     def version(self) -> str:
-        _drake()
         from importlib.metadata import PackageNotFoundError, version
 
         try:
