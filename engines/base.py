@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import difflib
 import importlib
+import os
 import time
 import traceback
 from abc import ABC, abstractmethod
@@ -134,6 +135,31 @@ class Adapter(ABC):
         return rec
 
 
+ENGINES_ENV = "IMPACTBENCH_ENGINES"
+"""Extra adapters, ``name=module:Class`` separated by commas (plug in your own engine)."""
+DISABLE_ENV = "IMPACTBENCH_DISABLE_ENGINES"
+"""Engines to treat as not installed, comma separated (e.g. to skip a broken install)."""
+
+
+def _registry() -> dict[str, str]:
+    out = dict(ENGINES)
+    for item in filter(None, (x.strip() for x in os.environ.get(ENGINES_ENV, "").split(","))):
+        name, sep, target = item.partition("=")
+        if not sep or ":" not in target:
+            raise ValueError(f"{ENGINES_ENV} entry {item!r}: must be name=module:Class")
+        out[name.strip()] = target.strip()
+    return out
+
+
+def engine_names() -> tuple[str, ...]:
+    """Registered engine names, including plug-ins from ``IMPACTBENCH_ENGINES``."""
+    return tuple(_registry())
+
+
+def _disabled() -> set[str]:
+    return {x.strip() for x in os.environ.get(DISABLE_ENV, "").split(",") if x.strip()}
+
+
 def _suggest(name: str) -> str:
     hint = difflib.get_close_matches(name, ENGINES, n=1)
     return f" (did you mean {hint[0]!r}?)" if hint else ""
@@ -145,11 +171,14 @@ def get_adapter(name: str) -> Adapter:
     Raises ValueError for an unknown name and :class:`EngineUnavailable` when the engine's
     package is not installed.
     """
-    if name not in ENGINES:
+    registry = _registry()
+    if name not in registry:
         raise ValueError(
-            f"engine = {name!r}: must be one of {', '.join(ENGINES)}{_suggest(name)}"
+            f"engine = {name!r}: must be one of {', '.join(registry)}{_suggest(name)}"
         )
-    module_name, _, attr = ENGINES[name].partition(":")
+    if name in _disabled():
+        raise EngineUnavailable(name, f"disabled by {DISABLE_ENV}")
+    module_name, _, attr = registry[name].partition(":")
     module = importlib.import_module(module_name)
     return getattr(module, attr)()
 
@@ -157,7 +186,7 @@ def get_adapter(name: str) -> Adapter:
 def available_engines() -> list[str]:
     """Registered engines whose package imports on this machine."""
     out = []
-    for name in ENGINES:
+    for name in _registry():
         try:
             get_adapter(name).version()
         except EngineUnavailable:
@@ -173,9 +202,10 @@ def run_safely(engine: str, scenario: Scenario, mode: str = "native",
 
     Bad input (unknown engine or mode, invalid settings) still raises ValueError.
     """
-    if engine not in ENGINES:
+    registry = _registry()
+    if engine not in registry:
         raise ValueError(
-            f"engine = {engine!r}: must be one of {', '.join(ENGINES)}{_suggest(engine)}"
+            f"engine = {engine!r}: must be one of {', '.join(registry)}{_suggest(engine)}"
         )
     if mode not in MODES:
         raise ValueError(f"mode = {mode!r}: must be one of {', '.join(MODES)}")
@@ -186,6 +216,8 @@ def run_safely(engine: str, scenario: Scenario, mode: str = "native",
         return ImpactRecord.failed(Status.UNAVAILABLE, str(exc), **meta)
     try:
         return adapter.run(scenario, mode, settings)
+    except EngineUnavailable as exc:  # adapters import their engine lazily, inside run
+        return ImpactRecord.failed(Status.UNAVAILABLE, str(exc), **meta)
     except Exception as exc:  # an engine failure must not lose the other results
         last = traceback.format_exception_only(type(exc), exc)[-1].strip()
         return ImpactRecord.failed(Status.CRASHED, last, **meta)

@@ -316,6 +316,14 @@ def _tuned_elasticity(settings: RunSettings) -> float:
     return check.non_negative("tuned.elasticity", value)
 
 
+RIGID_BALL_ARTEFACTS: dict[str, str] = dict.fromkeys(
+    ("duration_s", "peak_force_n", "max_penetration_m", "energy_loss_fraction"),
+    "a rigid contact is a one-step impulse: no duration, force or penetration")
+RIGID_RF_ARTEFACTS: dict[str, str] = dict.fromkeys(
+    ("peak_force_n", "pulse_width_s", "contact_time_s"),
+    "a rigid contact is a one-step impulse: no contact stiffness k1, force or duration")
+
+
 @lru_cache(maxsize=256)
 def _reference_restitution(scenario: BallOnPlate) -> float:
     """Hunt–Crossley restitution of ``scenario`` (cached: sweeps map the same v_ref again)."""
@@ -333,16 +341,20 @@ def ball_model(scenario: BallOnPlate, mode: str, settings: RunSettings, dt: floa
         check.one_of("options.injection", injection, INJECTIONS)
         contact = "penalty" if injection == "penalty" else "restitution"
         meta.update(injection=injection, contact=contact)
+        if contact == "restitution":
+            meta["not_comparable"] = RIGID_BALL_ARTEFACTS
         return BallModel(scenario, contact, dt, iterations=iterations, measure=measure), meta
     if mode == "tuned":
         e = _tuned_elasticity(settings)
-        meta.update(contact="rigid", elasticity=e, tuned=dict(settings.tuned or {}))
+        meta.update(contact="rigid", elasticity=e, tuned=dict(settings.tuned or {}),
+                    not_comparable=RIGID_BALL_ARTEFACTS)
     else:
         v_ref = check.positive(
             "options.reference_velocity_m_s",
             settings.options.get("reference_velocity_m_s", NATIVE_REFERENCE_VELOCITY_M_S))
         e = _reference_restitution(scenario.replace(velocity_m_s=v_ref))
-        meta.update(contact="rigid", elasticity=e, reference_velocity_m_s=v_ref)
+        meta.update(contact="rigid", elasticity=e, reference_velocity_m_s=v_ref,
+                    not_comparable=RIGID_BALL_ARTEFACTS)
     model = BallModel(scenario, "rigid", dt, elasticity=e, iterations=iterations,
                       measure=measure)
     return model, meta
@@ -359,7 +371,7 @@ def rigid_flexible_model(scenario: RigidFlexible, mode: str, settings: RunSettin
                                    measure=measure)
         return model, meta
     e = _tuned_elasticity(settings) if mode == "tuned" else 1.0
-    meta.update(contact="rigid", elasticity=e)
+    meta.update(contact="rigid", elasticity=e, not_comparable=RIGID_RF_ARTEFACTS)
     if mode == "tuned":
         meta["tuned"] = dict(settings.tuned or {})
     model = RigidFlexibleModel(scenario, "rigid", dt, elasticity=e, iterations=iterations,

@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from engines.base import ENGINES, MODES
+from engines.base import MODES, engine_names
 from reference.laws import LOCAL_LAWS, STRUCTURAL_LAWS
 from reference.scenarios import BallOnPlate, RigidFlexible
 
@@ -108,7 +108,7 @@ def _names(key: str, value: Any, allowed: tuple[str, ...]) -> tuple[str, ...]:
 def _timesteps(key: str, value: Any, engines: tuple[str, ...]) -> dict[str, float]:
     if not isinstance(value, dict):
         raise _fail(key, value, "must be a table of engine = seconds")
-    _check_keys(value, set(ENGINES), f"{key}.")
+    _check_keys(value, set(engine_names()), f"{key}.")
     out = {}
     for engine, dt in value.items():
         out[engine] = _positive_list(f"{key}.{engine}", [dt])[0]
@@ -159,7 +159,8 @@ def parse(data: dict[str, Any], source: str = "") -> ReportConfig:
     title = report.get("title", "impactbench report")
     if not isinstance(title, str):
         raise _fail("report.title", title, "must be a string")
-    engines = _names("report.engines", report.get("engines", list(ENGINES)), tuple(ENGINES))
+    engines = _names("report.engines", report.get("engines", list(engine_names())),
+                     engine_names())
     modes = _names("report.modes", report.get("modes", list(MODES)), MODES)
     scenarios = tuple(
         _scenario(name, data[name], engines) for name in _SCENARIO_TABLES if name in data

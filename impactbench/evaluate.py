@@ -47,12 +47,18 @@ def reference_metrics(scenario: Scenario) -> dict[str, Any]:
 
 
 def record_metrics(rec: ImpactRecord, scenario: Scenario) -> dict[str, Any]:
-    """The scenario's metrics of an engine record (NaN where the run failed)."""
+    """The scenario's metrics of an engine record.
+
+    NaN where the run failed, and for metrics the adapter declares not comparable in
+    ``rec.meta["not_comparable"]`` (metric → reason; e.g. a rigid contact's duration, which is
+    one timestep by construction and says nothing about the physics).
+    """
     names = SCENARIO_METRICS[scenario_name(scenario)]
     if rec.status not in (Status.OK, Status.MAX_TIME, Status.STRUCTURE_COLLAPSED):
         return {k: (0 if k == "impacts" else math.nan) for k in names}
     got = metrics.compute(rec)
-    return {k: got[k] for k in names}
+    skip = rec.meta.get("not_comparable", {})
+    return {k: (math.nan if k in skip else got[k]) for k in names}
 
 
 def compare(engine: str, scenario: Scenario, mode: str,
@@ -75,6 +81,7 @@ def compare(engine: str, scenario: Scenario, mode: str,
         "timestep_s": rec.meta.get("timestep_s", settings.timestep_s if settings else None),
         "wall_s": rec.meta.get("wall_s", math.nan),
         **got,
+        "not_comparable": dict(rec.meta.get("not_comparable", {})),
         "reference": ref,
         "rel_error": {k: metrics.relative_error(float(got[k]), float(ref[k])) for k in got},
     }

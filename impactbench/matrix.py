@@ -188,7 +188,7 @@ def tidy(results: list[JobResult]) -> list[dict[str, Any]]:
                 "reference": run["reference"].get(metric),
                 "rel_error": run["rel_error"].get(metric),
                 "status": run["status"],
-                "message": run.get("message", ""),
+                "message": run.get("not_comparable", {}).get(metric) or run.get("message", ""),
                 "wall_s": run.get("wall_s"),
                 "engine_version": run.get("engine_version", ""),
             })

@@ -76,6 +76,8 @@ def _cell(row: pd.Series) -> str:
     if row.status != "ok":
         return str(row.status)
     value, err = row.value, row.rel_error
+    if not (isinstance(value, float | int) and math.isfinite(value)):
+        return "n/a"
     if row.metric == "impacts":
         return f"{value:g}" + ("" if err == 0 or not math.isfinite(err) else " ✗")
     text = f"{value:.5g}"
@@ -193,7 +195,8 @@ def write_markdown(path: Path, cfg: config_mod.ReportConfig, df: pd.DataFrame,
              "physical ones (for the ball: a linear spring–damper matched to the reference's "
              "restitution and duration at 1 m/s; pymunk: a rigid contact with the reference's "
              "restitution at 1 m/s), so native minus injected is the contact model's error; "
-             "**tuned** mode uses fitted parameters (`impactbench tune`).", "",
+             "**tuned** mode uses fitted parameters (`impactbench tune`). `n/a`: the engine "
+             "cannot express the metric (a rigid contact has no duration or finite force).", "",
              f"Commit `{meta['commit']}`, config `{meta['config']}` (hash {meta['config_hash']}), "
              f"Python {meta['python']}. Engines: "
              + ", ".join(f"{k} {v}" for k, v in meta["engines"].items()) + ".", ""]

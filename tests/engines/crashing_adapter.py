@@ -1,0 +1,21 @@
+"""A deliberately crashing adapter, plugged in through IMPACTBENCH_ENGINES by the tests of
+crash isolation: it kills its own process the way a segfaulting engine would."""
+
+from __future__ import annotations
+
+import os
+
+from engines.base import Adapter
+
+
+class CrashingAdapter(Adapter):
+    name = "crasher"
+
+    def version(self) -> str:
+        return "0"
+
+    def default_timestep_s(self, scenario, mode) -> float:
+        return 1e-6
+
+    def _run(self, scenario, mode, settings):
+        os.abort()  # SIGABRT: the worker process dies without a Python exception

@@ -1,0 +1,101 @@
+"""The comparison report end to end on small configs (real engines, worker processes)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from engines.base import DISABLE_ENV, ENGINES_ENV, available_engines
+from impactbench import config, report
+from impactbench.matrix import Job, run_jobs
+from reference import hunt_crossley
+from reference.scenarios import BallOnPlate
+
+SMALL = {
+    "report": {"engines": ["mujoco", "pybullet", "pymunk", "drake"],
+               "modes": ["native", "injected"]},
+    "ball_on_plate": {"velocities_m_s": [1.0]},
+    "rigid_flexible": {"velocities_m_s": [2.0], "local": ["linear"], "structure": ["linear"]},
+    "work_precision": {"velocity_m_s": 1.0, "timesteps_s": [1e-5, 1e-6]},
+}
+COLUMNS = ["study", "scenario", "local", "structure", "engine", "mode", "velocity_m_s",
+           "timestep_s", "metric", "value", "reference", "rel_error", "status", "message",
+           "wall_s", "engine_version"]
+
+
+@pytest.fixture(scope="module")
+def small_report(tmp_path_factory: pytest.TempPathFactory) -> report.Report:
+    out = tmp_path_factory.mktemp("report")
+    return report.build(config.parse(SMALL), out, show_progress=False)
+
+
+def test_report_writes_every_file(small_report: report.Report) -> None:
+    out = small_report.out_dir
+    for name in ("README.md", "index.html", "results.csv", "results.parquet", "metadata.json"):
+        assert (out / name).stat().st_size > 0, name
+    figs = {p.name for p in (out / "figures").glob("report_*.png")}
+    for needle in ("force_ball_v1", "force_rf_linear_linear_v2", "hysteresis_ball_v1",
+                   "restitution_vs_velocity", "error_heatmap_ball_on_plate",
+                   "error_heatmap_rigid_flexible", "work_precision"):
+        assert any(needle in f for f in figs), needle
+    html = (out / "index.html").read_text()
+    assert html.count("<img ") == len(figs) and "<table>" in html
+    meta = json.loads((out / "metadata.json").read_text())
+    assert {"commit", "config_hash", "engines", "python", "platform", "runs"} <= meta.keys()
+    assert all("wall_s" in r for r in meta["runs"])
+
+
+def test_results_are_tidy_and_carry_the_reference(small_report: report.Report) -> None:
+    df = pd.read_csv(small_report.out_dir / "results.csv", keep_default_na=False)
+    assert list(df.columns) == COLUMNS
+    assert df.equals(pd.read_parquet(small_report.out_dir / "results.parquet")
+                     .astype(df.dtypes.to_dict()).fillna(""))
+    ref = hunt_crossley.solve(BallOnPlate(velocity_m_s=1.0))
+    ball = df[(df.study == "matrix") & (df.scenario == "ball-on-plate")]
+    for metric, value in ref.items():
+        assert (ball[ball.metric == metric].reference.astype(float) == value).all()
+    assert set(ball.engine) == set(SMALL["report"]["engines"])
+
+
+def test_headline_tables_show_statuses_as_words(small_report: report.Report) -> None:
+    text = (small_report.out_dir / "README.md").read_text()
+    assert "### restitution" in text and "### pulse_width_s" in text
+    assert "## What this means" in text
+    for engine in available_engines():
+        assert f"**{engine} " in text
+
+
+def test_report_survives_an_unavailable_engine(tmp_path: Path,
+                                               monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv(DISABLE_ENV, "pymunk")
+    cfg = config.parse({"report": {"engines": ["pymunk", "mujoco"], "modes": ["injected"]},
+                        "ball_on_plate": {"velocities_m_s": [1.0]}})
+    rep = report.build(cfg, tmp_path, show_progress=False)
+    status = rep.results.groupby("engine").status.first()
+    assert status["pymunk"] == "unavailable"
+    assert status["mujoco"] in ("ok", "unavailable")
+    assert "unavailable" in (tmp_path / "README.md").read_text()
+
+
+def test_same_config_gives_identical_results(tmp_path: Path) -> None:
+    cfg = config.parse({"report": {"engines": ["mujoco", "pymunk"],
+                                   "modes": ["native", "injected"]},
+                        "ball_on_plate": {"velocities_m_s": [2.0]}})
+    a = report.build(cfg, tmp_path / "a", show_progress=False, workers=2).results
+    b = report.build(cfg, tmp_path / "b", show_progress=False, workers=1).results
+    pd.testing.assert_frame_equal(a.drop(columns="wall_s"), b.drop(columns="wall_s"))
+
+
+def test_a_dying_worker_becomes_a_crashed_row(monkeypatch: pytest.MonkeyPatch) -> None:
+    tests_dir = str(Path(__file__).resolve().parent.parent)
+    monkeypatch.setenv(ENGINES_ENV, "crasher=engines.crashing_adapter:CrashingAdapter")
+    monkeypatch.setenv("PYTHONPATH", tests_dir)
+    jobs = [Job("matrix", "crasher", "ball-on-plate", "native", 1.0, None),
+            Job("matrix", "pymunk", "ball-on-plate", "injected", 1.0, None)]
+    results = {r.job.engine: r.run for r in run_jobs(jobs, workers=2)}
+    assert results["crasher"]["status"] == "crashed"
+    assert "died" in results["crasher"]["message"]
+    assert results["pymunk"]["status"] in ("ok", "unavailable")
