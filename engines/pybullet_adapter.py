@@ -292,7 +292,7 @@ def _run_ball(p: Any, s: BallOnPlate, mode: str, settings: RunSettings, dt: floa
         + (0.0 if injected else 5.0 * math.pi * math.sqrt(s.mass_kg / k0)))
     n_max = max(MIN_STEPS, math.ceil(t_cap / dt))
     m, radius = s.mass_kg, s.radius_m
-    c, n, b = s.stiffness, s.exponent, s.damping_s_per_m
+    law = s.law()
     g_dt = s.gravity_m_s2 * dt
     rec = Recorder(n_max + 1)
     world = BallWorld(p, s, dt, k0, d0)
@@ -301,28 +301,27 @@ def _run_ball(p: Any, s: BallOnPlate, mode: str, settings: RunSettings, dt: floa
         get_pos, get_vel = p.getBasePositionAndOrientation, p.getBaseVelocity
         contacts, step, set_contact = p.getContactPoints, p.stepSimulation, world.set_contact
         touched = timed_out = tunneled = False
-        t = 0.0
-        x = v = 0.0
-        for _ in range(n_max):
+        scheduled = False
+        for i in range(n_max):
             x = radius - get_pos(ball, physicsClientId=cid)[0][2]
             v = -get_vel(ball, physicsClientId=cid)[0][2]
-            if injected:
-                if x > 0.0:
-                    if injection == "explicit":
-                        target = c * x**n * (1.0 + b * v)
-                        x_end = x + dt * (v + g_dt - target * dt / m)
-                        set_contact(target / x_end if x_end > 0.0 and target > 0.0 else 0.0,
-                                    0.0)
-                    else:
-                        set_contact(c * x ** (n - 1.0), c * b * x**n)
+            if injected and x > 0.0:
+                if injection == "explicit":
+                    target = law.force(x, v)
+                    x_end = x + dt * (v + g_dt - target * dt / m)
+                    set_contact(target / x_end if x_end > 0.0 and target > 0.0 else 0.0, 0.0)
                 else:
-                    set_contact(0.0, 0.0)
+                    f_el = law.elastic_force(x)
+                    set_contact(f_el / x, f_el * law.damping)
+                scheduled = True
+            elif scheduled:
+                set_contact(0.0, 0.0)
+                scheduled = False
             step(physicsClientId=cid)
             force = 0.0
             for cp in contacts(ball, plate, physicsClientId=cid):
                 force += cp[9]
-            rec.append(t, x, v, force, v)
-            t += dt
+            rec.append(i * dt, x, v, force, v)
             if force > 0.0:
                 touched = True
             elif touched and v < 0.0 and x <= 0.0:
@@ -375,9 +374,8 @@ def _run_flex(p: Any, s: RigidFlexible, mode: str, settings: RunSettings, dt: fl
         motor, torque, set_contact = p.setJointMotorControl2, p.TORQUE_CONTROL, world.set_contact
         touched = timed_out = tunneled = False
         overlap_limit = 2.0 * world.radius_m
-        t = 0.0
         u1 = u2 = x2_end = 0.0
-        for _ in range(n_max):
+        for i in range(n_max):
             (q1, u1, _, _), (x2, u2, _, _) = states(body, (0, 1), physicsClientId=cid)
             x1 = q1 - gap
             x = x1 - x2
@@ -400,8 +398,7 @@ def _run_flex(p: Any, s: RigidFlexible, mode: str, settings: RunSettings, dt: fl
             force = 0.0
             for cp in contacts(body, body, 0, 1, physicsClientId=cid):
                 force += cp[9]
-            rec.append(t, x, v, force, u1, u2, x2)
-            t += dt
+            rec.append(i * dt, x, v, force, u1, u2, x2)
             if force > 0.0:
                 touched = True
             elif touched and no_further_contact(x1, u1, x2, u2, m2, structure):
