@@ -101,6 +101,18 @@ def test_native_ball_is_the_mapped_clipped_spring_damper(adapter, v):
         assert err["restitution"] <= 0.005 and err["duration_s"] <= 0.01, err
 
 
+@pytest.mark.parametrize("mode", ["native", "injected"])
+def test_no_speculative_contact_before_touch(adapter, mode):
+    """contactBreakingThreshold is tiny: no force (no braking) while the ball is still above
+    the plate, and the first force sample comes with a positive penetration."""
+    rec = _ball(adapter, 5.0, 1e-7, mode=mode)
+    first = int((rec.normal_force_n > 0.0).argmax())
+    assert first >= 2
+    assert all(rec.penetration_m[:first] < 0.0)
+    assert rec.penetration_m[first] > 0.0
+    assert all(rec.velocity_1_m_s[:first + 1] == 5.0)
+
+
 def test_tuned_needs_parameters_and_uses_them(adapter):
     s = BallOnPlate(velocity_m_s=1.0)
     assert adapter.run(s, "tuned").status is Status.UNSUPPORTED
