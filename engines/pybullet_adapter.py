@@ -365,6 +365,7 @@ def _run_flex(p: Any, s: RigidFlexible, mode: str, settings: RunSettings, dt: fl
     m_eff = 1.0 / (1.0 / m1 + 1.0 / m2)
     law, structure = s.local_law(), s.structural_law()
     collapse = structure.collapse_energy
+    softening = math.isfinite(collapse)
     rec = Recorder(min(n_max, 1 << 16) + 1)
     world = FlexWorld(p, s, dt, k0, d0)
     status = None
@@ -381,7 +382,7 @@ def _run_flex(p: Any, s: RigidFlexible, mode: str, settings: RunSettings, dt: fl
             x = x1 - x2
             v = u1 - u2
             f2 = structure.force(x2)
-            if 0.5 * m2 * u2 * u2 + structure.potential(x2) > collapse:
+            if softening and 0.5 * m2 * u2 * u2 + structure.potential(x2) > collapse:
                 status = (Status.STRUCTURE_COLLAPSED,
                           "body 2's energy exceeds the softening potential's peak")
                 break
