@@ -130,7 +130,15 @@ class BallWorld:
 
     def __init__(self, p: Any, scenario: BallOnPlate, dt: float, k: float, d: float) -> None:
         self.p, self.dt, self.radius = p, dt, scenario.radius_m
-        self.cid = cid = _connect(p, dt, -scenario.gravity_m_s2)
+        self.cid = _connect(p, dt, -scenario.gravity_m_s2)
+        try:
+            self._build(scenario, k, d)
+        except BaseException:
+            self.close()
+            raise
+
+    def _build(self, scenario: BallOnPlate, k: float, d: float) -> None:
+        p, cid, dt = self.p, self.cid, self.dt
         h = PLATE_HALF_THICKNESS_M
         box = p.createCollisionShape(p.GEOM_BOX, halfExtents=[0.1, 0.1, h], physicsClientId=cid)
         self.plate = p.createMultiBody(0.0, box, basePosition=[0.0, 0.0, -h],
@@ -162,7 +170,15 @@ class FlexWorld:
 
     def __init__(self, p: Any, scenario: RigidFlexible, dt: float, k: float, d: float) -> None:
         self.p, self.dt = p, dt
-        self.cid = cid = _connect(p, dt)
+        self.cid = _connect(p, dt)
+        try:
+            self._build(scenario, k, d)
+        except BaseException:
+            self.close()
+            raise
+
+    def _build(self, scenario: RigidFlexible, k: float, d: float) -> None:
+        p, cid, dt = self.p, self.cid, self.dt
         r = self.radius_m = rf_sphere_radius_m(scenario)
         self.gap_m = FLIGHT_STEPS * scenario.velocity_m_s * dt
         sphere = p.createCollisionShape(p.GEOM_SPHERE, radius=r, physicsClientId=cid)
