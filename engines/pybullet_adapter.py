@@ -418,7 +418,7 @@ def _run_flex(p: Any, s: RigidFlexible, mode: str, settings: RunSettings, dt: fl
             rec.append(i * dt, x, v, force, u1, u2, x2)
             if force > 0.0:
                 touched = True
-            elif touched and no_further_contact(x1, u1, x2, u2, m2, structure):
+            elif touched and u1 <= 0.0 and no_further_contact(x1, u1, x2, u2, m2, structure):
                 break
             if not (math.isfinite(x) and math.isfinite(x2)) or x > overlap_limit:
                 tunneled = x > overlap_limit
