@@ -59,7 +59,8 @@ def measure() -> list[dict]:
     rows = []
     for label, scenario, mode, dt in CASES:  # interleaved repeats share the noise
         settings = RunSettings(timestep_s=dt)
-        rec = adapter.run(scenario, mode, settings)  # warm-up, and the step count
+        adapter.run(scenario, mode, settings)  # warm-up (imports, caches)
+        rec = adapter.run(scenario, mode, settings)  # the step count and a typical wall time
         steps = len(rec) - 1
         repeats = max(REPEATS, math.ceil(MIN_SECONDS / rec.meta["wall_s"]))
         run_wall, bare_wall, loop_wall = float("inf"), float("inf"), float("inf")

@@ -393,6 +393,16 @@ def _force_reader(model: DrakeModel, axis: int, applied: Any = None, sign: float
     return read_contact
 
 
+@functools.cache
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("drake")
+    except PackageNotFoundError:
+        return "unknown"
+
+
 # ----------------------------------------------------------------------------------------------
 # The adapter
 # ----------------------------------------------------------------------------------------------
@@ -413,12 +423,7 @@ class DrakeAdapter(Adapter):
         return _drake()
 
     def version(self) -> str:
-        from importlib.metadata import PackageNotFoundError, version
-
-        try:
-            return version("drake")
-        except PackageNotFoundError:
-            return "unknown"
+        return _version()
 
     def default_timestep_s(self, scenario: Scenario, mode: str) -> float:
         if isinstance(scenario, BallOnPlate):
@@ -452,10 +457,12 @@ def _advance(model: DrakeModel, monitor: Callable[[Any], bool], t_cap: float
     stop = d.EventStatus.ReachedTermination(None, "separated")
     go = d.EventStatus.DidNothing()
 
-    def on_step(_context: Any) -> Any:
-        return stop if monitor(model.state()) else go
-
     model.reset()
+    state = model.context.get_continuous_state_vector()  # a view that stays valid
+
+    def on_step(_context: Any) -> Any:
+        return stop if monitor(state.CopyToVector().tolist()) else go
+
     monitor(model.state())  # sample 0: the initial state
     model.simulator.set_monitor(on_step)
     try:
