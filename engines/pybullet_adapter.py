@@ -72,6 +72,7 @@ from __future__ import annotations
 
 import functools
 import math
+import time
 from typing import Any
 
 from engines.base import Adapter, EngineUnavailable, RunSettings, Scenario
@@ -318,6 +319,7 @@ def _run_ball(p: Any, s: BallOnPlate, mode: str, settings: RunSettings, dt: floa
         contacts, step, set_contact = p.getContactPoints, p.stepSimulation, world.set_contact
         touched = timed_out = tunneled = False
         scheduled = False
+        loop_start = time.perf_counter()
         for i in range(n_max):
             x = radius - get_pos(ball, physicsClientId=cid)[0][2]
             v = -get_vel(ball, physicsClientId=cid)[0][2]
@@ -347,6 +349,7 @@ def _run_ball(p: Any, s: BallOnPlate, mode: str, settings: RunSettings, dt: floa
                 break
         else:
             timed_out = True
+        meta["loop_wall_s"] = time.perf_counter() - loop_start
         x_end = radius - get_pos(ball, physicsClientId=cid)[0][2]
         v_end = -get_vel(ball, physicsClientId=cid)[0][2]
     finally:
@@ -392,6 +395,7 @@ def _run_flex(p: Any, s: RigidFlexible, mode: str, settings: RunSettings, dt: fl
         touched = timed_out = tunneled = False
         overlap_limit = 2.0 * world.radius_m
         u1 = u2 = x2_end = 0.0
+        loop_start = time.perf_counter()
         for i in range(n_max):
             (q1, u1, _, _), (x2, u2, _, _) = states(body, (0, 1), physicsClientId=cid)
             x1 = q1 - gap
@@ -425,6 +429,7 @@ def _run_flex(p: Any, s: RigidFlexible, mode: str, settings: RunSettings, dt: fl
                 break
         else:
             timed_out = True
+        meta["loop_wall_s"] = time.perf_counter() - loop_start
         (_, u1, _, _), (x2_end, u2, _, _) = states(body, (0, 1), physicsClientId=cid)
     finally:
         world.close()
