@@ -1,0 +1,157 @@
+"""The tuning objective: weighted squared relative errors of chosen metrics over a velocity set.
+
+    J(p) = Σ_v Σ_m w_m · e_{v,m}(p)²,   e_{v,m} = (metric_m(engine, p, V_v) − ref_{v,m}) / |ref_{v,m}|
+
+with the engine run through its own adapter (``tuned`` mode with the parameters p, or the
+space's own run) and the metrics from ``reference.metrics.compute`` — the same path as every
+comparison. A run that fails (non-ok status, or a NaN metric) gets the residual
+:data:`FAILED_RESIDUAL` (an error of 1000 %) in each metric, so the optimiser backs away.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from engines.base import run_safely
+from impactbench.evaluate import record_metrics, reference_metrics
+from impactbench.tuning.spaces import Space
+from reference import validation as check
+from reference.metrics import BALL_METRICS, relative_error
+from reference.record import Status
+from reference.scenarios import BallOnPlate
+
+FAILED_RESIDUAL = 10.0
+
+TARGETS: dict[str, str] = {
+    "restitution": "restitution",
+    "duration": "duration_s",
+    "peak_force": "peak_force_n",
+    "max_penetration": "max_penetration_m",
+    "energy_loss": "energy_loss_fraction",
+}
+"""CLI target names → metric keys (``reference.metrics.BALL_METRICS``)."""
+DEFAULT_TARGETS: tuple[str, ...] = ("restitution", "duration", "peak_force")
+
+
+class OutOfBudget(Exception):
+    """Raised inside the optimiser when the time or evaluation budget is spent."""
+
+
+@dataclass
+class Evaluation:
+    """One objective evaluation: parameter values, per-velocity metrics and relative errors."""
+
+    values: np.ndarray
+    objective: float
+    metrics: list[dict[str, float]]
+    rel_errors: list[dict[str, float]]
+    statuses: list[str]
+
+
+@dataclass
+class Objective:
+    """J(p) for one engine space, scenario, velocity set, targets and weights.
+
+    ``weights`` maps metric keys to w ≥ 0; metrics the space cannot express get weight 0 (the
+    caller reports that). Calls are counted; the best evaluation so far is kept, so stopping
+    at any point (time budget) loses nothing.
+    """
+
+    space: Space
+    scenario: BallOnPlate
+    velocities_m_s: tuple[float, ...]
+    weights: dict[str, float]
+    timestep_s: float | None = None
+    deadline: float = math.inf
+    max_evals: int | None = None
+    references: list[dict[str, Any]] = field(default_factory=list)
+    evaluations: int = 0
+    best: Evaluation | None = None
+    run_wall_s: float = 0.0
+
+    def __post_init__(self) -> None:
+        if not self.velocities_m_s:
+            raise ValueError("velocities = []: must list at least one impact velocity")
+        for i, v in enumerate(self.velocities_m_s):
+            check.positive(f"velocities[{i}]", v)
+        for key, w in self.weights.items():
+            check.one_of("target metric", key, BALL_METRICS)
+            check.non_negative(f"weights[{key}]", w)
+        if not any(w > 0 for w in self.weights.values()):
+            raise ValueError(f"weights = {self.weights!r}: at least one target the engine can "
+                             f"express must have weight > 0")
+        if not self.references:
+            self.references = [reference_metrics(self.scenario.replace(velocity_m_s=v))
+                               for v in self.velocities_m_s]
+
+    @property
+    def targets(self) -> tuple[str, ...]:
+        return tuple(self.weights)
+
+    def evaluate(self, values: np.ndarray, *, count_budget: bool = True) -> Evaluation:
+        """Run the engine at every velocity with parameter ``values`` (natural units)."""
+        if count_budget:
+            if time.perf_counter() > self.deadline:
+                raise OutOfBudget("time budget spent")
+            if self.max_evals is not None and self.evaluations >= self.max_evals:
+                raise OutOfBudget("evaluation budget spent")
+        t0 = time.perf_counter()
+        values = np.asarray(values, dtype=float)
+        mets, errs, stats = [], [], []
+        for v, ref in zip(self.velocities_m_s, self.references, strict=True):
+            scenario, mode, settings = self.space.run(values, self.scenario.replace(
+                velocity_m_s=v), self.timestep_s)
+            rec = run_safely(self.space.engine, scenario, mode, settings)
+            got = record_metrics(rec, scenario)
+            ok = rec.status is Status.OK
+            mets.append({k: float(got[k]) for k in BALL_METRICS})
+            errs.append({k: (relative_error(float(got[k]), float(ref[k])) if ok else math.nan)
+                         for k in BALL_METRICS})
+            stats.append(str(rec.status) + (f": {rec.message}" if rec.message and not ok
+                                             else ""))
+        self.run_wall_s += time.perf_counter() - t0
+        ev = Evaluation(values.copy(), 0.0, mets, errs, stats)
+        ev.objective = float(np.sum(self.residuals_of(ev) ** 2))
+        self.evaluations += 1
+        if self.best is None or ev.objective < self.best.objective:
+            self.best = ev
+        return ev
+
+    def residuals_of(self, ev: Evaluation) -> np.ndarray:
+        """√w_m · e_{v,m}, velocity-major; failed entries are :data:`FAILED_RESIDUAL`."""
+        out = []
+        for errs in ev.rel_errors:
+            for key, w in self.weights.items():
+                e = errs[key]
+                out.append(math.sqrt(w) * (e if math.isfinite(e) else FAILED_RESIDUAL))
+        return np.asarray(out)
+
+    def residuals(self, values: np.ndarray) -> np.ndarray:
+        return self.residuals_of(self.evaluate(values))
+
+
+def parse_weights(targets: list[str] | tuple[str, ...] | None,
+                  weights: list[float] | tuple[float, ...] | None) -> dict[str, float]:
+    """CLI target names and weights → {metric key: weight}; one-line ValueError on bad input."""
+    targets = list(targets) if targets is not None else list(DEFAULT_TARGETS)
+    if not targets:
+        raise ValueError("targets = []: must name at least one of "
+                         + ", ".join(TARGETS))
+    keys = [TARGETS[check.one_of(f"targets[{i}]", t, tuple(TARGETS))]
+            for i, t in enumerate(targets)]
+    if len(set(keys)) != len(keys):
+        raise ValueError(f"targets = {targets!r}: must not repeat a target")
+    if weights is None:
+        weights = [1.0] * len(keys)
+    if len(weights) != len(keys):
+        raise ValueError(f"weights = {list(weights)!r}: must give one weight per target "
+                         f"({len(keys)}: {', '.join(targets)})")
+    ws = [check.non_negative(f"weights[{i}]", w) for i, w in enumerate(weights)]
+    if not any(w > 0 for w in ws):
+        raise ValueError(f"weights = {ws!r}: at least one must be > 0")
+    return dict(zip(keys, ws, strict=True))

@@ -1,0 +1,363 @@
+"""What each engine can tune: its native contact parameters, their bounds and its own form.
+
+A :class:`Space` maps a vector of positive parameter values (SI, listed in ``parameters``) to
+one engine run (scenario, mode, :class:`~engines.base.RunSettings`) and to the adapter's
+tuned-parameter keys, knows the closed-form start (the native conversion) and prints the
+result the way a user of that engine writes it. The optimiser works on the logarithms.
+
+Engines and their force laws (x penetration, ẋ its rate, m the ball's mass):
+
+- **MuJoCo** (soft constraint, one contact row of inverse inertia A = efc_diagA = 1/m):
+  with direct solref (−S, −D) and impedance imp(x) ∈ [dmin, dmax] from solimp the contact
+  force is F = (S/A)·(imp/dmax)²·x + (D/A)·(imp/dmax)·ẋ (clipped at F ≥ 0), so the physical
+  stiffness and damping at full impedance are K = S/A (N/m) and D_phys = D/A (N·s/m).
+  The positive form (timeconst τ, dampratio ζ) is the same law with K = 1/(A·τ²·ζ²) and
+  D_phys = 2/(A·τ) (MuJoCo's ``refsafe`` clamps τ ≥ 2·dt, so τ is bounded there). Measured
+  on mujoco 4.0.0: with the positive form and dmin = dmax = mjMINIMP (1e-4, the adapter's
+  native impedance) the contact is ~70× softer than this formula says, while dmax = 0.01 or
+  0.95 agree with it — so the timeconst form uses a constant impedance of dmax = 0.95.
+  solimp shapes imp(x): imp = dmin + (dmax − dmin)·y(x/width), y rising from 0 to 1 over
+  the ``width`` (m) with a power-``power`` curve on each side of ``midpoint`` (y = r for
+  power 1). The stiffness term carries (imp/dmax)², so an impedance that rises over the
+  penetration range makes the force–penetration curve stiffen: with ρ = dmin/dmax and a
+  linear rise, F ≈ K·(ρ + (1−ρ)·x/width)²·x, whose secant stiffness grows with x as Hertz's
+  c·x^0.5 does (2.4× between the 20 µm and 114 µm penetrations of the paper's 0.5 and 5 m/s)
+  — a constant impedance (dmin = dmax) is a linear spring, secant constant. Only imp/dmax
+  matters for the force, so dmax is fixed (:data:`MUJOCO_DMAX`, MuJoCo's default 0.95) and
+  ρ is tuned. The damping term carries imp/dmax, not its square: the damping ratio is the
+  same at every penetration scale, so restitution stays nearly independent of the impact
+  velocity (exactly so for a pure power-law impedance) — MuJoCo cannot follow
+  Hunt–Crossley's falling restitution by tuning.
+- **PyBullet**: pair ``contactStiffness`` K (N/m) and ``contactDamping`` D (N·s/m), a linear
+  spring–damper stepped by backward Euler.
+- **pymunk**: rigid contact with a constant ``elasticity`` e (the pair's restitution); or, as a
+  separate option, the velocity-dependent rule k(V) = Hunt–Crossley's k(α = b·V) injected per
+  contact through ``arbiter.restitution`` in ``pre_solve``, with b tuned.
+- **Drake**: point contact f = k·x·(1 + d·ẋ)₊, pair point stiffness k (N/m) and Hunt–Crossley
+  dissipation d (s/m).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from engines.base import RunSettings
+from reference import validation as check
+from reference.scenarios import BallOnPlate
+
+MUJOCO_DMAX = 0.95
+"""solimp dmax of the tuned MuJoCo contact (MuJoCo's default); only dmin/dmax is tuned."""
+
+LINEAR_LIMITS = (
+    "a linear spring–damper's restitution and contact duration do not depend on the impact "
+    "velocity (the contact is scale-invariant: x ∝ V0), and its peak force is ∝ V0, while "
+    "Hunt–Crossley's restitution falls with α = b·V0 and its duration and peak force follow "
+    "Hertz's V0^(−1/5) and V0^(6/5)",
+)
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """One tuned quantity (positive; optimised as its logarithm within [lower, upper])."""
+
+    name: str
+    unit: str
+    lower: float
+    upper: float
+
+    def clip(self, value: float) -> float:
+        return min(max(value, self.lower), self.upper)
+
+
+RunArgs = Callable[[np.ndarray, BallOnPlate, float | None], tuple[BallOnPlate, str, RunSettings]]
+
+
+@dataclass(frozen=True)
+class Space:
+    """An engine's tunable parameterisation.
+
+    Attributes:
+        engine: registry name of the engine.
+        variant: which parameter set (``impactbench tune --parameters``).
+        parameters: the tuned quantities, in vector order.
+        start: closed-form start values (the native conversion), within bounds.
+        mode: the adapter mode the run uses (``tuned``; ``injected`` for pymunk's law).
+        expressible: metric keys the engine can express (the others are weighted 0).
+        limits: what the engine cannot express, one sentence each.
+        to_tuned: values → the adapter's tuned keys (its own units and form).
+        run_args: (values, scenario, timestep) → (scenario, mode, settings) when the run is
+            not plain tuned mode with ``to_tuned(values)``.
+        snippet: tuned keys → the text a user pastes into the engine.
+        linear: the contact is scale-invariant (restitution and duration independent of V0).
+    """
+
+    engine: str
+    variant: str
+    parameters: tuple[Parameter, ...]
+    start: tuple[float, ...]
+    mode: str
+    expressible: frozenset[str]
+    limits: tuple[str, ...]
+    to_tuned: Callable[[np.ndarray], dict[str, Any]]
+    snippet: Callable[[dict[str, Any]], str]
+    run_args: RunArgs | None = field(default=None, repr=False)
+    linear: bool = False
+
+    def run(self, values: np.ndarray, scenario: BallOnPlate, timestep_s: float | None
+            ) -> tuple[BallOnPlate, str, RunSettings]:
+        """(scenario, mode, settings) of one run at ``values`` (default: tuned mode)."""
+        if self.run_args is not None:
+            return self.run_args(values, scenario, timestep_s)
+        return scenario, self.mode, RunSettings(timestep_s=timestep_s,
+                                                tuned=self.to_tuned(values))
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(p.name for p in self.parameters)
+
+    def log_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        return (np.log([p.lower for p in self.parameters]),
+                np.log([p.upper for p in self.parameters]))
+
+
+def _decades(value: float, down: float, up: float) -> tuple[float, float]:
+    return value * 10.0 ** (-down), value * 10.0 ** up
+
+
+def _fmt(values: list[float] | tuple[float, ...]) -> str:
+    return " ".join(f"{float(v):.10g}" for v in values)
+
+
+# ------------------------------------------------------------------------------- MuJoCo
+
+MUJOCO_VARIANTS = ("solref+solimp", "solref")
+SOLREF_FORMS = ("direct", "timeconst")
+
+
+def _mujoco_diag_a(scenario: BallOnPlate, timestep_s: float | None) -> float:
+    """efc_diagA of the ball's contact row, measured from the adapter's own model."""
+    import mujoco
+
+    from engines.mujoco_adapter import BALL_TIMESTEP_S, ball_mjcf, measured_diag_a
+
+    model = mujoco.MjModel.from_xml_string(ball_mjcf(scenario, timestep_s or BALL_TIMESTEP_S))
+    return measured_diag_a(model, mujoco.MjData(model), (-1e-9,))
+
+
+def mujoco_space(scenario: BallOnPlate, variant: str = "solref+solimp",
+                 solref_form: str = "direct", timestep_s: float | None = None) -> Space:
+    """MuJoCo: solref in either form, optionally with the solimp shape (see module doc)."""
+    from engines.common import native_ball_spring_damper
+    from engines.mujoco_adapter import BALL_TIMESTEP_S, SOLIMP
+
+    check.one_of("parameters", variant, MUJOCO_VARIANTS)
+    check.one_of("solref_form", solref_form, SOLREF_FORMS)
+    a = _mujoco_diag_a(scenario, timestep_s)
+    sd = native_ball_spring_damper(scenario)
+    k0, d0 = sd.stiffness_n_per_m, sd.damping_ns_per_m
+    with_imp = variant == "solref+solimp"
+    dt = timestep_s or BALL_TIMESTEP_S
+    if solref_form == "direct":
+        up = 4.0 if with_imp else 2.0  # a low dmin/dmax needs a stiffer saturated spring
+        params = [Parameter("stiffness_n_per_m", "N/m", *_decades(k0, 2.0, up)),
+                  Parameter("damping_ns_per_m", "N·s/m", *_decades(d0, 2.0, up))]
+        start = [k0, d0]
+    else:
+        tau0, zeta0 = 2.0 / (a * d0), d0 / (2.0 * math.sqrt(k0 / a))
+        lo_tau, hi_tau = _decades(tau0, 3.0 if with_imp else 2.0, 2.0)
+        params = [Parameter("timeconst_s", "s", max(lo_tau, 2.0 * dt * 1.001), hi_tau),
+                  Parameter("dampratio", "1", *_decades(zeta0, 2.0, 2.0))]
+        start = [tau0, zeta0]
+    if with_imp:
+        params += [Parameter("dmin_over_dmax", "1", 1e-3, 1.0),
+                   Parameter("width_m", "m", 1e-6, 1e-2),
+                   Parameter("midpoint", "1", 1e-3, 0.999),
+                   Parameter("power", "1", 1.0, 100.0)]
+        start += [1.0, SOLIMP[2], SOLIMP[3], SOLIMP[4]]  # constant impedance: the native law
+
+    def to_tuned(v: np.ndarray) -> dict[str, Any]:
+        v = [float(x) for x in v]
+        if solref_form == "direct":
+            # F = (S/A)(imp/dmax)²x + (D/A)(imp/dmax)ẋ: S = K·A, D = D_phys·A at imp = dmax
+            solref = [-v[0] * a, -v[1] * a]
+        else:
+            solref = [v[0], v[1]]
+        if with_imp:
+            solimp = [v[2] * MUJOCO_DMAX, MUJOCO_DMAX, v[3], v[4], v[5]]
+        elif solref_form == "direct":
+            solimp = list(SOLIMP)  # the native constant impedance: start = native exactly
+        else:
+            solimp = [MUJOCO_DMAX, MUJOCO_DMAX, *SOLIMP[2:]]
+        return {"solref": solref, "solimp": solimp}
+
+    def snippet(t: dict[str, Any]) -> str:
+        return (f'<geom solref="{_fmt(t["solref"])}" solimp="{_fmt(t["solimp"])}"/>\n'
+                f"(on both the ball and the plate geoms, or as <default><geom .../>; "
+                f"efc_diagA = {a:.10g} 1/kg, solref {solref_form} form)")
+
+    limits = (
+        "restitution is nearly independent of the impact velocity: the impedance scales "
+        "stiffness by (imp/dmax)² and damping by imp/dmax, which leaves the damping ratio "
+        "unchanged across penetration scales, so Hunt–Crossley's falling k(b·V0) cannot be "
+        "followed",
+    ) if with_imp else LINEAR_LIMITS
+    return Space("mujoco", variant if solref_form == "direct" else f"{variant} ({solref_form})",
+                 tuple(params), tuple(p.clip(s) for p, s in zip(params, start, strict=True)),
+                 "tuned", frozenset({"restitution", "duration_s", "peak_force_n",
+                                     "max_penetration_m", "energy_loss_fraction"}),
+                 limits, to_tuned, snippet, linear=not with_imp)
+
+
+# ------------------------------------------------------------------------------- PyBullet
+
+
+def pybullet_space(scenario: BallOnPlate) -> Space:
+    """PyBullet: pair contactStiffness and contactDamping (physical N/m and N·s/m)."""
+    from engines.common import native_ball_spring_damper
+
+    sd = native_ball_spring_damper(scenario)
+    k0, d0 = sd.stiffness_n_per_m, sd.damping_ns_per_m
+    params = (Parameter("contact_stiffness", "N/m", *_decades(k0, 2.0, 2.0)),
+              Parameter("contact_damping", "N·s/m", *_decades(max(d0, 1e-9), 2.0, 2.0)))
+
+    def to_tuned(v: np.ndarray) -> dict[str, Any]:
+        return {"contact_stiffness": float(v[0]), "contact_damping": float(v[1])}
+
+    def snippet(t: dict[str, Any]) -> str:
+        return (f"p.changeDynamics(ball, -1, contactStiffness={t['contact_stiffness']:.10g}, "
+                f"contactDamping={t['contact_damping']:.10g}, restitution=0)\n"
+                "(pair values: give the plate stiffness inf-like and damping 0, or halve/"
+                "combine as Bullet does: stiffness in series, damping summed)")
+
+    return Space("pybullet", "stiffness+damping", params, (k0, max(d0, 1e-9)), "tuned",
+                 frozenset({"restitution", "duration_s", "peak_force_n", "max_penetration_m",
+                            "energy_loss_fraction"}),
+                 LINEAR_LIMITS, to_tuned, snippet, linear=True)
+
+
+# ------------------------------------------------------------------------------- pymunk
+
+PYMUNK_VARIANTS = ("elasticity", "restitution-law")
+RIGID_LIMITS = (
+    "a rigid contact is a one-step impulse: it has no duration, no peak force and no "
+    "penetration (duration and peak force are excluded from the objective, weight 0)",
+)
+
+
+def pymunk_space(scenario: BallOnPlate, variant: str = "elasticity") -> Space:
+    """pymunk: a constant elasticity, or b of the injected restitution law k(α = b·V)."""
+    from engines.common import NATIVE_REFERENCE_VELOCITY_M_S
+    from reference import hunt_crossley
+
+    check.one_of("parameters", variant, PYMUNK_VARIANTS)
+    expressible = frozenset({"restitution"})
+    if variant == "elasticity":
+        e0 = hunt_crossley.solve(scenario.replace(
+            velocity_m_s=NATIVE_REFERENCE_VELOCITY_M_S))["restitution"]
+        param = Parameter("elasticity", "1", 1e-3, 1.0)
+
+        def to_tuned(v: np.ndarray) -> dict[str, Any]:
+            return {"elasticity": float(v[0])}
+
+        def snippet(t: dict[str, Any]) -> str:
+            return (f"ball_shape.elasticity = {t['elasticity']:.10g}\n"
+                    "plate_shape.elasticity = 1.0   # pair restitution = product")
+
+        limits = (*RIGID_LIMITS, "a constant elasticity cannot follow Hunt–Crossley's "
+                                 "restitution, which falls with the impact velocity")
+        return Space("pymunk", variant, (param,), (param.clip(e0),), "tuned", expressible,
+                     limits, to_tuned, snippet, linear=True)
+
+    b0 = scenario.damping_s_per_m
+    param = Parameter("restitution_damping_s_per_m", "s/m", 1e-4, 10.0)
+
+    def law_tuned(v: np.ndarray) -> dict[str, Any]:
+        return {"restitution_law": "hunt_crossley", "restitution_damping_s_per_m": float(v[0])}
+
+    def law_run(v: np.ndarray, s: BallOnPlate, timestep_s: float | None
+                ) -> tuple[BallOnPlate, str, RunSettings]:
+        # the adapter's injected restitution rule uses the scenario's b: hand it the tuned b
+        return (s.replace(damping_s_per_m=float(v[0])), "injected",
+                RunSettings(timestep_s=timestep_s, options={"injection": "restitution"}))
+
+    def law_snippet(t: dict[str, Any]) -> str:
+        b = t["restitution_damping_s_per_m"]
+        return ("def pre_solve(arbiter, space, data):\n"
+                "    v = -arbiter.contact_point_set.normal.dot(arbiter.shapes[0].body.velocity)\n"
+                f"    arbiter.restitution = hunt_crossley_k(alpha={b:.10g} * v)"
+                "  # (1 + W0(-(1+α)e^-(1+α)))/α")
+
+    limits = (*RIGID_LIMITS, "the restitution law is Hunt–Crossley's own closed form, so it "
+                             "matches by construction; it is a per-contact rule the user "
+                             "injects, not a pymunk parameter")
+    return Space("pymunk", variant, (param,), (param.clip(max(b0, 1e-4)),), "injected",
+                 expressible, limits, law_tuned, law_snippet, run_args=law_run)
+
+
+# ------------------------------------------------------------------------------- Drake
+
+
+def drake_space(scenario: BallOnPlate) -> Space:
+    """Drake: pair point stiffness k (N/m) and Hunt–Crossley dissipation d (s/m)."""
+    from engines.drake_adapter import native_ball_point_contact
+
+    k0, d0 = native_ball_point_contact(scenario)
+    params = (Parameter("point_stiffness_n_per_m", "N/m", *_decades(k0, 2.0, 2.0)),
+              Parameter("hunt_crossley_dissipation_s_per_m", "s/m",
+                        *_decades(max(d0, 1e-6), 2.0, 2.0)))
+
+    def to_tuned(v: np.ndarray) -> dict[str, Any]:
+        return {"point_stiffness_n_per_m": float(v[0]),
+                "hunt_crossley_dissipation_s_per_m": float(v[1])}
+
+    def snippet(t: dict[str, Any]) -> str:
+        k, d = t["point_stiffness_n_per_m"], t["hunt_crossley_dissipation_s_per_m"]
+        return (f"AddContactMaterial(dissipation={d:.10g}, point_stiffness={2 * k:.10g}, "
+                "friction=CoulombFriction(0, 0), properties=props)\n"
+                f"(on both geometries: stiffnesses combine in series, so each gets 2k for a "
+                f"pair k = {k:.10g} N/m; ContactModel.kPoint)")
+
+    limits = ("point contact is f = k·x·(1 + d·ẋ): its restitution is Hunt–Crossley's k(d·V0) "
+              "for any stiffness law, but its stiffness is linear, so duration and peak force "
+              "cannot follow Hertz's V0^(−1/5) and V0^(6/5) together: one k trades one "
+              "against the other",)
+    return Space("drake", "stiffness+dissipation", params,
+                 tuple(p.clip(s) for p, s in zip(params, (k0, max(d0, 1e-6)), strict=True)),
+                 "tuned", frozenset({"restitution", "duration_s", "peak_force_n",
+                                     "max_penetration_m", "energy_loss_fraction"}),
+                 limits, to_tuned, snippet)
+
+
+# ------------------------------------------------------------------------------- registry
+
+VARIANTS: dict[str, tuple[str, ...]] = {
+    "mujoco": MUJOCO_VARIANTS,
+    "pybullet": ("stiffness+damping",),
+    "pymunk": PYMUNK_VARIANTS,
+    "drake": ("stiffness+dissipation",),
+}
+
+
+def make_space(engine: str, scenario: BallOnPlate, variant: str | None = None,
+               solref_form: str = "direct", timestep_s: float | None = None) -> Space:
+    """The engine's parameterisation ``variant`` (default: the first of :data:`VARIANTS`)."""
+    check.one_of("engine", engine, tuple(VARIANTS))
+    variant = check.one_of("parameters", variant or VARIANTS[engine][0], VARIANTS[engine])
+    if engine == "mujoco":
+        return mujoco_space(scenario, variant, solref_form, timestep_s)
+    if engine == "pybullet":
+        return pybullet_space(scenario)
+    if engine == "pymunk":
+        return pymunk_space(scenario, variant)
+    return drake_space(scenario)
+
+
+def with_start(space: Space, start: tuple[float, ...]) -> Space:
+    """The same space starting from ``start`` (clipped into the bounds)."""
+    return replace(space, start=tuple(p.clip(float(s))
+                                      for p, s in zip(space.parameters, start, strict=True)))
