@@ -319,7 +319,7 @@ def _run_ball(p: Any, s: BallOnPlate, mode: str, settings: RunSettings, dt: floa
     m, radius = s.mass_kg, s.radius_m
     law = s.law()
     g_dt = s.gravity_m_s2 * dt
-    rec = Recorder(n_max + 1)
+    rec = Recorder()
     world = BallWorld(p, s, dt, k0, d0)
     try:
         ball, plate, cid = world.ball, world.plate, world.cid
@@ -394,7 +394,7 @@ def _run_flex(p: Any, s: RigidFlexible, mode: str, settings: RunSettings, dt: fl
     law, structure = s.local_law(), s.structural_law()
     collapse = structure.collapse_energy
     softening = math.isfinite(collapse)
-    rec = Recorder(min(n_max, 1 << 16) + 1)
+    rec = Recorder()
     world = FlexWorld(p, s, dt, k0, d0)
     status = None
     try:

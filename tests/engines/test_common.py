@@ -57,7 +57,7 @@ def test_matching_rejects_impossible_restitution() -> None:
 
 
 def test_recorder_grows_and_classify_orders_statuses() -> None:
-    r = Recorder(capacity=2)
+    r = Recorder()
     for i in range(100):
         r.append(i * 1e-3, 0.0, 1.0, 1.0 if 10 < i < 20 else 0.0, 1.0)
     rec = r.record(mass_1_kg=1.0)
