@@ -1,6 +1,6 @@
 """The tuning objective: weighted squared relative errors of chosen metrics over a velocity set.
 
-    J(p) = Σ_v Σ_m w_m · e_{v,m}(p)²,   e_{v,m} = (metric_m(engine, p, V_v) − ref_{v,m}) / |ref_{v,m}|
+    J(p) = Σ_v Σ_m w_m · e_{v,m}(p)²,   e_{v,m} = (metric_m(p, V_v) − ref_{v,m}) / |ref_{v,m}|
 
 with the engine run through its own adapter (``tuned`` mode with the parameters p, or the
 space's own run) and the metrics from ``reference.metrics.compute`` — the same path as every

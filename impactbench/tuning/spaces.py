@@ -245,7 +245,7 @@ def pybullet_space(scenario: BallOnPlate) -> Space:
 PYMUNK_VARIANTS = ("elasticity", "restitution-law")
 RIGID_LIMITS = (
     "a rigid contact is a one-step impulse: it has no duration, no peak force and no "
-    "penetration (duration and peak force are excluded from the objective, weight 0)",
+    "penetration",
 )
 
 

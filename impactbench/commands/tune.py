@@ -1,0 +1,187 @@
+"""``impactbench tune``: fit an engine's native contact parameters to Hunt–Crossley.
+
+Output, in this order: the fitted parameters in the engine's own form (MJCF, changeDynamics,
+pymunk settings, Drake AddContactMaterial), a residual table per velocity and metric (start
+vs tuned), an honesty section (what the engine cannot express; best achieved vs start max
+relative error per metric, and the floor no linear contact can beat), and the files written.
+
+Files:
+- tuned file: ``--out FILE``; with ``--write-default`` the packaged
+  ``impactbench/data/tuned/<engine>_ball_on_plate.toml`` that ``run --mode tuned`` and the
+  report read; otherwise ``tuned_<engine>.toml`` in the current directory.
+- residual plot: ``--plot FILE``; default next to the tuned file (same name, ``.png``), or
+  ``reports/figures/tune_<engine>.png`` of the repository with ``--write-default``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+from pathlib import Path
+
+from engines.base import ENGINES, EngineUnavailable
+from impactbench.cliutil import number, number_list, print_json, print_table
+from impactbench.params import add_parameter_flags, scenario_from_args
+from reference import validation as check
+from reference.scenarios import PAPER_VELOCITIES_M_S
+
+HELP = "fit an engine's native contact parameters to the Hunt–Crossley reference"
+SCENARIOS = ("ball-on-plate", "rigid-flexible")
+REPO_FIGURES = Path(__file__).resolve().parents[2] / "reports" / "figures"
+
+
+def name_list(text: str) -> list[str]:
+    """argparse type: a comma-separated list of names (empty entries dropped)."""
+    return [p.strip() for p in text.split(",") if p.strip()]
+
+
+def register(top: argparse._SubParsersAction, groups: dict) -> None:
+    from impactbench.tuning.objective import DEFAULT_TARGETS, TARGETS
+    from impactbench.tuning.optimize import DEFAULT_BUDGET_S
+    from impactbench.tuning.spaces import SOLREF_FORMS, VARIANTS
+
+    p = top.add_parser("tune", help=HELP, description=HELP + ". " + __doc__.split("\n\n")[1])
+    p.add_argument("--engine", required=True, metavar="E", help=f"one of {', '.join(ENGINES)}")
+    p.add_argument("--scenario", default="ball-on-plate", metavar="S",
+                   help="ball-on-plate (rigid-flexible is not supported yet)")
+    p.add_argument("--velocities", type=number_list, default=list(PAPER_VELOCITIES_M_S),
+                   dest="velocities_m_s", metavar="V,…",
+                   help="impact velocities (m/s); default the paper's 0.5,1,2,3,4,5")
+    p.add_argument("--targets", type=name_list, default=list(DEFAULT_TARGETS), metavar="T,…",
+                   help=f"metrics to fit, from {', '.join(TARGETS)}; default "
+                   f"{','.join(DEFAULT_TARGETS)}")
+    p.add_argument("--weights", type=number_list, default=None, metavar="W,…",
+                   help="one weight ≥ 0 per target (use --weights=… for a leading minus); "
+                   "default all 1")
+    params_help = "; ".join(f"{e}: {'|'.join(v)}" for e, v in VARIANTS.items())
+    p.add_argument("--parameters", default=None, metavar="SET",
+                   help=f"the engine's parameter set (first is the default) — {params_help}")
+    p.add_argument("--solref-form", default="direct", choices=SOLREF_FORMS,
+                   help="MuJoCo solref form: direct (−stiffness, −damping) or timeconst "
+                   "(timeconst, dampratio); default direct")
+    p.add_argument("--timestep", type=number, default=None, dest="timestep_s", metavar="S",
+                   help="integration step (s); default the adapter's (1e-6 s for the ball)")
+    p.add_argument("--budget-s", type=number, default=DEFAULT_BUDGET_S, metavar="S",
+                   help=f"wall-time budget (s), stops cleanly keeping the best; default "
+                   f"{DEFAULT_BUDGET_S:g}")
+    p.add_argument("--max-evals", type=int, default=None, metavar="N",
+                   help="evaluation budget (one evaluation = one run per velocity)")
+    out = p.add_mutually_exclusive_group()
+    out.add_argument("--out", type=Path, default=None, metavar="FILE",
+                     help="tuned file to write; default tuned_<engine>.toml in the cwd")
+    out.add_argument("--write-default", action="store_true",
+                     help="write the packaged default impactbench/data/tuned/"
+                     "<engine>_ball_on_plate.toml (read by run --mode tuned and the report)")
+    p.add_argument("--plot", type=Path, default=None, metavar="FILE",
+                   help="residual plot PNG; default next to the tuned file")
+    p.add_argument("--no-plot", action="store_true", help="do not draw the residual plot")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    add_parameter_flags(p, "ball-on-plate")
+    p.set_defaults(func=main)
+
+
+def _paths(args: argparse.Namespace) -> tuple[Path, Path | None]:
+    from impactbench.tuned import tuned_path
+
+    if args.write_default:
+        tuned = tuned_path(args.engine, "ball-on-plate")
+        plot = args.plot or REPO_FIGURES / f"tune_{args.engine}.png"
+    else:
+        tuned = args.out or Path(f"tuned_{args.engine}.toml")
+        plot = args.plot or tuned.with_suffix(".png")
+    return tuned, (None if args.no_plot else plot)
+
+
+def main(args: argparse.Namespace) -> int:
+    from impactbench.tuned import write_tuned
+    from impactbench.tuning import output
+    from impactbench.tuning.optimize import tune
+
+    check.one_of("engine", args.engine, tuple(ENGINES))
+    check.one_of("scenario", args.scenario, SCENARIOS)
+    if args.scenario != "ball-on-plate":
+        raise ValueError(f"scenario = {args.scenario!r}: tuning is not supported yet for it "
+                         f"(ball-on-plate only)")
+    if not args.velocities_m_s:
+        raise ValueError("velocities = []: must list at least one impact velocity")
+    if args.timestep_s is not None:
+        check.positive("timestep", args.timestep_s)
+    scenario = scenario_from_args("ball-on-plate", args)
+    try:
+        _load_quietly(args.engine)
+        result = tune(args.engine, scenario, args.velocities_m_s, args.targets, args.weights,
+                      parameters=args.parameters, solref_form=args.solref_form,
+                      timestep_s=args.timestep_s, budget_s=args.budget_s,
+                      max_evals=args.max_evals)
+    except EngineUnavailable as exc:
+        print(f"impactbench: error: {exc}")
+        return 1
+    tuned_file, plot_file = _paths(args)
+    header = (f"impactbench tune: {result.space.engine} ({result.space.variant}) fitted to "
+              f"Hunt–Crossley on ball-on-plate.\nRead by `impactbench run --mode tuned` and "
+              f"the report; [parameters] uses the adapter's tuned keys.")
+    files = {"tuned": str(write_tuned(tuned_file, output.tuned_tables(result), header))}
+    if plot_file is not None:
+        files["plot"] = str(output.plot(result, plot_file))
+    if args.json:
+        print_json(output.as_json(result, files))
+        return 0
+    _print_text(result, files)
+    return 0
+
+
+def _load_quietly(engine: str) -> None:
+    """Import the engine with C-level stdout sent to stderr (pybullet prints its build time
+    on import, which would corrupt ``--json``)."""
+    import ctypes
+    import os
+    import sys
+
+    from engines.base import get_adapter
+
+    sys.stdout.flush()
+    saved = os.dup(1)
+    try:
+        os.dup2(2, 1)
+        get_adapter(engine).version()
+    finally:
+        with contextlib.suppress(Exception):
+            ctypes.CDLL(None).fflush(None)
+        os.dup2(saved, 1)
+        os.close(saved)
+
+
+def _print_text(result, files: dict[str, str]) -> None:
+    from impactbench.tuning import output
+
+    obj = result.objective
+    print(f"{result.space.engine} {result.engine_version}  parameters {result.space.variant}  "
+          f"mode {result.space.mode}  timestep {result.timestep_s:g} s")
+    print(f"velocities {', '.join(f'{v:g}' for v in obj.velocities_m_s)} m/s; targets "
+          + ", ".join(f"{k} (w {w:g})" for k, w in obj.weights.items()))
+    print(f"{obj.evaluations} evaluations × {len(obj.velocities_m_s)} runs in "
+          f"{result.wall_s:.1f} s ({result.stop})")
+    for line in result.stages:
+        print(f"  {line}")
+    if result.excluded:
+        print(f"note: {', '.join(result.excluded)} excluded from the objective (weight 0): "
+              f"{next(iter(result.excluded.values()))}")
+    print("\nfitted parameters (the engine's own form):")
+    print(result.space.snippet(result.parameters))
+    print(f"tuned keys: {result.parameters}")
+    print(f"start (native conversion): {result.start_parameters}")
+    print("\nresiduals per velocity and metric (relative errors vs the reference):")
+    print_table(output.residual_rows(result),
+                ["velocity_m_s", "metric", "weight", "reference", "start", "start_rel_error",
+                 "tuned", "tuned_rel_error"])
+    print("\nhonesty:")
+    for line in output.honesty_lines(result):
+        print(f"- {line}")
+    print_table(output.summary_rows(result), floatfmt=".4g")
+    if result.space.engine == "drake":
+        print(f"\ntrade-off: {result.space.parameters[0].name} scaled around the tuned value "
+              f"(dissipation kept; restitution depends on it alone):")
+        print_table(output.tradeoff_rows(result), floatfmt=".4g")
+    print()
+    for kind, path in files.items():
+        print(f"{kind}: {path}")
