@@ -26,6 +26,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "impactbench.commands.report",
     "impactbench.commands.rigid_flexible",
     "impactbench.commands.run",
+    "impactbench.commands.tune",
 )
 
 GROUPS: dict[str, str] = {
