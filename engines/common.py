@@ -97,7 +97,7 @@ class Recorder:
 
     __slots__ = ("_rows",)
 
-    def __init__(self, capacity: int = 0) -> None:  # capacity: transitional, ignored
+    def __init__(self) -> None:
         self._rows: list[tuple[float, ...]] = []
 
     def append(self, t: float, x: float, xdot: float, force: float, v1: float,

@@ -487,7 +487,7 @@ def _ball_time_cap(scenario: BallOnPlate, settings: RunSettings, dt: float) -> f
 
 def _run_ball(model: DrakeModel, scenario: BallOnPlate, settings: RunSettings) -> ImpactRecord:
     r, dt = scenario.radius_m, model.timestep_s
-    rec = Recorder(int(250e-6 / dt) + 64)
+    rec = Recorder()
     flags = {"tunneled": False}
     context = model.context
 
@@ -527,7 +527,7 @@ def _run_rigid_flexible(model: DrakeModel, scenario: RigidFlexible, settings: Ru
     softening = math.isfinite(collapse)
     size = model.meta["body_size_m"]
     law, context = model.law, model.context
-    rec = Recorder(4096)
+    rec = Recorder()
     flags = {"collapsed": False, "tunneled": False, "contact": False}
 
     def monitor(state: list[float]) -> bool:
