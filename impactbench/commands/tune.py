@@ -169,7 +169,7 @@ def _print_text(result, files: dict[str, str]) -> None:
     print("\nfitted parameters (the engine's own form):")
     print(result.space.snippet(result.parameters))
     print(f"tuned keys: {result.parameters}")
-    print(f"start (native conversion): {result.start_parameters}")
+    print(f"start (closed-form native conversion): {result.start_parameters}")
     print("\nresiduals per velocity and metric (relative errors vs the reference):")
     print_table(output.residual_rows(result),
                 ["velocity_m_s", "metric", "weight", "reference", "start", "start_rel_error",

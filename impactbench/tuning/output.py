@@ -91,6 +91,9 @@ def at_bounds(result: TuneResult, rel: float = 1e-3) -> list[str]:
 
 def honesty_lines(result: TuneResult) -> list[str]:
     lines = [f"cannot express: {s}" for s in result.space.limits]
+    if result.space.mode != "tuned":
+        lines.append(f"this parameter set runs in {result.space.mode} mode: the adapter's "
+                     f"tuned mode cannot read {sorted(result.parameters)} yet")
     if result.excluded:
         lines.append(f"excluded from the objective (weight 0, not expressible): "
                      f"{', '.join(result.excluded)}")

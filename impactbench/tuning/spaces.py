@@ -288,9 +288,9 @@ def pymunk_space(scenario: BallOnPlate, variant: str = "elasticity") -> Space:
     def law_snippet(t: dict[str, Any]) -> str:
         b = t["restitution_damping_s_per_m"]
         return ("def pre_solve(arbiter, space, data):\n"
-                "    v = -arbiter.contact_point_set.normal.dot(arbiter.shapes[0].body.velocity)\n"
-                f"    arbiter.restitution = hunt_crossley_k(alpha={b:.10g} * v)"
-                "  # (1 + W0(-(1+α)e^-(1+α)))/α")
+                "    v = ...  # approach speed along the contact normal (m/s, > 0 closing)\n"
+                f"    arbiter.restitution = k(alpha={b:.10g} * max(v, 0.0))\n"
+                "# k(α) = (1 + W0(−(1+α)·e^−(1+α)))/α, reference.hunt_crossley.restitution")
 
     limits = (*RIGID_LIMITS, "the restitution law is Hunt–Crossley's own closed form, so it "
                              "matches by construction; it is a per-contact rule the user "
