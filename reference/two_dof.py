@@ -389,7 +389,7 @@ def sweep(base: RigidFlexible, over: str, values: Any, *,
 
     check.one_of("over", over, tuple(SWEEP_FIELDS))
     fld = SWEEP_FIELDS[over]
-    vals = [check.positive(fld, v) for v in np.asarray(values, dtype=float).reshape(-1)]
+    vals = [check.positive(fld, float(v)) for v in np.asarray(values, dtype=float).reshape(-1)]
     combos = ALL_COMBOS if combos is None else tuple(tuple(c) for c in combos)
     procs = (os.cpu_count() or 1) if processes is None else int(processes)
     if procs < 1:
