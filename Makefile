@@ -14,6 +14,7 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 report: $(STAMP)
+	$(BIN)/impactbench report
 	$(BIN)/impactbench figures
 
 test: $(STAMP)

@@ -205,7 +205,8 @@ class BallModel:
 
     def _set_restitution(self, arbiter: Any, _space: Any, _data: Any) -> None:
         vy = self._velocity(self._handle).y
-        arbiter.restitution = float(self._restitution(-self._b * vy))
+        # still overlapping while already separating (low restitution): α = b·max(0, V)
+        arbiter.restitution = float(self._restitution(max(0.0, -self._b * vy)))
 
     def _impulse(self, arbiter: Any, _space: Any, _data: Any) -> None:
         self.force_n = arbiter.total_impulse.length / self.dt
@@ -345,8 +346,16 @@ def ball_model(scenario: BallOnPlate, mode: str, settings: RunSettings, dt: floa
             meta["not_comparable"] = RIGID_BALL_ARTEFACTS
         return BallModel(scenario, contact, dt, iterations=iterations, measure=measure), meta
     if mode == "tuned":
+        tuned = settings.tuned or {}
+        if tuned.get("restitution_law") == "hunt_crossley":
+            b = check.non_negative("tuned.restitution_damping_s_per_m",
+                                   tuned.get("restitution_damping_s_per_m"))
+            meta.update(contact="restitution", restitution_damping_s_per_m=b,
+                        tuned=dict(tuned), not_comparable=RIGID_BALL_ARTEFACTS)
+            return BallModel(scenario.replace(damping_s_per_m=b), "restitution", dt,
+                             iterations=iterations, measure=measure), meta
         e = _tuned_elasticity(settings)
-        meta.update(contact="rigid", elasticity=e, tuned=dict(settings.tuned or {}),
+        meta.update(contact="rigid", elasticity=e, tuned=dict(tuned),
                     not_comparable=RIGID_BALL_ARTEFACTS)
     else:
         v_ref = check.positive(

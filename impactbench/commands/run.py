@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 
 from engines.base import ENGINES, MODES, RunSettings
-from impactbench.cliutil import number, print_json, print_table
+from impactbench.cliutil import number, print_json, print_table, stdout_to_stderr
 from impactbench.evaluate import compare
 from impactbench.params import add_law_flags, add_parameter_flags, scenario_from_args
 
@@ -40,7 +40,8 @@ def main(args: argparse.Namespace) -> int:
 
         settings = RunSettings(timestep_s=args.timestep_s,
                                tuned=load_tuned(args.engine, args.scenario))
-    out, _ = compare(args.engine, scenario, args.mode, settings)
+    with stdout_to_stderr():
+        out, _ = compare(args.engine, scenario, args.mode, settings)
     if args.json:
         print_json(out)
         return 0

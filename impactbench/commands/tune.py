@@ -16,11 +16,10 @@ Files:
 from __future__ import annotations
 
 import argparse
-import contextlib
 from pathlib import Path
 
 from engines.base import ENGINES, EngineUnavailable
-from impactbench.cliutil import number, number_list, print_json, print_table
+from impactbench.cliutil import number, number_list, print_json, print_table, stdout_to_stderr
 from impactbench.params import add_parameter_flags, scenario_from_args
 from reference import validation as check
 from reference.scenarios import PAPER_VELOCITIES_M_S
@@ -131,24 +130,11 @@ def main(args: argparse.Namespace) -> int:
 
 
 def _load_quietly(engine: str) -> None:
-    """Import the engine with C-level stdout sent to stderr (pybullet prints its build time
-    on import, which would corrupt ``--json``)."""
-    import ctypes
-    import os
-    import sys
-
+    """Import the engine before any output (its import banner goes to stderr)."""
     from engines.base import get_adapter
 
-    sys.stdout.flush()
-    saved = os.dup(1)
-    try:
-        os.dup2(2, 1)
+    with stdout_to_stderr():
         get_adapter(engine).version()
-    finally:
-        with contextlib.suppress(Exception):
-            ctypes.CDLL(None).fflush(None)
-        os.dup2(saved, 1)
-        os.close(saved)
 
 
 def _print_text(result, files: dict[str, str]) -> None:
