@@ -216,37 +216,41 @@ def _panels(a: np.ndarray, ur: np.ndarray) -> int:
     return max(1, math.ceil(math.log2(span / _PANEL_U))) if span > _PANEL_U else 1
 
 
-def _duration_integrals(a: np.ndarray, n: float, uc: np.ndarray, ur: np.ndarray,
-                        lo: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Dimensionless compression and restitution times τ = ∫((n+1)H)^(−β) dũ, β = n/(n+1).
+def _compression_time(a: np.ndarray, n: float, uc: np.ndarray,
+                      lo: np.ndarray | None = None) -> np.ndarray:
+    """Dimensionless time ∫((n+1)H)^(−β) dũ over [``lo`` (default 0), ũ_c], β = n/(n+1).
 
-    Compression over [``lo`` (default 0), ũ_c]; restitution over [ũ_r, 0].
+    Gauss–Jacobi with the weight (ũ_c − ũ)^(−β) of the contact-start singularity.
     """
     beta = n / (n + 1.0)
-    a2 = a[:, None]
     lo = np.zeros_like(uc) if lo is None else lo
-    # compression: Jacobi weight (1−x)^(−β) at ũ_c
     x, w = _jacobi(_N_JACOBI, -beta, 0.0)
     half = (uc - lo)[:, None] / 2.0
     u = lo[:, None] + half * (1.0 + x)
-    psi = ((n + 1.0) * _h_over_d(u, uc[:, None], a2)) ** (-beta)
-    tc = half[:, 0] ** (1.0 - beta) * (psi @ w)
-    # restitution: Jacobi panel [ũ_r, ũ_r/2], Legendre panels graded toward 0
-    k = _panels(a, ur)
+    psi = ((n + 1.0) * _h_over_d(u, uc[:, None], a[:, None])) ** (-beta)
+    return half[:, 0] ** (1.0 - beta) * (psi @ w)
+
+
+def _restitution_time(a: np.ndarray, n: float, ur: np.ndarray) -> np.ndarray:
+    """Dimensionless time ∫((n+1)H)^(−β) dũ over [ũ_r, 0]: a Gauss–Jacobi panel
+    [ũ_r, ũ_r/2] for the separation singularity, then Gauss–Legendre panels halving toward
+    ũ = 0 until each spans ≤ 4 e-folds of 1 + b·V (large α)."""
+    beta = n / (n + 1.0)
+    a2 = a[:, None]
     xj, wj = _jacobi(_N_JACOBI, 0.0, -beta)
     half = (np.abs(ur) / 4.0)[:, None]
     u = ur[:, None] + half * (1.0 + xj)
     psi = ((n + 1.0) * -_h_over_d(u, ur[:, None], a2)) ** (-beta)
     tr = half[:, 0] ** (1.0 - beta) * (psi @ wj)
     xl, wl = _legendre(_N_LEGENDRE)
+    k = _panels(a, ur)
     for j in range(1, k + 1):
         left = ur / 2.0**j
         right = ur / 2.0 ** (j + 1) if j < k else np.zeros_like(ur)
         half = ((right - left) / 2.0)[:, None]
         u = left[:, None] + half * (1.0 + xl)
-        hval = _h(u, ur[:, None], a2)
-        tr = tr + half[:, 0] * (((n + 1.0) * hval) ** (-beta) @ wl)
-    return tc, tr
+        tr = tr + half[:, 0] * (((n + 1.0) * _h(u, ur[:, None], a2)) ** (-beta) @ wl)
+    return tr
 
 
 def _peak_u(a: np.ndarray, n: float, uc: np.ndarray) -> np.ndarray:
@@ -276,7 +280,7 @@ def dimensionless(alpha: float | np.ndarray, exponent: float) -> dict[str, np.nd
     n = float(exponent)
     uc = _u_compression(a)
     ur = _u_restitution(a)
-    tc, tr = _duration_integrals(a, n, uc, ur)
+    tc, tr = _compression_time(a, n, uc), _restitution_time(a, n, ur)
     us = _peak_u(a, n, uc)
     beta = n / (n + 1.0)
     peak = ((n + 1.0) * _h(us, uc, a)) ** beta * np.exp(a * us)
@@ -385,7 +389,7 @@ def sweep(velocities: Iterable[float] | np.ndarray, *, mass_kg: float = 0.1,
 
 def _direct(a: np.ndarray, n: float) -> tuple[np.ndarray, np.ndarray]:
     uc = _u_compression(a)
-    tc, tr = _duration_integrals(a, n, uc, _u_restitution(a))
+    tc, tr = _compression_time(a, n, uc), _restitution_time(a, n, _u_restitution(a))
     us = _peak_u(a, n, uc)
     peak = ((n + 1.0) * _h(us, uc, a)) ** (n / (n + 1.0)) * np.exp(a * us)
     return tc + tr, peak
@@ -574,9 +578,7 @@ def _solve_general(law: HuntCrossley, m: float, v0: float) -> dict[str, float]:
 
 def _time_compression(u: np.ndarray, a: float, n: float, uc: float) -> np.ndarray:
     """Dimensionless time from first touch to the state ũ ∈ [0, ũ_c] (Jacobi at ũ_c)."""
-    av = np.full(u.shape, a)
-    tc, _ = _duration_integrals(av, n, np.full(u.shape, uc), np.full(u.shape, -1.0), lo=u)
-    return tc
+    return _compression_time(np.full(u.shape, a), n, np.full(u.shape, uc), lo=u)
 
 
 def _time_to_end(u: np.ndarray, a: float, n: float, ur: float) -> np.ndarray:

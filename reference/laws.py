@@ -50,6 +50,10 @@ class HuntCrossley:
         if self.elastic is None:
             check.positive("stiffness", self.stiffness)
             check.positive("exponent", self.exponent)
+        elif not callable(self.elastic):
+            raise ValueError(f"elastic = {self.elastic!r}: must be a callable f(x) in N")
+        if self.potential_fn is not None and not callable(self.potential_fn):
+            raise ValueError(f"potential_fn = {self.potential_fn!r}: must be a callable Π(x) in J")
         check.non_negative("damping", self.damping)
 
     @property
