@@ -4,4 +4,5 @@ Each module named in :data:`FIGURE_MODULES` exposes ``write(out_dir: Path) -> li
 writes its PNGs into ``out_dir`` (Agg backend) and returns their paths.
 """
 
-FIGURE_MODULES: tuple[str, ...] = ("impactbench.figures.hunt_crossley",)
+FIGURE_MODULES: tuple[str, ...] = ("impactbench.figures.hunt_crossley",
+                                   "impactbench.figures.rigid_flexible")
