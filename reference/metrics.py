@@ -5,13 +5,13 @@ in a comparison table is a difference in physics or numerics, never in bookkeepi
 
 Definitions (SI):
 
-- A *contact* is a maximal run of samples with normal force F > 0 (above a floor of
-  ``FORCE_FLOOR_REL`` × max F, which ignores round-off dust). Its start and end are located
-  between samples: at the zero crossing of the penetration when the penetration changes sign
-  in the bracketing step (Hunt–Crossley, linear laws), otherwise by extrapolating the force
-  linearly to zero from the two samples inside the contact, clamped to the bracketing step
-  (a clipped spring–damper lets go while still penetrating; an elastoplastic contact starts
-  and ends at its permanent set).
+- A *contact* is a maximal run of samples with normal force F > 0 (where the surfaces do
+  not overlap, above a floor of ``FORCE_FLOOR_REL`` × max F, which ignores round-off dust).
+  Its start and end are located between samples: at the zero crossing of the penetration
+  when it changes sign in the bracketing step (Hunt–Crossley, linear laws); otherwise by
+  extrapolating the force linearly to zero from the two samples inside the contact, clamped
+  to the bracketing step (a clipped spring–damper lets go while still penetrating; an
+  elastoplastic contact starts and ends at its permanent set).
 - ``restitution`` k = −ẋ(end of last contact) / ẋ(start of first contact), relative normal
   velocities interpolated at those instants.
 - ``duration_s``: the first contact's duration. ``pulse_width_s``: first contact's start to
@@ -99,7 +99,9 @@ def contacts(rec: ImpactRecord) -> list[Contact]:
     fmax = float(np.max(f))
     if not fmax > 0.0:
         return []
-    active = f > FORCE_FLOOR_REL * fmax
+    # dust below the floor is ignored, except while the surfaces overlap: a heavily damped
+    # Hunt–Crossley contact lets go with F → 0 at x → 0, far below any relative floor
+    active = (f > FORCE_FLOOR_REL * fmax) | ((f > 0.0) & (rec.penetration_m > 0.0))
     edges = np.diff(active.astype(np.int8))
     firsts = list(np.flatnonzero(edges == 1) + 1)
     lasts = list(np.flatnonzero(edges == -1))

@@ -43,7 +43,7 @@ class ImpactRecord:
     """Sampled history of one impact, plus its status and provenance.
 
     Attributes:
-        time_s: sample times, strictly increasing (s).
+        time_s: sample times, non-decreasing (s); a force jump is two samples at one instant.
         penetration_m: overlap x of the surfaces (m).
         penetration_rate_m_s: ẋ (m/s).
         normal_force_n: contact force F ≥ 0 (N).

@@ -29,6 +29,15 @@ CASES = [
 ]
 
 
+def test_heavily_damped_contact_ends_where_the_surfaces_part():
+    """α = 10: near separation 1 + b·ẋ ~ 2e-4, so F/F_max falls far below any relative
+    force floor while the surfaces still overlap; the contact still ends at x = 0."""
+    s = BallOnPlate(velocity_m_s=100.0)
+    got, want = metrics.compute(hc.history(s)), hc.solve(s)
+    for key in ("restitution", "duration_s", "peak_force_n"):
+        assert got[key] == pytest.approx(want[key], rel=1e-12), key
+
+
 def trapezoid_bound(rec) -> float:
     """(h²/12)·∫|(F·ẋ)''| dt over the record, by finite differences (J)."""
     g = rec.normal_force_n * rec.penetration_rate_m_s
