@@ -151,7 +151,13 @@ def run_jobs(jobs: list[Job], workers: int | None = None,
             try:
                 for fut in as_completed(futures):
                     job = futures[fut]
-                    results[job.id] = fut.result()
+                    try:
+                        results[job.id] = fut.result()
+                    except BrokenProcessPool:
+                        raise
+                    except Exception as exc:  # a bug in an adapter must not lose the rest
+                        why = f"{type(exc).__name__}: {exc}"
+                        results[job.id] = _crashed(job, why, references[job.reference_key])
                     if progress:
                         progress(1)
             except BrokenProcessPool:

@@ -90,9 +90,9 @@ def test_same_config_gives_identical_results(tmp_path: Path) -> None:
 
 
 def test_a_dying_worker_becomes_a_crashed_row(monkeypatch: pytest.MonkeyPatch) -> None:
-    tests_dir = str(Path(__file__).resolve().parent.parent)
-    monkeypatch.setenv(ENGINES_ENV, "crasher=engines.crashing_adapter:CrashingAdapter")
-    monkeypatch.setenv("PYTHONPATH", tests_dir)
+    plugin_dir = str(Path(__file__).resolve().parent.parent / "engines")
+    monkeypatch.setenv(ENGINES_ENV, "crasher=crashing_adapter:CrashingAdapter")
+    monkeypatch.syspath_prepend(plugin_dir)  # spawned workers inherit the parent's sys.path
     jobs = [Job("matrix", "crasher", "ball-on-plate", "native", 1.0, None),
             Job("matrix", "pymunk", "ball-on-plate", "injected", 1.0, None)]
     results = {r.job.engine: r.run for r in run_jobs(jobs, workers=2)}
