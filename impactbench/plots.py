@@ -61,7 +61,7 @@ def force_time(histories: Mapping[tuple[str, str], History], reference: History,
         ax.plot(a[0] / time_unit, a[1], MODE_STYLES.get(mode, "-"),
                 color=ENGINE_COLORS.get(engine), lw=1.2, label=f"{engine} {mode}")
     if ref is not None:
-        end = ref[0][ref[1] > 0].max() if np.any(ref[1] > 0) else ref[0][-1]
+        end = (ref[0][ref[1] > 0].max() if np.any(ref[1] > 0) else ref[0][-1]) / time_unit
         ax.set_xlim(-0.05 * end, 1.25 * end)
     ax.set_xlabel(f"time from first contact ({unit_label})")
     ax.set_ylabel("normal force F (N)")

@@ -165,9 +165,14 @@ def interpretation(df: pd.DataFrame, engine: str) -> str:
                 owner = "the gap is the contact model's, not the integrator's"
             else:
                 owner = "comparable to injected mode, so the time stepping dominates"
-            parts.append(f"Native mode (its own contact, parameters mapped from the physical "
-                         f"ones): {worst(nat) or 'none measured'}"
-                         + (f"; {owner}." if owner else "."))
+            mapping = ("a linear k1 contact, which cannot yield or fail"
+                       if scenario == "rigid-flexible" else "parameters mapped at 1 m/s")
+            parts.append(f"Native mode (its own contact, {mapping}): "
+                         f"{worst(nat) or 'none measured'}" + (f"; {owner}." if owner else "."))
+        tun = s[s["mode"] == "tuned"]
+        if len(tun):
+            parts.append(f"Tuned mode (fitted parameters, the best its contact model does over "
+                         f"the velocity set): {worst(tun) or 'none measured'}.")
         bad = s[~s.status.isin(["ok"])].drop_duplicates(
             ["mode", "velocity_m_s", "local", "structure"])
         if len(bad):
@@ -264,7 +269,9 @@ def _figures(cfg: config_mod.ReportConfig, df: pd.DataFrame, results: list[JobRe
     from impactbench.params import SCENARIO_CLASSES
 
     out: dict[str, Path] = {}
-    matrix = [r for r in results if r.job.study == "matrix" and r.history]
+    # a rigid contact's impulse/dt is no force history: leave such runs out of F(t) and F–x
+    matrix = [r for r in results if r.job.study == "matrix" and r.history
+              and "peak_force_n" not in r.run.get("not_comparable", {})]
     groups: dict[tuple, dict[tuple[str, str], dict]] = {}
     for r in matrix:
         groups.setdefault(r.job.reference_key, {})[(r.job.engine, r.job.mode)] = r.history
