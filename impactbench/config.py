@@ -192,4 +192,5 @@ def load(path: str | Path | None = None) -> ReportConfig:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ValueError(f"config {str(path)!r}: not valid TOML ({exc})") from None
-    return parse(data, source=str(path))
+    source = "impactbench/data/default.toml (packaged)" if path == DEFAULT_CONFIG else str(path)
+    return parse(data, source=source)
