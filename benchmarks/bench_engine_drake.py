@@ -21,24 +21,14 @@ import time
 
 from tabulate import tabulate
 
+from benchmarks.overhead import CASES
 from engines.base import RunSettings, get_adapter
-from reference.scenarios import BallOnPlate, RigidFlexible
 
 REPEATS = 5
 MIN_SECONDS = 1.0
 """Each case repeats at least ``REPEATS`` times and at least ``MIN_SECONDS`` of adapter time;
 the minimum over repeats filters out the other processes on this 2-core machine."""
 
-CASES = (
-    ("ball V0=1 native dt=1e-7", BallOnPlate(velocity_m_s=1.0), "native", 1e-7),
-    ("ball V0=5 injected dt=1e-7", BallOnPlate(velocity_m_s=5.0), "injected", 1e-7),
-    ("ball V0=1 native dt=1e-6", BallOnPlate(velocity_m_s=1.0), "native", 1e-6),
-    ("rf linear/linear native", RigidFlexible(velocity_m_s=3.3), "native", 1e-5),
-    ("rf elastoplastic/linear injected",
-     RigidFlexible(velocity_m_s=3.3, local="elastoplastic"), "injected", 1e-5),
-    ("rf linear/softening native", RigidFlexible(velocity_m_s=3.3, structure="softening"),
-     "native", 1e-5),
-)
 
 
 def _bare(adapter, scenario, mode: str, settings: RunSettings, steps: int) -> tuple[float, float]:

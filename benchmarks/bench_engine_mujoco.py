@@ -15,22 +15,13 @@ import time
 from collections.abc import Callable
 from typing import Any
 
+from benchmarks.overhead import CASES
 from engines.base import RunSettings, get_adapter
 from engines.mujoco_adapter import ball_mjcf, rigid_flexible_mjcf
-from reference.scenarios import BallOnPlate, RigidFlexible
+from reference.scenarios import BallOnPlate
 
 REPEATS = 15
 
-CASES: tuple[tuple[str, Any, str, float], ...] = (
-    ("ball V0=1 native dt=1e-6", BallOnPlate(velocity_m_s=1.0), "native", 1e-6),
-    ("ball V0=1 native dt=1e-7", BallOnPlate(velocity_m_s=1.0), "native", 1e-7),
-    ("ball V0=1 injected dt=1e-7", BallOnPlate(velocity_m_s=1.0), "injected", 1e-7),
-    ("rf lin/lin v1=3.3 native dt=1e-5", RigidFlexible(velocity_m_s=3.3), "native", 1e-5),
-    ("rf lin/soft v1=3.3 native dt=1e-5",
-     RigidFlexible(velocity_m_s=3.3, structure="softening"), "native", 1e-5),
-    ("rf ep/lin v1=3.3 injected dt=1e-5",
-     RigidFlexible(velocity_m_s=3.3, local="elastoplastic"), "injected", 1e-5),
-)
 
 
 def _best_pair(a: Callable[[], Any], b: Callable[[], Any],
