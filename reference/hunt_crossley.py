@@ -72,24 +72,22 @@ _G_COEF = np.array([(-1.0) ** k / k for k in range(2, 32)])[::-1]  # (y − ln(1
 _Q_COEF = np.array([1.0 / math.factorial(k) for k in range(2, 20)])[::-1]  # (eʸ − 1 − y)/y²
 
 
-def _g2(y: np.ndarray) -> np.ndarray:
-    """G(y) = (y − ln(1+y))/y² for y > −1 (→ 1/2 at y = 0)."""
+def _series_near_zero(y: np.ndarray, coef: np.ndarray, closed) -> np.ndarray:
+    """``closed(y)`` where |y| ≥ 0.2, its Taylor series ``coef`` near 0 (no cancellation)."""
     y = np.asarray(y, dtype=float)
     small = np.abs(y) < 0.2
-    ys = np.where(small, y, 0.0)
-    series = np.polyval(_G_COEF, ys)
-    yb = np.where(small, 1.0, y)
-    return np.where(small, series, (yb - np.log1p(yb)) / (yb * yb))
+    series = np.polyval(coef, np.where(small, y, 0.0))
+    return np.where(small, series, closed(np.where(small, 1.0, y)))
+
+
+def _g2(y: np.ndarray) -> np.ndarray:
+    """G(y) = (y − ln(1+y))/y² for y > −1 (→ 1/2 at y = 0)."""
+    return _series_near_zero(y, _G_COEF, lambda yb: (yb - np.log1p(yb)) / (yb * yb))
 
 
 def _q2(y: np.ndarray) -> np.ndarray:
     """q(y) = (eʸ − 1 − y)/y² (→ 1/2 at y = 0)."""
-    y = np.asarray(y, dtype=float)
-    small = np.abs(y) < 0.2
-    ys = np.where(small, y, 0.0)
-    series = np.polyval(_Q_COEF, ys)
-    yb = np.where(small, 1.0, y)
-    return np.where(small, series, (np.expm1(yb) - yb) / (yb * yb))
+    return _series_near_zero(y, _Q_COEF, lambda yb: (np.expm1(yb) - yb) / (yb * yb))
 
 
 def _e1(y: np.ndarray) -> np.ndarray:
