@@ -76,3 +76,64 @@ def stdout_to_stderr() -> Iterator[None]:
             ctypes.CDLL(None).fflush(None)
         os.dup2(saved, 1)
         os.close(saved)
+
+
+MAX_GRID_POINTS = 100_000_000
+TABLE_FORMATS = (".csv", ".parquet")
+
+
+def grid(start: float, stop: float, step: float):
+    """The sweep grid start, start + step, …, ≤ stop (stop included within 1e-9 of a step),
+    computed as start + i·step. Every swept quantity (velocity, stiffness, mass) is > 0."""
+    import math
+
+    import numpy as np
+
+    from reference import validation as check
+
+    check.positive("start", start)
+    check.positive("step", step)
+    check.positive("stop", stop)
+    if stop < start:
+        raise ValueError(f"stop = {stop!r}: must be >= start ({start!r})")
+    count = math.floor((stop - start) / step + 1e-9) + 1
+    if count > MAX_GRID_POINTS:
+        raise ValueError(f"step = {step!r}: gives {count} points, must give <= "
+                         f"{MAX_GRID_POINTS}")
+    return start + step * np.arange(count, dtype=float)
+
+
+def table_format(path) -> str:
+    """``csv`` or ``parquet`` from the file's extension; one-line error otherwise."""
+    suffix = path.suffix.lower()
+    if suffix not in TABLE_FORMATS:
+        raise ValueError(f"out = {str(path)!r}: must end in .csv or .parquet")
+    return suffix[1:]
+
+
+def write_table(table, path) -> None:
+    """Write a DataFrame as CSV or Parquet by extension, with pyarrow (full float64
+    precision: the CSV round-trips exactly)."""
+    import pyarrow as pa
+
+    fmt = table_format(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    arrow = pa.Table.from_pandas(table, preserve_index=False)
+    if fmt == "parquet":
+        import pyarrow.parquet as pq
+
+        pq.write_table(arrow, path)
+    else:
+        import pyarrow.csv as pacsv
+
+        pacsv.write_csv(arrow, path)
+
+
+def progress_bar(total: int, unit: str = "run"):
+    """A tqdm bar on a terminal, a no-op elsewhere; returns (update, close)."""
+    if not sys.stderr.isatty():
+        return (lambda n: None), (lambda: None)
+    from tqdm import tqdm
+
+    bar = tqdm(total=total, unit=unit, file=sys.stderr)
+    return bar.update, bar.close

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import math
 import os
-import sys
 from collections.abc import Callable, Iterable
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
@@ -199,13 +198,3 @@ def tidy(results: list[JobResult]) -> list[dict[str, Any]]:
                 "engine_version": run.get("engine_version", ""),
             })
     return rows
-
-
-def progress_bar(total: int, desc: str = "runs"):
-    """A tqdm bar on a terminal, a no-op elsewhere; returns (update, close)."""
-    if not sys.stderr.isatty():
-        return (lambda n: None), (lambda: None)
-    from tqdm import tqdm
-
-    bar = tqdm(total=total, desc=desc, unit="run")
-    return bar.update, bar.close

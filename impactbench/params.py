@@ -37,15 +37,19 @@ SCENARIO_FLAGS = {"ball-on-plate": BALL_FLAGS, "rigid-flexible": RIGID_FLEXIBLE_
 SCENARIO_CLASSES = {"ball-on-plate": BallOnPlate, "rigid-flexible": RigidFlexible}
 
 
-def add_parameter_flags(parser: argparse.ArgumentParser, scenario: str) -> None:
-    """Add the physical-parameter flags of ``scenario`` (defaults: the paper's values)."""
+def add_parameter_flags(parser: argparse.ArgumentParser, scenario: str, *,
+                        with_gravity: bool = True) -> None:
+    """Add the physical-parameter flags of ``scenario`` (defaults: the paper's values).
+
+    ``with_gravity`` adds the ball's ``--gravity`` (engines only: the reference is the
+    paper's gravity-free collinear impact)."""
     defaults = SCENARIO_CLASSES[scenario]()
     group = parser.add_argument_group("physical parameters (SI; defaults are the paper's)")
     for flag, (field, help_text) in SCENARIO_FLAGS[scenario].items():
         group.add_argument(f"--{flag}", type=number, default=getattr(defaults, field),
                            dest=field, metavar="X",
                            help=f"{help_text}; default {getattr(defaults, field):g}")
-    if scenario == "ball-on-plate":
+    if scenario == "ball-on-plate" and with_gravity:
         group.add_argument("--gravity", type=number, default=0.0, dest="gravity_m_s2",
                            metavar="G", help="gravity (m/s², engines only); default 0 (off)")
 

@@ -24,8 +24,9 @@ from tabulate import tabulate
 
 from impactbench import config as config_mod
 from impactbench import plots
+from impactbench.cliutil import progress_bar
 from impactbench.evaluate import SCENARIO_METRICS
-from impactbench.matrix import JobResult, plan, progress_bar, run_jobs, tidy
+from impactbench.matrix import JobResult, plan, run_jobs, tidy
 
 HEADLINE = {
     "ball-on-plate": ("restitution", "duration_s", "peak_force_n"),

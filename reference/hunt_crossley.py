@@ -72,6 +72,18 @@ _G_COEF = np.array([(-1.0) ** k / k for k in range(2, 32)])[::-1]  # (y − ln(1
 _Q_COEF = np.array([1.0 / math.factorial(k) for k in range(2, 20)])[::-1]  # (eʸ − 1 − y)/y²
 
 
+def _bounded_max(fn, a: float, b: float, xatol: float) -> float:
+    """The maximum of a unimodal ``fn`` on [a, b]: a 65-node scan brackets it, then a bounded
+    Brent search polishes it (never below the best node)."""
+    nodes = np.linspace(a, b, 65)
+    vals = np.array([fn(u) for u in nodes])
+    i = int(np.argmax(vals))
+    lo, hi = nodes[max(i - 1, 0)], nodes[min(i + 1, nodes.size - 1)]
+    res = optimize.minimize_scalar(lambda u: -fn(u), bounds=(lo, hi), method="bounded",
+                                   options={"xatol": xatol})
+    return max(-float(res.fun), float(vals[i]))
+
+
 def _series_near_zero(y: np.ndarray, coef: np.ndarray, closed) -> np.ndarray:
     """``closed(y)`` where |y| ≥ 0.2, its Taylor series ``coef`` near 0 (no cancellation)."""
     y = np.asarray(y, dtype=float)
@@ -556,16 +568,8 @@ def _solve_general(law: HuntCrossley, m: float, v0: float) -> dict[str, float]:
         total += integrate.quad(lambda u, e=end: m * v0 / law.elastic_force(x_of(u, e)),
                                 min(0.0, half), max(0.0, half), **opts)[0]
 
-    def neg_force(u: float) -> float:
-        return -law.elastic_force(x_of(u, uc)) * math.exp(float(a) * u)
-
-    grid = np.linspace(0.0, uc, 65)
-    vals = np.array([neg_force(u) for u in grid])
-    i = int(np.argmin(vals))
-    lo, hi = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
-    res = optimize.minimize_scalar(neg_force, bounds=(lo, hi), method="bounded",
-                                   options={"xatol": 1e-14 * uc})
-    peak = max(-res.fun, -vals[i])
+    peak = _bounded_max(lambda u: law.elastic_force(x_of(u, uc)) * math.exp(float(a) * u),
+                        0.0, uc, xatol=1e-14 * uc)
     return _metrics(k, total, peak, xmax)
 
 
@@ -709,15 +713,10 @@ def solve_ode(law: HuntCrossley, mass_kg: float, velocity_m_s: float,
     t_turn = float(sol.t_events[1][0])
     xmax = float(sol.y_events[1][0][0]) * xs
 
-    def neg_force(t: float) -> float:
+    def force(t: float) -> float:
         y = sol.sol(t)
-        return -law.force(xs * y[0], v0 * y[1])
+        return law.force(xs * y[0], v0 * y[1])
 
-    grid = np.linspace(0.0, t_turn, 65)
-    vals = np.array([neg_force(t) for t in grid])
-    i = int(np.argmin(vals))
-    lo, hi = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
-    res = optimize.minimize_scalar(neg_force, bounds=(lo, hi), method="bounded",
-                                   options={"xatol": 1e-13 * t_turn})
     k = -float(y_end[1])
-    return _metrics(k, t_end * ts, max(-res.fun, -vals[i]), xmax)
+    peak = _bounded_max(force, 0.0, t_turn, xatol=1e-13 * t_turn)
+    return _metrics(k, t_end * ts, peak, xmax)

@@ -17,28 +17,23 @@ five metric columns.
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 import time
 from pathlib import Path
 
-from impactbench.cliutil import number, number_list, print_json, print_table
+from impactbench.cliutil import (
+    grid,
+    number,
+    number_list,
+    print_json,
+    print_table,
+    table_format,
+    write_table,
+)
+from impactbench.params import add_parameter_flags, scenario_from_args
 
 REFERENCE_HELP = "Hunt–Crossley ball on a fixed plate: closed-form metrics"
 SWEEP_HELP = "Hunt–Crossley ball on a fixed plate: metrics over a velocity grid into a table"
-FORMATS = {".csv": "csv", ".parquet": "parquet", ".pq": "parquet"}
-MAX_ROWS = 100_000_000
-
-
-def _add_law_flags(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--mass", type=number, default=0.1, dest="mass_kg", metavar="KG",
-                   help="ball mass m in kg (default 0.1)")
-    p.add_argument("--stiffness", type=number, default=1.7135e10, metavar="C",
-                   help="contact stiffness c in N/m^n (default 1.7135e10)")
-    p.add_argument("--exponent", type=number, default=1.5, metavar="N",
-                   help="force exponent n (default 1.5, Hertz)")
-    p.add_argument("--damping", type=number, default=0.1, dest="damping_s_per_m",
-                   metavar="B", help="Hunt–Crossley damping b in s/m (default 0.1; 0 = Hertz)")
 
 
 def register(top: argparse._SubParsersAction, groups: dict) -> None:
@@ -47,7 +42,7 @@ def register(top: argparse._SubParsersAction, groups: dict) -> None:
     p.add_argument("--velocity", type=number_list, action="extend", dest="velocities",
                    metavar="V", help="impact velocity V0 in m/s; repeat the flag or give a "
                    "comma list for several (default 1.0)")
-    _add_law_flags(p)
+    add_parameter_flags(p, "ball-on-plate", with_gravity=False)
     p.add_argument("--json", action="store_true",
                    help="print JSON (one object, or a list for several velocities)")
     p.set_defaults(func=reference_main)
@@ -62,21 +57,17 @@ def register(top: argparse._SubParsersAction, groups: dict) -> None:
     s.add_argument("--step", type=number, required=True, metavar="H", help="grid step")
     s.add_argument("--out", type=Path, required=True, metavar="FILE",
                    help="output table: .csv or .parquet")
-    _add_law_flags(s)
+    add_parameter_flags(s, "ball-on-plate", with_gravity=False)
     s.set_defaults(func=sweep_main)
 
 
 def reference_main(args: argparse.Namespace) -> int:
     from reference.hunt_crossley import solve
     from reference.metrics import BALL_METRICS
-    from reference.scenarios import BallOnPlate
 
     velocities = args.velocities or [1.0]
-    results = []
-    for v in velocities:
-        scenario = BallOnPlate(velocity_m_s=v, mass_kg=args.mass_kg, stiffness=args.stiffness,
-                               exponent=args.exponent, damping_s_per_m=args.damping_s_per_m)
-        results.append(solve(scenario))
+    results = [solve(scenario_from_args("ball-on-plate", args, velocity_m_s=v))
+               for v in velocities]
     if args.json:
         print_json(results[0] if len(results) == 1 else results)
         return 0
@@ -87,50 +78,15 @@ def reference_main(args: argparse.Namespace) -> int:
     return 0
 
 
-def grid(start: float, stop: float, step: float):
-    """The grid start, start+step, …, ≤ stop (stop included within 1e-9 of a step)."""
-    import numpy as np
-
-    from reference import validation as check
-
-    check.positive("start", start)
-    check.positive("step", step)
-    check.positive("stop", stop)
-    if stop < start:
-        raise ValueError(f"stop = {stop!r}: must be >= start ({start!r})")
-    count = math.floor((stop - start) / step + 1e-9) + 1
-    if count > MAX_ROWS:
-        raise ValueError(f"step = {step!r}: gives {count} rows, must give <= {MAX_ROWS}")
-    return start + step * np.arange(count, dtype=float)
-
-
 def sweep_main(args: argparse.Namespace) -> int:
-    fmt = FORMATS.get(args.out.suffix.lower())
-    if fmt is None:
-        raise ValueError(f"out = '{args.out}': must end in .csv or .parquet")
+    table_format(args.out)
     tic = time.perf_counter()
     velocities = grid(args.start, args.stop, args.step)
     from reference.hunt_crossley import sweep
 
     table = sweep(velocities, mass_kg=args.mass_kg, stiffness=args.stiffness,
                   exponent=args.exponent, damping_s_per_m=args.damping_s_per_m)
-    _write(table, args.out, fmt)
+    write_table(table, args.out)
     wall = time.perf_counter() - tic
     print(f"wrote {len(table)} rows to {args.out} in {wall:.3g} s", file=sys.stderr)
     return 0
-
-
-def _write(table, path: Path, fmt: str) -> None:
-    """Write with pyarrow (full float64 precision; CSV round-trips exactly)."""
-    import pyarrow as pa
-
-    path.parent.mkdir(parents=True, exist_ok=True)
-    arrow = pa.Table.from_pandas(table, preserve_index=False)
-    if fmt == "parquet":
-        import pyarrow.parquet as pq
-
-        pq.write_table(arrow, path)
-    else:
-        import pyarrow.csv as pacsv
-
-        pacsv.write_csv(arrow, path)

@@ -59,9 +59,9 @@ def main(args: argparse.Namespace) -> int:
     print(f"impactbench gate: {len(checks)} checks need {len(runs)} engine runs "
           f"({args.jobs or 'no'} worker processes)", file=sys.stderr)
 
-    from impactbench.matrix import progress_bar
+    from impactbench.cliutil import progress_bar
 
-    update, close = progress_bar(len(runs), "gate runs")
+    update, close = progress_bar(len(runs), unit="gate run")
     outcomes = gates.evaluate(checks, baseline, jobs=args.jobs, progress=update)
     close()
     if args.update_baseline:

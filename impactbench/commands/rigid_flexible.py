@@ -8,18 +8,22 @@ law combinations (or the chosen ones), in parallel over the cores, into a CSV or
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
-import numpy as np
-
-from impactbench.cliutil import number, print_json, print_table
+from impactbench.cliutil import (
+    grid,
+    number,
+    print_json,
+    print_table,
+    progress_bar,
+    table_format,
+    write_table,
+)
 from impactbench.params import add_law_flags, add_parameter_flags, scenario_from_args
 from reference import two_dof
 from reference.laws import LOCAL_LAWS, STRUCTURAL_LAWS
 
 JSON_KEYS = ("status", *two_dof.METRIC_KEYS)
-MAX_SWEEP_POINTS = 10_000_000
 
 
 def register(top: argparse._SubParsersAction, groups: dict) -> None:
@@ -64,18 +68,6 @@ def reference_main(args: argparse.Namespace) -> int:
     return 0
 
 
-def grid(start: float, stop: float, step: float) -> np.ndarray:
-    """start, start + step, … ≤ stop (+ a relative 1e-9 of slack), computed as start + i·step."""
-    if not step > 0.0:
-        raise ValueError(f"step = {step!r}: must be > 0")
-    if stop < start:
-        raise ValueError(f"stop = {stop!r}: must be >= start ({start!r})")
-    n = int(np.floor((stop - start) / step * (1.0 + 1e-12) + 1e-9)) + 1
-    if n > MAX_SWEEP_POINTS:
-        raise ValueError(f"step = {step!r}: gives {n} points, more than {MAX_SWEEP_POINTS}")
-    return start + step * np.arange(n)
-
-
 def sweep_main(args: argparse.Namespace) -> int:
     values = grid(args.start, args.stop, args.step)
     field = two_dof.SWEEP_FIELDS[args.over]
@@ -85,27 +77,16 @@ def sweep_main(args: argparse.Namespace) -> int:
     locals_ = (args.local,) if args.local else tuple(LOCAL_LAWS)
     structures = (args.structure,) if args.structure else tuple(STRUCTURAL_LAWS)
     combos = [(lo, st) for lo in locals_ for st in structures]
-    suffix = args.out.suffix.lower()
-    if suffix not in (".csv", ".parquet"):
-        raise ValueError(f"out = {str(args.out)!r}: must end in .csv or .parquet")
+    table_format(args.out)
     if args.processes is not None and args.processes < 1:
         raise ValueError(f"processes = {args.processes!r}: must be >= 1")
-    bar = None
-    if sys.stderr.isatty():
-        from tqdm import tqdm
-
-        bar = tqdm(total=len(values) * len(combos), unit="solve", file=sys.stderr)
+    update, close = progress_bar(len(values) * len(combos), unit="solve")
     try:
         df = two_dof.sweep(base, args.over, values, combos=combos, processes=args.processes,
-                           progress=bar.update if bar else None)
+                           progress=update)
     finally:
-        if bar:
-            bar.close()
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    if suffix == ".csv":
-        df.to_csv(args.out, index=False)
-    else:
-        df.to_parquet(args.out, index=False)
+        close()
+    write_table(df, args.out)
     counts = df["status"].value_counts().to_dict()
     print(f"{len(df)} solves ({len(combos)} law combinations × {len(values)} values of "
           f"{field}) → {args.out}; status: "

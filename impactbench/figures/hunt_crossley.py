@@ -135,14 +135,14 @@ def fig6_hysteresis(path: Path) -> Path:
 
 
 def fig7_energy_loss(path: Path) -> Path:
+    def lost_j(v: np.ndarray) -> np.ndarray:  # ΔT = (1 − k²)·½·m·V0²
+        return (1.0 - hc.restitution(CASE.damping_s_per_m * v) ** 2) * 0.5 * CASE.mass_kg * v**2
+
     v = np.linspace(0.0, 5.0, 400)
-    loss = 1.0 - hc.restitution(CASE.damping_s_per_m * v) ** 2
     fig, ax = plt.subplots(figsize=(6.4, 4.6))
-    ax.plot(v, loss * 0.5 * CASE.mass_kg * v**2, label=f"b = {CASE.damping_s_per_m:g} s/m, "
-            f"m = {CASE.mass_kg:g} kg")
+    ax.plot(v, lost_j(v), label=f"b = {CASE.damping_s_per_m:g} s/m, m = {CASE.mass_kg:g} kg")
     pts = np.asarray(PAPER_VELOCITIES_M_S)
-    ploss = (1.0 - hc.restitution(CASE.damping_s_per_m * pts) ** 2) * 0.5 * CASE.mass_kg * pts**2
-    ax.plot(pts, ploss, "o", label="the six V0 of Figs. 4, 6")
+    ax.plot(pts, lost_j(pts), "o", label="the six V0 of Figs. 4, 6")
     ax.set_xlabel("impact velocity V0 (m/s)")
     ax.set_ylabel("lost kinetic energy ΔT (J)")
     ax.set_title("Fig. 7: kinetic energy lost in the impact")
