@@ -19,10 +19,10 @@ from __future__ import annotations
 import math
 import time
 
+from impactbench.engines.base import RunSettings, get_adapter
 from tabulate import tabulate
 
 from benchmarks.overhead import CASES
-from engines.base import RunSettings, get_adapter
 
 REPEATS = 5
 MIN_SECONDS = 1.0

@@ -15,10 +15,11 @@ import time
 from collections.abc import Callable
 from typing import Any
 
+from impactbench.engines.base import RunSettings, get_adapter
+from impactbench.engines.mujoco_adapter import ball_mjcf, rigid_flexible_mjcf
+from impactbench.reference.scenarios import BallOnPlate
+
 from benchmarks.overhead import CASES
-from engines.base import RunSettings, get_adapter
-from engines.mujoco_adapter import ball_mjcf, rigid_flexible_mjcf
-from reference.scenarios import BallOnPlate
 
 REPEATS = 15
 

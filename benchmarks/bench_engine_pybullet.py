@@ -22,10 +22,11 @@ import time
 from collections.abc import Callable
 from typing import Any
 
+from impactbench.engines.base import RunSettings, get_adapter
+from impactbench.engines.pybullet_adapter import BallWorld, FlexWorld, _import_engine
+from impactbench.reference.scenarios import BallOnPlate
+
 from benchmarks.overhead import CASES
-from engines.base import RunSettings, get_adapter
-from engines.pybullet_adapter import BallWorld, FlexWorld, _import_engine
-from reference.scenarios import BallOnPlate
 
 REPEATS = 15
 

@@ -18,11 +18,10 @@ from __future__ import annotations
 
 import time
 
+from impactbench.engines import pymunk_adapter as pa
+from impactbench.engines.base import RunSettings, get_adapter
+from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
 from tabulate import tabulate
-
-from engines import pymunk_adapter as pa
-from engines.base import RunSettings, get_adapter
-from reference.scenarios import BallOnPlate, RigidFlexible
 
 REPEATS = 15
 

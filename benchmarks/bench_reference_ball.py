@@ -7,7 +7,8 @@ In one run, on the paper's ball (m = 0.1 kg, c = 1.7135e10 N/m^1.5, n = 1.5, b =
    time including interpreter start-up, imports and writing the table;
 2. ``solve_ivp`` (DOP853, rtol 1e-10) per velocity on ``ODE_POINTS`` velocities taken evenly
    from the same grid, timed per point;
-3. the vectorised :func:`reference.hunt_crossley.sweep` on those same velocities, in process.
+3. the vectorised :func:`impactbench.reference.hunt_crossley.sweep` on those same velocities, in
+   process.
 
 Printed: both per-velocity costs, their ratio, velocities per second of the command, and the
 largest relative difference between the sweep file's rows and the ODE on every metric. The
@@ -28,11 +29,10 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from impactbench.reference import hunt_crossley as hc
+from impactbench.reference.metrics import BALL_METRICS
+from impactbench.reference.scenarios import BallOnPlate
 from tabulate import tabulate
-
-from reference import hunt_crossley as hc
-from reference.metrics import BALL_METRICS
-from reference.scenarios import BallOnPlate
 
 START, STOP, STEP = 0.01, 10.00999, 1e-5
 ODE_POINTS = 200

@@ -19,10 +19,10 @@ from __future__ import annotations
 import time
 
 import numpy as np
+from impactbench.engines.base import available_engines, run_safely
+from impactbench.reference.scenarios import PAPER_VELOCITIES_M_S, BallOnPlate
 
-from engines.base import available_engines, run_safely
 from impactbench.tuning import Objective, make_space, parse_weights, tune
-from reference.scenarios import PAPER_VELOCITIES_M_S, BallOnPlate
 
 REPEATS = 5
 

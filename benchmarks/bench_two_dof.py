@@ -2,11 +2,13 @@
 
 In one run, with the paper's base parameters (MODELS.md §2):
 
-1. :func:`reference.two_dof.sweep` over v1 = 0.1 … 1000 m/s step 0.1 (10,000 points) × the
+1. :func:`impactbench.reference.two_dof.sweep` over v1 = 0.1 … 1000 m/s step 0.1 (10,000 points) ×
+   the
    3 local × 2 structural laws = 60,000 solves, in parallel over all cores (the compiled
-   kernel of :mod:`reference.two_dof_fast`, compiled beforehand and cached on disk; the
+   kernel of :mod:`impactbench.reference.two_dof_fast`, compiled beforehand and cached on disk; the
    one-off compile time is printed apart);
-2. :func:`reference.two_dof.solve_slow` — scipy ``solve_ivp`` (DOP853, rtol 1e-11) per piece
+2. :func:`impactbench.reference.two_dof.solve_slow` — scipy ``solve_ivp`` (DOP853, rtol 1e-11) per
+   piece
    with event location, then the shared metrics on the record — on ``ODE_POINTS`` rows taken
    evenly from the same 60,000, timed per point and scaled up to 60,000.
 
@@ -21,10 +23,9 @@ import os
 import time
 
 import numpy as np
+from impactbench.reference import two_dof, two_dof_fast
+from impactbench.reference.scenarios import RigidFlexible
 from tabulate import tabulate
-
-from reference import two_dof, two_dof_fast
-from reference.scenarios import RigidFlexible
 
 START, STOP, STEP = 0.1, 1000.0, 0.1
 ODE_POINTS = 200

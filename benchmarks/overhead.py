@@ -4,7 +4,7 @@ rigid–flexible model native (linear and softening structure) and injected (ela
 
 from __future__ import annotations
 
-from reference.scenarios import BallOnPlate, RigidFlexible
+from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
 
 CASES: tuple[tuple[str, BallOnPlate | RigidFlexible, str, float], ...] = (
     ("ball V0=1 native dt=1e-6", BallOnPlate(velocity_m_s=1.0), "native", 1e-6),

@@ -1,6 +1,6 @@
-"""Engine adapters, imported lazily by name through :mod:`engines.base`'s registry."""
+"""Engine adapters, imported lazily by name through :mod:`impactbench.engines.base`'s registry."""
 
-from engines.base import (
+from impactbench.engines.base import (
     ENGINES,
     MODES,
     Adapter,

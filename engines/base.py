@@ -1,8 +1,8 @@
 """The adapter contract, the lazy registry and the safe runner.
 
-An adapter turns a scenario (``reference.scenarios``) into an
-:class:`~reference.record.ImpactRecord` measured from the engine's own contact output.
-It never computes metrics: ``reference.metrics.compute`` does, for every producer alike.
+An adapter turns a scenario (``impactbench.reference.scenarios``) into an
+:class:`~impactbench.reference.record.ImpactRecord` measured from the engine's own contact output.
+It never computes metrics: ``impactbench.reference.metrics.compute`` does, for every producer alike.
 
 Adding an engine (a checklist, in the manner of scipy's ``OdeSolver``):
 
@@ -15,7 +15,7 @@ Adding an engine (a checklist, in the manner of scipy's ``OdeSolver``):
    contact until the bodies have separated: time, penetration, penetration rate, the engine's
    normal force (force sample at t_k = the force acting over the step that starts at t_k),
    body velocities.
-4. Return a non-ok :class:`~reference.record.Status` for physical outcomes (no_contact,
+4. Return a non-ok :class:`~impactbench.reference.record.Status` for physical outcomes (no_contact,
    tunneled, diverged, max_time, unsupported) instead of raising.
 5. Register the class in :data:`ENGINES` as ``"module:Class"`` and add a test module in
    ``tests/engines/`` that ``importorskip``s the engine.
@@ -36,18 +36,18 @@ from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
-from reference.record import ImpactRecord, Status
-from reference.scenarios import BallOnPlate, RigidFlexible
+from impactbench.reference.record import ImpactRecord, Status
+from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
 
 Scenario = BallOnPlate | RigidFlexible
 
 MODES: tuple[str, ...] = ("native", "injected", "tuned")
 
 ENGINES: dict[str, str] = {
-    "mujoco": "engines.mujoco_adapter:MujocoAdapter",
-    "pybullet": "engines.pybullet_adapter:PybulletAdapter",
-    "pymunk": "engines.pymunk_adapter:PymunkAdapter",
-    "drake": "engines.drake_adapter:DrakeAdapter",
+    "mujoco": "impactbench.engines.mujoco_adapter:MujocoAdapter",
+    "pybullet": "impactbench.engines.pybullet_adapter:PybulletAdapter",
+    "pymunk": "impactbench.engines.pymunk_adapter:PymunkAdapter",
+    "drake": "impactbench.engines.drake_adapter:DrakeAdapter",
 }
 
 PIP: dict[str, str] = {
@@ -86,7 +86,7 @@ class RunSettings:
     options: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        from reference import validation as check
+        from impactbench.reference import validation as check
 
         if self.timestep_s is not None:
             check.positive("timestep_s", self.timestep_s)

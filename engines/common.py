@@ -24,9 +24,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from impactbench.reference.record import ImpactRecord, Status
 from scipy import optimize
-
-from reference.record import ImpactRecord, Status
 
 NATIVE_REFERENCE_VELOCITY_M_S = 1.0
 """The impact velocity at which native-mode conversions match the reference (the stated
@@ -148,7 +147,7 @@ def native_ball_spring_damper(scenario, reference_velocity_m_s: float | None = N
     and contact duration for ``scenario`` at the reference velocity (default
     :data:`NATIVE_REFERENCE_VELOCITY_M_S`), the conversion behind MuJoCo's and PyBullet's
     native mode."""
-    from reference import hunt_crossley
+    from impactbench.reference import hunt_crossley
 
     v_ref = reference_velocity_m_s or NATIVE_REFERENCE_VELOCITY_M_S
     ref = hunt_crossley.solve(scenario.replace(velocity_m_s=v_ref))

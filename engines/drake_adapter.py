@@ -23,7 +23,8 @@ Ball on plate (MODELS.md §1)
     * native: Drake's point contact, f = k·x·(1 + d·ẋ)₊ — linear Hunt–Crossley. Its
       restitution depends on α = d·V0 alone, so d = b gives the reference's restitution at
       every velocity. k is chosen so the *linear* HC duration equals the reference duration at
-      the reference velocity V_ref (``engines.common.NATIVE_REFERENCE_VELOCITY_M_S``, override
+      the reference velocity V_ref (``impactbench.engines.common.NATIVE_REFERENCE_VELOCITY_M_S``,
+      override
       ``options["reference_velocity_m_s"]``). For n = 1 the problem is self-similar with
       t* = √(m/k): T(k) = √(m/k)·τ(α), hence with T₁ = T(k = 1 N/m) at V_ref and
       T_ref = the Hertz–HC reference duration at V_ref:
@@ -60,10 +61,11 @@ Measurement and stopping
     output port (sum of ``point_pair_contact_info(i).contact_force()`` along the axis);
     injected: the applied-force system's output. The run stops when the ball is outside the
     plate and moving away (x < 0, ẋ < 0: point contact has no margin, so the force is 0),
-    when no further contact is possible (``reference.laws.no_further_contact``),
+    when no further contact is possible (``impactbench.reference.laws.no_further_contact``),
     on structural collapse (body 2's energy above ``collapse_energy``), when a body ends past
     the other (``tunneled``), on a non-finite state, or at the time cap (``max_time``).
-    Energy check (``engines.common.classify``): kinetic energy (+ gravity potential for the
+    Energy check (``impactbench.engines.common.classify``): kinetic energy (+ gravity potential for
+    the
     ball; + structural potential for the 2-DOF model) at the end against the start.
 
 Cost
@@ -81,13 +83,12 @@ from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 import numpy as np
-
-from engines.base import PIP, Adapter, EngineUnavailable, RunSettings, Scenario
-from engines.common import NATIVE_REFERENCE_VELOCITY_M_S, Recorder, classify
-from reference import validation as check
-from reference.laws import LocalLaw, StructuralLaw, no_further_contact
-from reference.record import ImpactRecord, Status
-from reference.scenarios import BallOnPlate, RigidFlexible
+from impactbench.engines.base import PIP, Adapter, EngineUnavailable, RunSettings, Scenario
+from impactbench.engines.common import NATIVE_REFERENCE_VELOCITY_M_S, Recorder, classify
+from impactbench.reference import validation as check
+from impactbench.reference.laws import LocalLaw, StructuralLaw, no_further_contact
+from impactbench.reference.record import ImpactRecord, Status
+from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
 
 FREE_FLIGHT_STEPS = 2.5
 """Steps of free flight before first touch. Not an integer, so first touch falls mid-step
@@ -138,7 +139,7 @@ def native_ball_point_contact(scenario: BallOnPlate, reference_velocity_m_s: flo
 @functools.lru_cache(maxsize=256)
 def _point_contact_mapping(mass_kg: float, stiffness: float, exponent: float,
                            damping_s_per_m: float, v_ref: float) -> tuple[float, float]:
-    from reference import hunt_crossley
+    from impactbench.reference import hunt_crossley
 
     at_ref = BallOnPlate(velocity_m_s=v_ref, mass_kg=mass_kg, stiffness=stiffness,
                          exponent=exponent, damping_s_per_m=damping_s_per_m)

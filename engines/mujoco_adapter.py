@@ -24,7 +24,8 @@ Modes:
 
 - ``native``, ball: the clipped linear spring–damper that matches the Hunt–Crossley reference's
   restitution e and duration T at the reference velocity V_ref (default 1 m/s,
-  ``options["reference_velocity_m_s"]``), from :func:`engines.common.native_ball_spring_damper`:
+  ``options["reference_velocity_m_s"]``), from
+  :func:`impactbench.engines.common.native_ball_spring_damper`:
   e(ζ) = e_ref gives ζ, ωd = θe(ζ)/T, ωn = ωd/√(1−ζ²), K = m·ωn², D = 2ζ·√(K·m);
   solref = (−K·A, −D·A), solimp = (d, d, 1 mm, 0.5, 2) on both geoms.
 - ``native``, rigid–flexible: the contact stiffness k1 without damping for every local law
@@ -54,7 +55,8 @@ through :func:`mujoco.rollout.rollout` (C++ loop, no Python per step) when nothi
 between steps (native/tuned with a linear structure), otherwise a lean Python loop. The record
 runs from 2.5 steps of free flight before first touch (time 0 = the instant of first touch in
 free flight) until separation: ball moving away with zero force; rigid–flexible when
-:func:`reference.laws.no_further_contact` holds, body 2's energy exceeds the softening law's
+:func:`impactbench.reference.laws.no_further_contact` holds, body 2's energy exceeds the softening
+law's
 collapse energy (``structure_collapsed``) or the time cap is reached (``max_time``).
 A MuJoCo instability warning (bad qpos/qvel/qacc, which makes MuJoCo reset the state) gives
 ``diverged``.
@@ -69,18 +71,17 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-
-from engines.base import Adapter, EngineUnavailable, RunSettings, Scenario
-from engines.common import (
+from impactbench.engines.base import Adapter, EngineUnavailable, RunSettings, Scenario
+from impactbench.engines.common import (
     NATIVE_REFERENCE_VELOCITY_M_S,
     SpringDamper,
     classify,
     native_ball_spring_damper,
 )
-from reference import validation as check
-from reference.laws import no_further_contact
-from reference.record import ImpactRecord, Status
-from reference.scenarios import BallOnPlate, RigidFlexible
+from impactbench.reference import validation as check
+from impactbench.reference.laws import no_further_contact
+from impactbench.reference.record import ImpactRecord, Status
+from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
 
 IMPEDANCE = 1e-4
 """solimp dmin = dmax: MuJoCo's smallest impedance (mjMINIMP), a pure spring–damper."""

@@ -33,7 +33,7 @@ pair has exactly K and D.
 
 Modes
 * ``native`` ball: the clipped linear spring–damper of
-  :func:`engines.common.native_ball_spring_damper` (restitution and duration of the
+  :func:`impactbench.engines.common.native_ball_spring_damper` (restitution and duration of the
   Hunt–Crossley reference at ``reference_velocity_m_s``, default 1 m/s): with the reference's
   restitution e and duration T, ζ solves e_clip(ζ) = e, ωd = θe(ζ)/T, ωn = ωd/√(1−ζ²),
   K = m·ωn² (N/m), D = 2ζ·√(K·m) (N·s/m). Rigid–flexible: K = k1, D = 0 for every local law.
@@ -63,10 +63,12 @@ plate within one step (``tunneled``, dt = 1e-2 s) or the explicit structural spr
 unstable (ω2·dt > 2: ``diverged``). In ``injected`` mode the explicit force overshoots and the
 body tunnels (ball at dt = 1e-4 s, rigid–flexible at dt = 1e-2 s).
 
-Recording (``engines.common.Recorder``): sample k is the state at the start of step k and the
+Recording (``impactbench.engines.common.Recorder``): sample k is the state at the start of step k
+and the
 normal force ``getContactPoints()[9]`` (impulse/dt) Bullet applied over that step. The ball
 run stops once it moves away, out of the overlap, with zero force; the rigid–flexible run when
-``reference.laws.no_further_contact`` holds, on collapse (body 2's energy above the softening
+``impactbench.reference.laws.no_further_contact`` holds, on collapse (body 2's energy above the
+softening
 potential's peak → ``structure_collapsed``), or at the time cap (``max_time``).
 """
 
@@ -77,11 +79,11 @@ import math
 import time
 from typing import Any
 
-from engines.base import Adapter, EngineUnavailable, RunSettings, Scenario
-from engines.common import NATIVE_REFERENCE_VELOCITY_M_S, Recorder, classify
-from reference import validation as check
-from reference.record import ImpactRecord, Status
-from reference.scenarios import BallOnPlate, RigidFlexible
+from impactbench.engines.base import Adapter, EngineUnavailable, RunSettings, Scenario
+from impactbench.engines.common import NATIVE_REFERENCE_VELOCITY_M_S, Recorder, classify
+from impactbench.reference import validation as check
+from impactbench.reference.record import ImpactRecord, Status
+from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
 
 FLIGHT_STEPS = 2.5
 """Steps of free flight before first touch (the record starts there). The half step puts
@@ -295,7 +297,7 @@ def _native_pair(scenario: BallOnPlate, v_ref: float) -> tuple[float, float]:
     """(K, D) of the native conversion; cached because the reference solve costs ms, more
     than a whole impact at dt = 1e-6 s (the key drops velocity and gravity, which the
     conversion does not depend on)."""
-    from engines.common import native_ball_spring_damper
+    from impactbench.engines.common import native_ball_spring_damper
 
     sd = native_ball_spring_damper(scenario, v_ref)
     return sd.stiffness_n_per_m, sd.damping_ns_per_m
@@ -373,7 +375,7 @@ def _run_ball(p: Any, s: BallOnPlate, mode: str, settings: RunSettings, dt: floa
 def _run_flex(p: Any, s: RigidFlexible, mode: str, settings: RunSettings, dt: float,
               injection: str) -> ImpactRecord:
     """Record the rigid–flexible impact(s); see the module docstring for the physics."""
-    from reference.laws import no_further_contact
+    from impactbench.reference.laws import no_further_contact
 
     injected = mode == "injected"
     meta: dict[str, Any] = {"scenario": "rigid-flexible"}

@@ -22,7 +22,8 @@ error of first order in dt on peak force, duration and max penetration (at dt = 
 +6.1e-4, −3.5e-4, −2.6e-4 at 5 m/s; +1.1e-4, −5.9e-5, −4.2e-5 at 1 m/s), which cancels
 between compression and restitution in the restitution (−1.1e-7 at 1e-7 s, −2.7e-5 at 1e-6 s).
 
-Samples (``engines.common.Recorder``'s layout: sample k = the state at the start of a step and
+Samples (``impactbench.engines.common.Recorder``'s layout: sample k = the state at the start of a
+step and
 the force the engine applies over it; t_k = k·dt; the samples are gathered in a flat list and
 turned into arrays once, because ``Recorder.append``'s per-sample numpy write costs ~0.4 µs,
 a third of a bare pymunk step):
@@ -41,7 +42,7 @@ penetration x = R − y. Gravity ``scenario.gravity_m_s2`` acts along −y.
 
 - ``native``: rigid contact with circle elasticity e and plate elasticity 1, so the pair
   restitution is e = k_ref, the reference's restitution at the reference velocity v_ref
-  (``engines.common.NATIVE_REFERENCE_VELOCITY_M_S``, 1 m/s, or
+  (``impactbench.engines.common.NATIVE_REFERENCE_VELOCITY_M_S``, 1 m/s, or
   ``settings.options["reference_velocity_m_s"]``): e = hunt_crossley.solve(V0 = v_ref)
   ["restitution"], as a user would set a constant coefficient of restitution. The force sample
   is ``arbiter.total_impulse`` / dt from ``post_solve``. Honest consequence: restitution is
@@ -58,7 +59,8 @@ penetration x = R − y. Gravity ``scenario.gravity_m_s2`` acts along −y.
   ball. That force is the engine's contact output in this mode.
 - ``injected`` with ``injection = "restitution"``: the rigid contact kept, with
   ``arbiter.restitution`` set in ``pre_solve`` to Hunt–Crossley's k(α = b·ẋ) for the current
-  approach speed ẋ (closed form, ``reference.hunt_crossley.restitution``). Restitution then
+  approach speed ẋ (closed form, ``impactbench.reference.hunt_crossley.restitution``). Restitution
+  then
   matches the reference at every velocity; duration and force stay one-step artefacts.
 - ``tuned``: ``settings.tuned["elasticity"]`` (pair restitution) replaces e; otherwise
   ``unsupported``.
@@ -79,7 +81,8 @@ measured from first touch: x1 = x_body1 + h, x2 = x_body2 − h (h the circles' 
   applied as −F1 to body 1 and +F1 to body 2, the rigid contact rejected.
 - ``tuned``: ``settings.tuned["elasticity"]`` replaces e = 1.
 
-The run stops when ``reference.laws.no_further_contact`` holds (with the local law's permanent
+The run stops when ``impactbench.reference.laws.no_further_contact`` holds (with the local law's
+permanent
 set), on collapse of the softening structure (body 2's energy ½·m2·v2² + Π(x2) rising above
 ``collapse_energy`` = k2²/(4β) in a contact, the reference's rule: status
 ``structure_collapsed``), or at the time cap (``settings.max_time_s`` or
@@ -103,13 +106,12 @@ from functools import lru_cache
 from typing import Any
 
 import numpy as np
-
-from engines.base import Adapter, EngineUnavailable, RunSettings, Scenario
-from engines.common import NATIVE_REFERENCE_VELOCITY_M_S, classify
-from reference import validation as check
-from reference.laws import no_further_contact
-from reference.record import ImpactRecord, Status
-from reference.scenarios import BallOnPlate, RigidFlexible
+from impactbench.engines.base import Adapter, EngineUnavailable, RunSettings, Scenario
+from impactbench.engines.common import NATIVE_REFERENCE_VELOCITY_M_S, classify
+from impactbench.reference import validation as check
+from impactbench.reference.laws import no_further_contact
+from impactbench.reference.record import ImpactRecord, Status
+from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
 
 INJECTIONS: tuple[str, ...] = ("penalty", "restitution")
 """``settings.options["injection"]`` values for the ball in injected mode."""
@@ -184,7 +186,7 @@ class BallModel:
             space.on_collision(pre_solve=self._penalty)
             self._law = scenario.law()
         elif contact == "restitution":
-            from reference.hunt_crossley import restitution
+            from impactbench.reference.hunt_crossley import restitution
 
             self._restitution, self._b = restitution, scenario.damping_s_per_m
             space.on_collision(pre_solve=self._set_restitution,
@@ -328,7 +330,7 @@ RIGID_RF_ARTEFACTS: dict[str, str] = dict.fromkeys(
 @lru_cache(maxsize=256)
 def _reference_restitution(scenario: BallOnPlate) -> float:
     """Hunt–Crossley restitution of ``scenario`` (cached: sweeps map the same v_ref again)."""
-    from reference import hunt_crossley
+    from impactbench.reference import hunt_crossley
 
     return float(hunt_crossley.solve(scenario)["restitution"])
 
@@ -423,7 +425,8 @@ def run_ball(model: BallModel, settings: RunSettings, meta: dict[str, Any]) -> I
     """Step the ball from its gap until it has let go (or tunnels, diverges, times out).
 
     Samples are collected in a flat list and turned into the record once at the end (the
-    same layout ``engines.common.Recorder`` produces: t_k = k·dt, x_k, ẋ_k, F_k, v1_k); the
+    same layout ``impactbench.engines.common.Recorder`` produces: t_k = k·dt, x_k, ẋ_k, F_k, v1_k);
+    the
     per-sample numpy write of ``Recorder.append`` (~0.4 µs) would be a third of a bare step.
     """
     sc, dt = model.scenario, model.dt

@@ -89,7 +89,7 @@ def grid(start: float, stop: float, step: float):
 
     import numpy as np
 
-    from reference import validation as check
+    from impactbench.reference import validation as check
 
     check.positive("start", start)
     check.positive("step", step)

@@ -4,10 +4,11 @@ Schema (every key optional except where noted; defaults in ``impactbench/data/de
 
 ``[report]`` title (str), engines (list of engine names), modes (list of native, injected,
 tuned); ``[ball_on_plate]`` velocities_m_s (list of m/s > 0), physical parameters of
-:class:`~reference.scenarios.BallOnPlate` (mass_kg, stiffness, exponent, damping_s_per_m,
+:class:`~impactbench.reference.scenarios.BallOnPlate` (mass_kg, stiffness, exponent,
+damping_s_per_m,
 radius_m, gravity_m_s2), ``[ball_on_plate.timestep_s]`` engine → s; ``[rigid_flexible]``
 velocities_m_s, local and structure (lists of law names), the physical parameters of
-:class:`~reference.scenarios.RigidFlexible`, ``[rigid_flexible.timestep_s]``;
+:class:`~impactbench.reference.scenarios.RigidFlexible`, ``[rigid_flexible.timestep_s]``;
 ``[work_precision]`` velocity_m_s, timesteps_s, modes.
 
 A bad file raises ValueError with one line naming the key (``rigid_flexible.velocities_m_s``),
@@ -24,9 +25,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from engines.base import MODES, engine_names
-from reference.laws import LOCAL_LAWS, STRUCTURAL_LAWS
-from reference.scenarios import BallOnPlate, RigidFlexible
+from impactbench.engines.base import MODES, engine_names
+from impactbench.reference.laws import LOCAL_LAWS, STRUCTURAL_LAWS
+from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
 
 DEFAULT_CONFIG = Path(__file__).parent / "data" / "default.toml"
 

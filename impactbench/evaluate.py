@@ -1,7 +1,7 @@
 """One comparison: an engine run and the reference for the same scenario, side by side.
 
 The reference metrics come from the reference solvers; the engine's from
-``reference.metrics.compute`` of the engine's record (the one metrics path). Used by the
+``impactbench.reference.metrics.compute`` of the engine's record (the one metrics path). Used by the
 ``run`` command, the report, the tuner and the gates alike.
 """
 
@@ -10,10 +10,10 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from engines.base import RunSettings, run_safely
-from reference import metrics
-from reference.record import ImpactRecord, Status
-from reference.scenarios import BallOnPlate, RigidFlexible
+from impactbench.engines.base import RunSettings, run_safely
+from impactbench.reference import metrics
+from impactbench.reference.record import ImpactRecord, Status
+from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
 
 Scenario = BallOnPlate | RigidFlexible
 
@@ -37,10 +37,10 @@ def scenario_name(scenario: Scenario) -> str:
 def reference_metrics(scenario: Scenario) -> dict[str, Any]:
     """The reference command's object for ``scenario`` (same keys as its ``--json``)."""
     if isinstance(scenario, BallOnPlate):
-        from reference import hunt_crossley
+        from impactbench.reference import hunt_crossley
 
         return dict(hunt_crossley.solve(scenario))
-    from reference import two_dof
+    from impactbench.reference import two_dof
 
     ref = two_dof.solve(scenario)
     return {"status": str(ref["status"]), **{k: ref[k] for k in RIGID_FLEXIBLE_METRICS}}

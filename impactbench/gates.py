@@ -69,10 +69,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from engines.base import ENGINES, MODES
-from reference import validation as check
-from reference.laws import LOCAL_LAWS, STRUCTURAL_LAWS
-from reference.scenarios import PAPER_VELOCITIES_M_S, SCENARIOS, RigidFlexible
+from impactbench.engines.base import ENGINES, MODES
+from impactbench.reference import validation as check
+from impactbench.reference.laws import LOCAL_LAWS, STRUCTURAL_LAWS
+from impactbench.reference.scenarios import PAPER_VELOCITIES_M_S, SCENARIOS, RigidFlexible
 
 METRICS_OF: dict[str, tuple[str, ...]] = {}  # filled below from impactbench.evaluate
 
@@ -243,7 +243,7 @@ def _numbers(value: Any, field_name: str) -> list[float]:
 def _default_timestep(engine: str, mode: str, scenario: Any) -> float | None:
     """The adapter's default step (s), or None when the adapter cannot be loaded here."""
     try:
-        from engines.base import get_adapter
+        from impactbench.engines.base import get_adapter
 
         return float(get_adapter(engine).default_timestep_s(scenario, mode))
     except Exception:

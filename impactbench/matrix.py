@@ -83,7 +83,7 @@ def _thin(rec, points: int = HISTORY_POINTS) -> dict[str, np.ndarray]:
 
 def execute(job: Job, reference: dict[str, Any] | None = None) -> JobResult:
     """Run one job (in a worker process). Never raises for engine trouble."""
-    from engines.base import RunSettings
+    from impactbench.engines.base import RunSettings
     from impactbench.tuned import load_tuned
 
     tuned = load_tuned(job.engine, job.scenario) if job.mode == "tuned" else None

@@ -11,8 +11,8 @@ import argparse
 from typing import Any
 
 from impactbench.cliutil import number
-from reference.laws import LOCAL_LAWS, STRUCTURAL_LAWS
-from reference.scenarios import BallOnPlate, RigidFlexible
+from impactbench.reference.laws import LOCAL_LAWS, STRUCTURAL_LAWS
+from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
 
 BALL_FLAGS: dict[str, tuple[str, str]] = {
     "mass": ("mass_kg", "ball mass (kg)"),

@@ -95,7 +95,7 @@ def hysteresis(histories: Mapping[tuple[str, str], History], reference: History,
 
 def restitution_vs_velocity(df: pd.DataFrame, damping_s_per_m: float, path: Path) -> Path:
     """The reference curve k(b·V0) with every engine's measured points."""
-    from reference.hunt_crossley import restitution
+    from impactbench.reference.hunt_crossley import restitution
 
     rows = df[(df.study == "matrix") & (df.scenario == "ball-on-plate")
               & (df.metric == "restitution")]
@@ -174,11 +174,11 @@ def reference_history_for(scenario) -> dict[str, np.ndarray]:
     from impactbench.evaluate import scenario_name
 
     if scenario_name(scenario) == "ball-on-plate":
-        from reference import hunt_crossley
+        from impactbench.reference import hunt_crossley
 
         rec = hunt_crossley.history(scenario)
     else:
-        from reference import two_dof
+        from impactbench.reference import two_dof
 
         rec = two_dof.simulate(scenario)
     return {"time_s": rec.time_s, "normal_force_n": rec.normal_force_n,

@@ -47,13 +47,12 @@ from typing import Literal
 
 import numpy as np
 import pandas as pd
+from impactbench.reference import validation as check
+from impactbench.reference.laws import HuntCrossley
+from impactbench.reference.metrics import BALL_METRICS
+from impactbench.reference.record import ImpactRecord, Status
+from impactbench.reference.scenarios import BallOnPlate
 from scipy import integrate, optimize, special
-
-from reference import validation as check
-from reference.laws import HuntCrossley
-from reference.metrics import BALL_METRICS
-from reference.record import ImpactRecord, Status
-from reference.scenarios import BallOnPlate
 
 Branch = Literal["compression", "restitution"]
 
@@ -330,7 +329,8 @@ def _metrics(k: float, duration: float, peak: float, xmax: float) -> dict[str, f
 
 
 def solve(scenario: BallOnPlate) -> dict[str, float]:
-    """The five ball-on-plate metrics (keys :data:`reference.metrics.BALL_METRICS`, SI)."""
+    """The five ball-on-plate metrics (SI), keyed as
+    :data:`impactbench.reference.metrics.BALL_METRICS`."""
     if not isinstance(scenario, BallOnPlate):
         raise ValueError(f"scenario = {scenario!r}: must be a BallOnPlate")
     return solve_law(scenario.law(), scenario.mass_kg, scenario.velocity_m_s)

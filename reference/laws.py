@@ -23,9 +23,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import ClassVar
 
+from impactbench.reference import validation as check
 from scipy import integrate
-
-from reference import validation as check
 
 
 @dataclass(frozen=True)

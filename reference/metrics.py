@@ -1,4 +1,4 @@
-"""The one metrics path: :class:`~reference.record.ImpactRecord` → impact metrics.
+"""The one metrics path: :class:`~impactbench.reference.record.ImpactRecord` → impact metrics.
 
 The reference solvers and every engine adapter go through :func:`compute`, so any difference
 in a comparison table is a difference in physics or numerics, never in bookkeeping.
@@ -29,8 +29,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-
-from reference.record import ImpactRecord
+from impactbench.reference.record import ImpactRecord
 
 FORCE_FLOOR_REL = 1e-13
 """Forces below this fraction of the peak are round-off dust, not contact. A force computed

@@ -10,8 +10,8 @@ import math
 from dataclasses import asdict, dataclass, fields
 from typing import Any
 
-from reference import validation as check
-from reference.laws import (
+from impactbench.reference import validation as check
+from impactbench.reference.laws import (
     LOCAL_LAWS,
     STRUCTURAL_LAWS,
     Elastoplastic,

@@ -6,7 +6,8 @@ Equations (SI: m, s, kg, N), x1, x2 measured from first touch, Δx = x1 − x2:
     m2·ẍ2 =  F1(Δx) − F2(x2)     ẋ2(0) = 0
 
 F1 (local law, ≥ 0, with memory) is piecewise affine in Δx; the law describes its pieces and
-their switches (:class:`reference.laws.Piece`, :class:`reference.laws.Boundary`). Within a
+their switches (:class:`impactbench.reference.laws.Piece`,
+:class:`impactbench.reference.laws.Boundary`). Within a
 piece the motion is smooth and is integrated with scipy's DOP853 at tight tolerances; every
 switch (contact start and end, yield, velocity reversal on the backbone, rejoining the
 backbone, failure) is an event located by root finding on the dense output (scipy's brentq,
@@ -15,14 +16,15 @@ to a few ulps of t — far below 1e-10 s), never stepped over. Multiple impacts 
 The run ends
 - ``ok``: when no further contact is possible — body 1 moves away (v1 ≤ 0) and is beyond the
   reach of body 2, whose energy E2 = ½·m2·v2² + Π(x2) bounds |x2|
-  (:func:`reference.laws.no_further_contact`, with the permanent set of the contact);
+  (:func:`impactbench.reference.laws.no_further_contact`, with the permanent set of the contact);
 - ``structure_collapsed``: when E2 rises through the peak of the softening potential
   k2²/(4β). dE2/dt = F1·v2 ≥ 0 while v2 > 0 and E2 can only rise while v2 > 0, so from that
   instant ½·m2·v2² ≥ E2 − Π_max > 0 forever: x2 runs away. Detected, never integrated to
   overflow;
 - ``max_time``: at the scenario's ``max_time_s``.
 
-:func:`simulate` returns the time history (an :class:`~reference.record.ImpactRecord` with a
+:func:`simulate` returns the time history (an :class:`~impactbench.reference.record.ImpactRecord`
+with a
 sample at every event and at every velocity reversal inside a contact, so the shared metrics
 find exact contact edges and the exact peak); :func:`solve` returns the metrics and the energy
 partition; :func:`sweep` runs a parameter sweep over all law combinations in parallel.
@@ -35,12 +37,11 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from impactbench.reference import metrics
+from impactbench.reference.laws import LocalLaw, Piece, StructuralLaw
+from impactbench.reference.record import ImpactRecord, Status
+from impactbench.reference.scenarios import RigidFlexible
 from scipy import integrate, optimize
-
-from reference import metrics
-from reference.laws import LocalLaw, Piece, StructuralLaw
-from reference.record import ImpactRecord, Status
-from reference.scenarios import RigidFlexible
 
 RTOL = 1e-11
 ATOL_M = 1e-14
@@ -184,7 +185,7 @@ def _integrate(run: _Run, rtol: float, atol: float) -> None:
 
 def _no_further_contact(y: np.ndarray, threshold: float, m2: float,
                         structure: StructuralLaw) -> bool:
-    from reference.laws import no_further_contact
+    from impactbench.reference.laws import no_further_contact
 
     return no_further_contact(float(y[0]) - threshold, float(y[2]), float(y[1]), float(y[3]),
                               m2, structure)
@@ -253,7 +254,7 @@ def _record(run: _Run) -> ImpactRecord:
             keep[i - 1] = False
     t, y, f = t[keep], y[:, keep], f[keep]
     meta = {
-        "producer": "reference.two_dof",
+        "producer": "impactbench.reference.two_dof",
         "scenario": sc.to_dict(),
         "events": [(e.time_s, e.kind, e.mode) for e in run.events],
         "final_state": run.events[-1].state if run.events else None,
@@ -304,7 +305,7 @@ def energy_partition(scenario: RigidFlexible, state: tuple[float, float, float, 
 
 def solve_slow(scenario: RigidFlexible, *, rtol: float = RTOL, atol: float = ATOL_M
                ) -> dict[str, Any]:
-    """:func:`solve` through :func:`simulate` and :func:`reference.metrics.compute`."""
+    """:func:`solve` through :func:`simulate` and :func:`impactbench.reference.metrics.compute`."""
     run = _run(scenario, rtol, atol)
     rec = _record(run)
     m = metrics.compute(rec)
@@ -316,8 +317,8 @@ def solve_slow(scenario: RigidFlexible, *, rtol: float = RTOL, atol: float = ATO
 
 
 def solve_fast(scenario: RigidFlexible) -> dict[str, Any]:
-    """:func:`solve` through the compiled kernel (:mod:`reference.two_dof_fast`)."""
-    from reference import two_dof_fast
+    """:func:`solve` through the compiled kernel (:mod:`impactbench.reference.two_dof_fast`)."""
+    from impactbench.reference import two_dof_fast
 
     r = two_dof_fast.run(scenario)
     out: dict[str, Any] = {"status": two_dof_fast.STATUS_NAMES[int(r[0])]}
@@ -340,7 +341,7 @@ def solve(scenario: RigidFlexible) -> dict[str, Any]:
     compiled kernel (:func:`solve_fast`, ~30 µs), any other law through :func:`solve_slow`
     (simulate + the shared metrics); a test shows the two agree.
     """
-    from reference import two_dof_fast
+    from impactbench.reference import two_dof_fast
 
     if scenario.local in two_dof_fast.LOCAL_CODES and scenario.structure in (
             "linear", "softening"):
@@ -401,8 +402,7 @@ def sweep(base: RigidFlexible, over: str, values: Any, *,
     import os
 
     import pandas as pd
-
-    from reference import validation as check
+    from impactbench.reference import validation as check
 
     check.one_of("over", over, tuple(SWEEP_FIELDS))
     fld = SWEEP_FIELDS[over]

@@ -1,6 +1,7 @@
 """Compiled fast path of the 2-DOF solver for the built-in laws (numba, optional).
 
-Same physics, pieces, events and end rules as :mod:`reference.two_dof` (see there), for the
+Same physics, pieces, events and end rules as :mod:`impactbench.reference.two_dof` (see there), for
+the
 three built-in local laws (linear, elastoplastic, mutation) and the structural law
 F2 = k2·x2 − β·x2³ (β = 0: linear). Differences from the reference path, by design:
 

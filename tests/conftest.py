@@ -7,7 +7,7 @@ import pytest
 
 def require_engine(name: str):
     """Import an engine's module or skip with the pip command that fixes it."""
-    from engines.base import PIP
+    from impactbench.engines.base import PIP
 
     module = {"drake": "pydrake", "pymunk": "pymunk", "mujoco": "mujoco",
               "pybullet": "pybullet"}[name]

@@ -1,7 +1,7 @@
 """``impactbench reference ball-on-plate`` and ``impactbench sweep ball-on-plate``.
 
 Both solve the Hunt–Crossley ball-on-plate impact (MODELS.md §1) with the closed-form reference
-(:mod:`reference.hunt_crossley`); defaults are the preprint's case (m = 0.1 kg,
+(:mod:`impactbench.reference.hunt_crossley`); defaults are the preprint's case (m = 0.1 kg,
 c = 1.7135e10 N/m^1.5, n = 1.5, b = 0.1 s/m).
 
 ``reference ball-on-plate --json`` prints one JSON object with exactly the keys
@@ -62,8 +62,8 @@ def register(top: argparse._SubParsersAction, groups: dict) -> None:
 
 
 def reference_main(args: argparse.Namespace) -> int:
-    from reference.hunt_crossley import solve
-    from reference.metrics import BALL_METRICS
+    from impactbench.reference.hunt_crossley import solve
+    from impactbench.reference.metrics import BALL_METRICS
 
     velocities = args.velocities or [1.0]
     results = [solve(scenario_from_args("ball-on-plate", args, velocity_m_s=v))
@@ -82,7 +82,7 @@ def sweep_main(args: argparse.Namespace) -> int:
     table_format(args.out)
     tic = time.perf_counter()
     velocities = grid(args.start, args.stop, args.step)
-    from reference.hunt_crossley import sweep
+    from impactbench.reference.hunt_crossley import sweep
 
     table = sweep(velocities, mass_kg=args.mass_kg, stiffness=args.stiffness,
                   exponent=args.exponent, damping_s_per_m=args.damping_s_per_m)

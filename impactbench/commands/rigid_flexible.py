@@ -20,8 +20,8 @@ from impactbench.cliutil import (
     write_table,
 )
 from impactbench.params import add_law_flags, add_parameter_flags, scenario_from_args
-from reference import two_dof
-from reference.laws import LOCAL_LAWS, STRUCTURAL_LAWS
+from impactbench.reference import two_dof
+from impactbench.reference.laws import LOCAL_LAWS, STRUCTURAL_LAWS
 
 JSON_KEYS = ("status", *two_dof.METRIC_KEYS)
 

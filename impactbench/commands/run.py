@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import argparse
 
-from engines.base import ENGINES, MODES, RunSettings
 from impactbench.cliutil import number, print_json, print_table, stdout_to_stderr
+from impactbench.engines.base import ENGINES, MODES, RunSettings
 from impactbench.evaluate import compare
 from impactbench.params import add_law_flags, add_parameter_flags, scenario_from_args
 

@@ -18,11 +18,11 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from engines.base import ENGINES, EngineUnavailable
 from impactbench.cliutil import number, number_list, print_json, print_table, stdout_to_stderr
+from impactbench.engines.base import ENGINES, EngineUnavailable
 from impactbench.params import add_parameter_flags, scenario_from_args
-from reference import validation as check
-from reference.scenarios import PAPER_VELOCITIES_M_S
+from impactbench.reference import validation as check
+from impactbench.reference.scenarios import PAPER_VELOCITIES_M_S
 
 HELP = "fit an engine's native contact parameters to the Hunt–Crossley reference"
 SCENARIOS = ("ball-on-plate", "rigid-flexible")
@@ -131,7 +131,7 @@ def main(args: argparse.Namespace) -> int:
 
 def _load_quietly(engine: str) -> None:
     """Import the engine before any output (its import banner goes to stderr)."""
-    from engines.base import get_adapter
+    from impactbench.engines.base import get_adapter
 
     with stdout_to_stderr():
         get_adapter(engine).version()

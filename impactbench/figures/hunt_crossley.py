@@ -2,7 +2,7 @@
 
 The paper's case: steel ball m = 0.1 kg on a massive steel plate, Hertz c = 1.7135e10 N/m^1.5,
 n = 3/2, b = 0.1 s/m, V0 = 0.5, 1, 2, 3, 4, 5 m/s (MODELS.md §1). Every curve comes from
-:mod:`reference.hunt_crossley` (closed form and its exact time histories).
+:mod:`impactbench.reference.hunt_crossley` (closed form and its exact time histories).
 
 - Fig. 1 ``hc_fig1_phase.png``: phase trajectories V(x); dashed: the line 1 + b·V = 0.
 - Fig. 3 ``hc_fig3_restitution.png``: k and ΔT/T = 1 − k² against α = b·V0.
@@ -25,8 +25,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 from scipy import special
 
-from reference import hunt_crossley as hc
-from reference.scenarios import PAPER_VELOCITIES_M_S, BallOnPlate
+from impactbench.reference import hunt_crossley as hc
+from impactbench.reference.scenarios import PAPER_VELOCITIES_M_S, BallOnPlate
 
 CASE = BallOnPlate()
 DPI = 120

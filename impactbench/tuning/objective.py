@@ -3,7 +3,8 @@
     J(p) = Σ_v Σ_m w_m · e_{v,m}(p)²,   e_{v,m} = (metric_m(p, V_v) − ref_{v,m}) / |ref_{v,m}|
 
 with the engine run through its own adapter (``tuned`` mode with the parameters p, or the
-space's own run) and the metrics from ``reference.metrics.compute`` — the same path as every
+space's own run) and the metrics from ``impactbench.reference.metrics.compute`` — the same path as
+every
 comparison. A run that fails (non-ok status, or a NaN metric) gets the residual
 :data:`FAILED_RESIDUAL` (an error of 1000 %) in each metric, so the optimiser backs away.
 """
@@ -17,13 +18,13 @@ from typing import Any
 
 import numpy as np
 
-from engines.base import run_safely
+from impactbench.engines.base import run_safely
 from impactbench.evaluate import record_metrics, reference_metrics
+from impactbench.reference import validation as check
+from impactbench.reference.metrics import BALL_METRICS, relative_error
+from impactbench.reference.record import Status
+from impactbench.reference.scenarios import BallOnPlate
 from impactbench.tuning.spaces import Space
-from reference import validation as check
-from reference.metrics import BALL_METRICS, relative_error
-from reference.record import Status
-from reference.scenarios import BallOnPlate
 
 FAILED_RESIDUAL = 10.0
 
@@ -34,7 +35,7 @@ TARGETS: dict[str, str] = {
     "max_penetration": "max_penetration_m",
     "energy_loss": "energy_loss_fraction",
 }
-"""CLI target names → metric keys (``reference.metrics.BALL_METRICS``)."""
+"""CLI target names → metric keys (``impactbench.reference.metrics.BALL_METRICS``)."""
 DEFAULT_TARGETS: tuple[str, ...] = ("restitution", "duration", "peak_force")
 
 

@@ -32,12 +32,12 @@ import numpy as np
 from scipy import optimize
 from scipy.stats import qmc
 
-from engines.base import get_adapter
+from impactbench.engines.base import get_adapter
+from impactbench.reference import validation as check
+from impactbench.reference.metrics import BALL_METRICS
+from impactbench.reference.scenarios import BallOnPlate
 from impactbench.tuning.objective import Evaluation, Objective, OutOfBudget, parse_weights
 from impactbench.tuning.spaces import Space, make_space
-from reference import validation as check
-from reference.metrics import BALL_METRICS
-from reference.scenarios import BallOnPlate
 
 SEED = 20240607
 DEFAULT_BUDGET_S = 120.0
@@ -185,7 +185,7 @@ def tune(engine: str, scenario: BallOnPlate | None = None,
 
     Raises ValueError (one line) on bad input; engine trouble becomes failed runs instead.
     """
-    from reference.scenarios import PAPER_VELOCITIES_M_S
+    from impactbench.reference.scenarios import PAPER_VELOCITIES_M_S
 
     t0 = time.perf_counter()
     scenario = scenario or BallOnPlate()

@@ -17,8 +17,8 @@ import math
 from pathlib import Path
 from typing import Any
 
+from impactbench.reference.metrics import BALL_METRICS
 from impactbench.tuning.optimize import SEED, TuneResult
-from reference.metrics import BALL_METRICS
 
 SCALES_WITH_V = frozenset({"peak_force_n", "max_penetration_m"})
 """Metrics a linear contact makes proportional to V0 (the others are V0-independent)."""

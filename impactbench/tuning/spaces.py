@@ -1,7 +1,7 @@
 """What each engine can tune: its native contact parameters, their bounds and its own form.
 
 A :class:`Space` maps a vector of positive parameter values (SI, listed in ``parameters``) to
-one engine run (scenario, mode, :class:`~engines.base.RunSettings`) and to the adapter's
+one engine run (scenario, mode, :class:`~impactbench.engines.base.RunSettings`) and to the adapter's
 tuned-parameter keys, knows the closed-form start (the native conversion) and prints the
 result the way a user of that engine writes it. The optimiser works on the logarithms.
 
@@ -46,9 +46,9 @@ from typing import Any
 
 import numpy as np
 
-from engines.base import RunSettings
-from reference import validation as check
-from reference.scenarios import BallOnPlate
+from impactbench.engines.base import RunSettings
+from impactbench.reference import validation as check
+from impactbench.reference.scenarios import BallOnPlate
 
 MUJOCO_DMAX = 0.95
 """solimp dmax of the tuned MuJoCo contact (MuJoCo's default); only dmin/dmax is tuned."""
@@ -143,7 +143,7 @@ def _mujoco_diag_a(scenario: BallOnPlate, timestep_s: float | None) -> float:
     """efc_diagA of the ball's contact row, measured from the adapter's own model."""
     import mujoco
 
-    from engines.mujoco_adapter import BALL_TIMESTEP_S, ball_mjcf, measured_diag_a
+    from impactbench.engines.mujoco_adapter import BALL_TIMESTEP_S, ball_mjcf, measured_diag_a
 
     model = mujoco.MjModel.from_xml_string(ball_mjcf(scenario, timestep_s or BALL_TIMESTEP_S))
     return measured_diag_a(model, mujoco.MjData(model), (-1e-9,))
@@ -152,8 +152,8 @@ def _mujoco_diag_a(scenario: BallOnPlate, timestep_s: float | None) -> float:
 def mujoco_space(scenario: BallOnPlate, variant: str = "solref+solimp",
                  solref_form: str = "direct", timestep_s: float | None = None) -> Space:
     """MuJoCo: solref in either form, optionally with the solimp shape (see module doc)."""
-    from engines.common import native_ball_spring_damper
-    from engines.mujoco_adapter import BALL_TIMESTEP_S, SOLIMP
+    from impactbench.engines.common import native_ball_spring_damper
+    from impactbench.engines.mujoco_adapter import BALL_TIMESTEP_S, SOLIMP
 
     check.one_of("parameters", variant, MUJOCO_VARIANTS)
     check.one_of("solref_form", solref_form, SOLREF_FORMS)
@@ -218,7 +218,7 @@ def mujoco_space(scenario: BallOnPlate, variant: str = "solref+solimp",
 
 def pybullet_space(scenario: BallOnPlate) -> Space:
     """PyBullet: pair contactStiffness and contactDamping (physical N/m and N·s/m)."""
-    from engines.common import native_ball_spring_damper
+    from impactbench.engines.common import native_ball_spring_damper
 
     sd = native_ball_spring_damper(scenario)
     k0, d0 = sd.stiffness_n_per_m, sd.damping_ns_per_m
@@ -251,8 +251,8 @@ RIGID_LIMITS = (
 
 def pymunk_space(scenario: BallOnPlate, variant: str = "elasticity") -> Space:
     """pymunk: a constant elasticity, or b of the injected restitution law k(α = b·V)."""
-    from engines.common import NATIVE_REFERENCE_VELOCITY_M_S
-    from reference import hunt_crossley
+    from impactbench.engines.common import NATIVE_REFERENCE_VELOCITY_M_S
+    from impactbench.reference import hunt_crossley
 
     check.one_of("parameters", variant, PYMUNK_VARIANTS)
     expressible = frozenset({"restitution"})
@@ -304,7 +304,7 @@ def pymunk_space(scenario: BallOnPlate, variant: str = "elasticity") -> Space:
 
 def drake_space(scenario: BallOnPlate) -> Space:
     """Drake: pair point stiffness k (N/m) and Hunt–Crossley dissipation d (s/m)."""
-    from engines.drake_adapter import native_ball_point_contact
+    from impactbench.engines.drake_adapter import native_ball_point_contact
 
     k0, d0 = native_ball_point_contact(scenario)
     params = (Parameter("point_stiffness_n_per_m", "N/m", *_decades(k0, 2.0, 2.0)),

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import os
 
-from engines.base import Adapter
+from impactbench.engines.base import Adapter
 
 
 class CrashingAdapter(Adapter):

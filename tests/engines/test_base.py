@@ -7,9 +7,14 @@ import subprocess
 import sys
 
 import pytest
-
-from engines.base import ENGINES, EngineUnavailable, RunSettings, get_adapter, run_safely
-from reference.scenarios import BallOnPlate
+from impactbench.engines.base import (
+    ENGINES,
+    EngineUnavailable,
+    RunSettings,
+    get_adapter,
+    run_safely,
+)
+from impactbench.reference.scenarios import BallOnPlate
 
 
 def test_unknown_engine_gets_a_hint() -> None:
@@ -41,8 +46,8 @@ def test_absent_engine_becomes_status_unavailable(engine: str) -> None:
     code = (
         "import sys, json\n"
         f"sys.modules[{module!r}] = None  # makes `import {module}` raise ImportError\n"
-        "from engines.base import run_safely\n"
-        "from reference.scenarios import BallOnPlate\n"
+        "from impactbench.engines.base import run_safely\n"
+        "from impactbench.reference.scenarios import BallOnPlate\n"
         f"rec = run_safely({engine!r}, BallOnPlate())\n"
         "print(json.dumps({'status': str(rec.status), 'message': rec.message}))\n"
     )

@@ -6,16 +6,15 @@ import math
 
 import numpy as np
 import pytest
-from scipy.integrate import solve_ivp
-
-from engines.common import (
+from impactbench.engines.common import (
     Recorder,
     SpringDamper,
     classify,
     clipped_restitution,
     spring_damper_matching,
 )
-from reference.record import Status
+from impactbench.reference.record import Status
+from scipy.integrate import solve_ivp
 
 
 def simulate_clipped(sd: SpringDamper, m: float, v0: float) -> tuple[float, float]:

@@ -13,12 +13,12 @@ from conftest import require_engine
 
 require_engine("drake")
 
-from engines.base import RunSettings, get_adapter  # noqa: E402
-from engines.drake_adapter import DrakeAdapter, native_ball_point_contact  # noqa: E402
-from reference import hunt_crossley, two_dof  # noqa: E402
-from reference.metrics import compute, relative_error  # noqa: E402
-from reference.record import Status  # noqa: E402
-from reference.scenarios import BallOnPlate, RigidFlexible  # noqa: E402
+from impactbench.engines.base import RunSettings, get_adapter  # noqa: E402
+from impactbench.engines.drake_adapter import DrakeAdapter, native_ball_point_contact  # noqa: E402
+from impactbench.reference import hunt_crossley, two_dof  # noqa: E402
+from impactbench.reference.metrics import compute, relative_error  # noqa: E402
+from impactbench.reference.record import Status  # noqa: E402
+from impactbench.reference.scenarios import BallOnPlate, RigidFlexible  # noqa: E402
 
 RF_METRICS = ("peak_force_n", "pulse_width_s", "impulse_ns")
 

@@ -14,17 +14,17 @@ from conftest import require_engine
 
 mujoco = require_engine("mujoco")
 
-from engines.base import RunSettings, get_adapter  # noqa: E402
-from engines.mujoco_adapter import (  # noqa: E402
+from impactbench.engines.base import RunSettings, get_adapter  # noqa: E402
+from impactbench.engines.mujoco_adapter import (  # noqa: E402
     SOLIMP,
     MujocoAdapter,
     ball_mjcf,
     measured_diag_a,
 )
-from reference import hunt_crossley, two_dof  # noqa: E402
-from reference.metrics import compute, relative_error  # noqa: E402
-from reference.record import Status  # noqa: E402
-from reference.scenarios import BallOnPlate, RigidFlexible  # noqa: E402
+from impactbench.reference import hunt_crossley, two_dof  # noqa: E402
+from impactbench.reference.metrics import compute, relative_error  # noqa: E402
+from impactbench.reference.record import Status  # noqa: E402
+from impactbench.reference.scenarios import BallOnPlate, RigidFlexible  # noqa: E402
 
 BALL = ("restitution", "duration_s", "peak_force_n")
 RF = ("peak_force_n", "pulse_width_s", "impulse_ns")

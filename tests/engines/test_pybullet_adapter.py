@@ -9,11 +9,11 @@ from conftest import require_engine
 
 require_engine("pybullet")
 
-from engines.base import RunSettings, get_adapter  # noqa: E402
-from engines.common import native_ball_spring_damper  # noqa: E402
-from reference import hunt_crossley, metrics, two_dof  # noqa: E402
-from reference.record import Status  # noqa: E402
-from reference.scenarios import BallOnPlate, RigidFlexible  # noqa: E402
+from impactbench.engines.base import RunSettings, get_adapter  # noqa: E402
+from impactbench.engines.common import native_ball_spring_damper  # noqa: E402
+from impactbench.reference import hunt_crossley, metrics, two_dof  # noqa: E402
+from impactbench.reference.record import Status  # noqa: E402
+from impactbench.reference.scenarios import BallOnPlate, RigidFlexible  # noqa: E402
 
 RF_METRICS = ("peak_force_n", "pulse_width_s", "impulse_ns")
 

@@ -9,11 +9,11 @@ import sys
 import numpy as np
 import pandas as pd
 import pytest
+from impactbench.reference import hunt_crossley as hc
+from impactbench.reference.metrics import BALL_METRICS
+from impactbench.reference.scenarios import BallOnPlate
 
 from impactbench.cli import main
-from reference import hunt_crossley as hc
-from reference.metrics import BALL_METRICS
-from reference.scenarios import BallOnPlate
 
 
 def run(capsys, *argv: str) -> tuple[int, str, str]:

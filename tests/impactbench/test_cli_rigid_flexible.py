@@ -6,10 +6,10 @@ import json
 
 import pandas as pd
 import pytest
+from impactbench.reference import two_dof
+from impactbench.reference.scenarios import RigidFlexible
 
 from impactbench.cli import main
-from reference import two_dof
-from reference.scenarios import RigidFlexible
 
 JSON_KEYS = ["status", "peak_force_n", "pulse_width_s", "contact_time_s", "impulse_ns",
              "impacts"]

@@ -16,11 +16,11 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import pytest
+from impactbench.engines.base import ENGINES, run_safely
+from impactbench.reference.scenarios import RigidFlexible
 
-from engines.base import ENGINES, run_safely
 from impactbench import gates
 from impactbench.cli import main
-from reference.scenarios import RigidFlexible
 
 RF = RigidFlexible(velocity_m_s=2.0)
 ENGINE_MODULES = {"mujoco": "mujoco", "pybullet": "pybullet", "pymunk": "pymunk",

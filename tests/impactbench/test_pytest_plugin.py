@@ -5,9 +5,8 @@ from __future__ import annotations
 from importlib.metadata import entry_points
 
 import pytest
-
-from engines.base import ENGINES, run_safely
-from reference.scenarios import RigidFlexible
+from impactbench.engines.base import ENGINES, run_safely
+from impactbench.reference.scenarios import RigidFlexible
 
 pytest_plugins = ("pytester",)
 

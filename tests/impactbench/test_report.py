@@ -7,12 +7,12 @@ from pathlib import Path
 
 import pandas as pd
 import pytest
+from impactbench.engines.base import DISABLE_ENV, ENGINES_ENV, available_engines
+from impactbench.reference import hunt_crossley
+from impactbench.reference.scenarios import BallOnPlate
 
-from engines.base import DISABLE_ENV, ENGINES_ENV, available_engines
 from impactbench import config, report
 from impactbench.matrix import Job, run_jobs
-from reference import hunt_crossley
-from reference.scenarios import BallOnPlate
 
 SMALL = {
     "report": {"engines": ["mujoco", "pybullet", "pymunk", "drake"],

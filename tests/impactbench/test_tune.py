@@ -10,12 +10,12 @@ import tomllib
 import numpy as np
 import pytest
 from conftest import require_engine
+from impactbench.engines.base import RunSettings, run_safely
+from impactbench.reference.scenarios import PAPER_VELOCITIES_M_S, BallOnPlate
 
-from engines.base import RunSettings, run_safely
 from impactbench.cli import main
 from impactbench.evaluate import record_metrics, reference_metrics
 from impactbench.tuned import TUNED_DIR, dumps_tuned, load_tuned, load_tuned_file, write_tuned
-from reference.scenarios import PAPER_VELOCITIES_M_S, BallOnPlate
 
 SCENARIO = BallOnPlate()
 FEW = (1.0, 4.0)

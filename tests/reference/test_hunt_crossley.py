@@ -6,12 +6,11 @@ import math
 
 import numpy as np
 import pytest
+from impactbench.reference import hunt_crossley as hc
+from impactbench.reference.laws import HuntCrossley
+from impactbench.reference.metrics import BALL_METRICS
+from impactbench.reference.scenarios import BallOnPlate
 from scipy import integrate, special
-
-from reference import hunt_crossley as hc
-from reference.laws import HuntCrossley
-from reference.metrics import BALL_METRICS
-from reference.scenarios import BallOnPlate
 
 
 def ode_metrics(n: float, alpha: float, rtol: float = 1e-12) -> dict[str, float]:

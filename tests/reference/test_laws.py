@@ -7,8 +7,7 @@ import math
 
 import numpy as np
 import pytest
-
-from reference.laws import (
+from impactbench.reference.laws import (
     Elastoplastic,
     LinearLocal,
     LinearStructure,

@@ -1,6 +1,6 @@
 """reference.metrics on the reference's own time histories agrees with the closed form.
 
-Tolerances, from how :func:`reference.hunt_crossley.history` samples:
+Tolerances, from how :func:`impactbench.reference.hunt_crossley.history` samples:
 
 - first touch and separation are samples with x = 0, so the metrics' zero-crossing edges are
   exact and duration and restitution agree to the quadrature's accuracy (1e-12);
@@ -14,11 +14,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
-from reference import hunt_crossley as hc
-from reference import metrics
-from reference.metrics import BALL_METRICS
-from reference.scenarios import BallOnPlate
+from impactbench.reference import hunt_crossley as hc
+from impactbench.reference import metrics
+from impactbench.reference.metrics import BALL_METRICS
+from impactbench.reference.scenarios import BallOnPlate
 
 CASES = [
     BallOnPlate(velocity_m_s=0.5),

@@ -6,10 +6,9 @@ import math
 
 import numpy as np
 import pytest
-
-from engines.common import SpringDamper
-from reference import metrics
-from reference.record import ImpactRecord
+from impactbench.engines.common import SpringDamper
+from impactbench.reference import metrics
+from impactbench.reference.record import ImpactRecord
 
 
 def spring_damper_record(k: float, d: float, m: float, v0: float, dt: float,

@@ -5,8 +5,7 @@ from __future__ import annotations
 import math
 
 import pytest
-
-from reference.scenarios import (
+from impactbench.reference.scenarios import (
     PAPER_STIFFNESS,
     STEEL_DENSITY_KG_M3,
     STEEL_POISSON,

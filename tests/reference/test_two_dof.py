@@ -7,11 +7,10 @@ import math
 
 import numpy as np
 import pytest
+from impactbench.reference import metrics, two_dof
+from impactbench.reference.record import Status
+from impactbench.reference.scenarios import RigidFlexible
 from scipy import linalg, optimize
-
-from reference import metrics, two_dof
-from reference.record import Status
-from reference.scenarios import RigidFlexible
 
 COMBOS = two_dof.ALL_COMBOS
 KEYS = two_dof.METRIC_KEYS
@@ -223,7 +222,7 @@ def test_events_are_located_to_1e10_s():
 
 @pytest.mark.parametrize(("local", "structure"), COMBOS)
 def test_converged_when_tolerances_tightened_100x(local, structure):
-    from reference import two_dof_fast
+    from impactbench.reference import two_dof_fast
 
     sc = RigidFlexible(velocity_m_s=10.0, local=local, structure=structure)
     a = two_dof.solve_slow(sc)
