@@ -21,8 +21,16 @@ Adding an engine (a checklist, in the manner of scipy's ``OdeSolver``):
    ``tests/engines/`` that ``importorskip``s the engine.
 
 Modes: ``native`` (the engine's own contact model, parameters mapped from the physical ones),
-``tuned`` (native with fitted parameters from a tuned-parameter file) and ``injected`` (the
-reference force law driven through the engine each step, so only the time stepping differs).
+``tuned`` (native with fitted parameters from a tuned-parameter file), ``injected`` (the
+reference force law driven through the engine each step, so only the time stepping differs),
+``default`` (the engine's out-of-the-box contact: nothing set beyond geometry, mass and the
+scenario's own settings; the defaults used go into ``meta["engine_defaults"]``) and ``custom``
+(the user's own engine parameters, ``settings.params``, keyed by the engine's own names; the
+valid names are the adapter's :attr:`Adapter.parameter_keys`).
+
+An adapter lists the modes it implements in :attr:`Adapter.modes`; :meth:`Adapter.run` turns
+any other mode into an ``unsupported`` record, and rejects unknown ``custom`` keys with a
+ValueError that lists the valid ones.
 """
 
 from __future__ import annotations
@@ -41,7 +49,7 @@ from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
 
 Scenario = BallOnPlate | RigidFlexible
 
-MODES: tuple[str, ...] = ("native", "injected", "tuned")
+MODES: tuple[str, ...] = ("native", "injected", "tuned", "default", "custom")
 
 ENGINES: dict[str, str] = {
     "mujoco": "impactbench.engines.mujoco_adapter:MujocoAdapter",
@@ -77,12 +85,14 @@ class RunSettings:
         timestep_s: integration step (s); ``None`` takes the adapter's default for the scenario.
         max_time_s: simulated-time cap (s); ``None`` lets the adapter choose from the scenario.
         tuned: fitted native parameters for ``tuned`` mode (engine-specific keys).
+        params: the user's engine parameters for ``custom`` mode (engine's own key names).
         options: engine-specific extras (e.g. an integrator name), recorded in the metadata.
     """
 
     timestep_s: float | None = None
     max_time_s: float | None = None
     tuned: dict[str, Any] | None = None
+    params: dict[str, Any] | None = None
     options: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -98,6 +108,10 @@ class Adapter(ABC):
     """One engine. Subclasses implement ``version``, ``default_timestep_s`` and ``_run``."""
 
     name: ClassVar[str]
+    modes: ClassVar[tuple[str, ...]] = ("native", "injected", "tuned")
+    """The modes this adapter implements (a subset of :data:`MODES`)."""
+    parameter_keys: ClassVar[tuple[str, ...]] = ()
+    """The engine's own parameter names accepted in ``custom`` mode (``settings.params``)."""
 
     @abstractmethod
     def version(self) -> str:
@@ -117,6 +131,16 @@ class Adapter(ABC):
         if mode not in MODES:
             raise ValueError(f"mode = {mode!r}: must be one of {', '.join(MODES)}")
         settings = settings or RunSettings()
+        if mode == "custom":
+            unknown = sorted(set(settings.params or {}) - set(self.parameter_keys))
+            if unknown:
+                valid = ", ".join(self.parameter_keys) or "(none)"
+                raise ValueError(f"param = {unknown[0]!r}: not a {self.name} parameter; "
+                                 f"valid keys: {valid}")
+        if mode not in self.modes:
+            return ImpactRecord.failed(
+                Status.UNSUPPORTED, f"{self.name} does not implement mode {mode!r} "
+                f"(it implements {', '.join(self.modes)})", engine=self.name, mode=mode)
         dt = settings.timestep_s or self.default_timestep_s(scenario, mode)
         if settings.timestep_s is None:
             from dataclasses import replace
