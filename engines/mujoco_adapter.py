@@ -54,7 +54,8 @@ computes from ``mj_contactForce`` during ``mj_step`` at the step's start state, 
 through :func:`mujoco.rollout.rollout` (C++ loop, no Python per step) when nothing must change
 between steps (native/tuned with a linear structure), otherwise a lean Python loop. The record
 runs from 2.5 steps of free flight before first touch (time 0 = the instant of first touch in
-free flight) until separation: ball moving away with zero force; rigid–flexible when
+free flight) until separation: ball apart from the plate, moving away, with zero force;
+rigid–flexible when
 :func:`impactbench.reference.laws.no_further_contact` holds, body 2's energy exceeds the softening
 law's
 collapse energy (``structure_collapsed``) or the time cap is reached (``max_time``).
@@ -398,7 +399,9 @@ def run_ball(s: BallOnPlate, mode: str, settings: RunSettings) -> ImpactRecord:
                 return None
             touch.append(start + int(touched[0]))
         lo = max(start, touch[0])
-        away = np.flatnonzero((f[lo:] <= 0.0) & (v[lo:, 0] > 0.0))  # zero force, moving away
+        # zero force, moving away, surfaces apart (a faded Hunt–Crossley force can be 0 in
+        # round-off while the surfaces still overlap: that contact lasts until x = 0)
+        away = np.flatnonzero((f[lo:] <= 0.0) & (v[lo:, 0] > 0.0) & (q[lo:, 0] > 0.0))
         return lo + int(away[0]) if away.size else None
 
     sim = _Sim(model, data, hook)

@@ -5,8 +5,17 @@ in a comparison table is a difference in physics or numerics, never in bookkeepi
 
 Definitions (SI):
 
-- A *contact* is a maximal run of samples with normal force F > 0 (above a floor of
-  ``FORCE_FLOOR_REL`` × max F, which ignores round-off dust).
+- A *contact* lasts from the instant the surfaces start to press on each other until they
+  part: where the force *lets go* (reaches zero at a finite rate) or the surfaces separate
+  (x = 0), whichever comes first. In a record: a run of samples with normal force F above a
+  floor of ``FORCE_FLOOR_REL`` × max F (round-off and engine-clamp dust are not contact),
+  extended to the separation x = 0 when the force has *faded* into the floor rather than let
+  go (:data:`FADE_RATIO`). A Hunt–Crossley force F = f(x)·(1 + b·ẋ) fades: its factor obeys
+  d(1 + b·ẋ)/dt = −(b/m)·f(x)·(1 + b·ẋ), so 1 + b·ẋ = exp(−∫(b/m)·f dt) > 0 — the velocity
+  never reaches −1/b and F > 0 until x = 0, the closed form's end, even where F/F_max is far
+  below round-off (α = b·V0 = 50: F < 1e-13·F_max over the last 68 % of the contact). A
+  clipped spring–damper or an elastoplastic permanent set lets go at a finite rate while
+  still penetrating, and the contact ends there.
   Its start and end are located between samples: at the zero crossing of the penetration
   when it changes sign in the bracketing step (Hunt–Crossley, linear laws); otherwise by
   extrapolating the force linearly to zero from the two samples inside the contact, clamped
@@ -37,6 +46,13 @@ from O(F_max) quantities carries errors of ~1e-16·F_max, and engine clamps leav
 minimum contact stiffness, 2.2e-16 N/m, gives ~1e-20·F_max in an elastoplastic permanent set);
 a physical force can be far smaller than 1e-9·F_max yet real (a Hunt–Crossley contact at
 α = b·V0 = 10 lets go with F ≈ 2e-10·F_max one sample before x = 0)."""
+
+FADE_RATIO = 0.9
+"""A force run ending at sample j while the surfaces still overlap has *faded* (not let go)
+when its last three samples fall at least geometrically, f_j·f_{j−2} ≥ FADE_RATIO·f_{j−1}²
+(log F not concave: an exponential decay such as Hunt–Crossley's, ratio ≥ 1). A force that
+reaches zero at a finite rate, f ∝ (t0 − t)^p, gives at most 1 − 1/(1+θ)^(2p) ≤ 3/4 for
+p = 1 (θ·dt = t0 − t_j ≤ dt), so 0.9 separates the two with margin."""
 
 METRICS: tuple[str, ...] = (
     "restitution",
@@ -94,6 +110,32 @@ def _edge_time(rec: ImpactRecord, outside: int, inside: int, inner: int) -> floa
     return t[outside]
 
 
+def _faded(f: np.ndarray, i: int, j: int) -> bool:
+    """Whether the force run ``f[i..j]`` decays into the floor instead of letting go."""
+    if j - i < 2:
+        return False
+    return bool(f[j] * f[j - 2] >= FADE_RATIO * f[j - 1] ** 2)
+
+
+def _extend_faded(rec: ImpactRecord, firsts: list[int], lasts: list[int],
+                  ) -> tuple[list[int], list[int]]:
+    """Runs whose force faded while the surfaces overlap last until x ≤ 0 (merging any run
+    that starts before then); the end is then located at the penetration's zero crossing."""
+    f, x = rec.normal_force_n, rec.penetration_m
+    n = f.size
+    out_f: list[int] = []
+    out_l: list[int] = []
+    for i, j in zip(firsts, lasts, strict=True):
+        if out_l and i <= out_l[-1]:
+            continue  # swallowed by the previous, extended contact
+        if j < n - 1 and x[j + 1] > 0.0 and _faded(f, i, j):
+            apart = np.flatnonzero(x[j + 1:] <= 0.0)
+            j = j + apart[0] if apart.size else n - 1
+        out_f.append(i)
+        out_l.append(j)
+    return out_f, out_l
+
+
 def contacts(rec: ImpactRecord) -> list[Contact]:
     """All contact intervals of ``rec``, in time order."""
     f = rec.normal_force_n
@@ -111,6 +153,7 @@ def contacts(rec: ImpactRecord) -> list[Contact]:
         firsts.insert(0, 0)
     if active[-1]:
         lasts.append(n - 1)
+    firsts, lasts = _extend_faded(rec, firsts, lasts)
     out = []
     for i, j in zip(firsts, lasts, strict=True):
         start = (

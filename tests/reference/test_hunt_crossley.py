@@ -42,7 +42,9 @@ def ode_metrics(n: float, alpha: float, rtol: float = 1e-12) -> dict[str, float]
 
 
 @pytest.mark.parametrize("n", [1.0, 1.5, 2.0])
-@pytest.mark.parametrize("alpha", [1e-3, 1e-2, 0.1, 0.5, 1.0, 3.0, 10.0])
+# up to α = 50 (issue 16): there 1 + b·ẋ fades to e^-60 long before x = 0, and the ODE's
+# terminal event x = 0 is the contact end the closed form and the shared metrics use
+@pytest.mark.parametrize("alpha", [1e-3, 1e-2, 0.1, 0.5, 1.0, 3.0, 10.0, 20.0, 30.0, 50.0])
 def test_closed_form_matches_tight_ode(n, alpha):
     got = {k: float(v[0]) for k, v in hc.dimensionless(alpha, n).items()}
     want = ode_metrics(n, alpha)

@@ -87,3 +87,27 @@ def test_relative_error() -> None:
     assert metrics.relative_error(-1.1, -1.0) == pytest.approx(-0.1)
     assert math.isnan(metrics.relative_error(math.nan, 1.0))
     assert metrics.relative_error(0.0, 0.0) == 0.0
+
+
+def _release_record(tail: str) -> ImpactRecord:
+    """Ball leaving a contact at x = 1 µm → 0 in 10 µs: force ``tail`` ends the contact early
+    (a linear let-go at t = 0 with Bullet-like clamp dust after) or fades (exponential)."""
+    t = np.linspace(-10e-6, 20e-6, 3001)
+    x = 1e-6 * (1.0 - t / 10e-6)
+    if tail == "let-go":
+        f = np.where(t < 0, -t / 10e-6, 1e-20)  # 1 at t = −10 µs → 0 at t = 0, then dust
+    else:
+        f = np.exp(-t / 0.2e-6)  # e^-50 at t = 10 µs: below 1e-13 from t = 6 µs
+    f = np.where(x > 0, f, 0.0)
+    v = np.full_like(t, -0.1)
+    return ImpactRecord(t, x, v, f, v, np.zeros_like(t), mass_1_kg=1.0)
+
+
+def test_faded_force_lasts_until_the_surfaces_part_but_a_let_go_does_not() -> None:
+    """Issue 16: one contact-end rule. A force fading geometrically below the floor (Hunt–
+    Crossley's 1 + b·ẋ = e^(−∫…)) keeps the contact until x = 0; a force reaching zero at a
+    finite rate ends it there, and the dust an engine clamp leaves after it is not contact."""
+    (fade,) = metrics.contacts(_release_record("fade"))
+    assert fade.end_s == pytest.approx(10e-6, abs=1e-12)
+    (let_go,) = metrics.contacts(_release_record("let-go"))
+    assert let_go.end_s == pytest.approx(0.0, abs=1e-12)
