@@ -16,6 +16,8 @@ so the contact duration is T = θe/ωd and the restitution, a function of ζ alo
 :func:`spring_damper_matching` inverts these: given a target restitution and duration at one
 reference velocity it returns k (N/m) and d (N·s/m). A linear spring–damper's restitution does
 not depend on velocity, so it can match Hunt–Crossley at that one velocity only.
+The closed forms live in :mod:`impactbench.reference.kelvin_voigt` (also the reference of the
+zoo's Kelvin–Voigt models); they are re-exported here.
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from impactbench.reference.kelvin_voigt import clipped_phase, clipped_restitution
 from impactbench.reference.record import ImpactRecord, Status
 from scipy import optimize
 
@@ -33,19 +36,6 @@ reference velocity; ``RunSettings.options["reference_velocity_m_s"]`` overrides 
 
 ENERGY_GAIN_LIMIT = 0.01
 """A run that ends with more than 1 % more kinetic energy than it started with diverged."""
-
-
-def clipped_phase(zeta: float) -> float:
-    """θe = ωd·T of the clipped spring–damper (rad), for 0 ≤ ζ < 1."""
-    s = math.sqrt(1.0 - zeta * zeta)
-    return math.pi - math.atan2(2.0 * zeta * s, 1.0 - 2.0 * zeta * zeta)
-
-
-def clipped_restitution(zeta: float) -> float:
-    """Restitution e(ζ) of the clipped linear spring–damper, for 0 ≤ ζ < 1."""
-    s = math.sqrt(1.0 - zeta * zeta)
-    th = clipped_phase(zeta)
-    return -math.exp(-zeta * th / s) * (math.cos(th) - zeta / s * math.sin(th))
 
 
 @dataclass(frozen=True)

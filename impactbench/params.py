@@ -16,9 +16,10 @@ from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
 
 BALL_FLAGS: dict[str, tuple[str, str]] = {
     "mass": ("mass_kg", "ball mass (kg)"),
-    "stiffness": ("stiffness", "Hunt–Crossley stiffness c (N/m^n)"),
+    "stiffness": ("stiffness", "Hunt–Crossley stiffness c (N/m^n; N/m for the linear models)"),
     "exponent": ("exponent", "force-law exponent n (1.5 Hertz, 1 linear)"),
     "damping": ("damping_s_per_m", "Hunt–Crossley damping b (s/m)"),
+    "radius": ("radius_m", "ball radius R (m)"),
 }
 
 RIGID_FLEXIBLE_FLAGS: dict[str, tuple[str, str]] = {
@@ -45,13 +46,69 @@ def add_parameter_flags(parser: argparse.ArgumentParser, scenario: str, *,
     paper's gravity-free collinear impact)."""
     defaults = SCENARIO_CLASSES[scenario]()
     group = parser.add_argument_group("physical parameters (SI; defaults are the paper's)")
+    ball = scenario == "ball-on-plate"
     for flag, (field, help_text) in SCENARIO_FLAGS[scenario].items():
-        group.add_argument(f"--{flag}", type=number, default=getattr(defaults, field),
+        # ball flags default to None (the scenario's default applies) so that a material
+        # can tell an explicit --mass or --stiffness from the default
+        group.add_argument(f"--{flag}", type=number,
+                           default=None if ball else getattr(defaults, field),
                            dest=field, metavar="X",
                            help=f"{help_text}; default {getattr(defaults, field):g}")
-    if scenario == "ball-on-plate" and with_gravity:
+    if ball:
+        _add_ball_model_flags(group)
+    if ball and with_gravity:
         group.add_argument("--gravity", type=number, default=0.0, dest="gravity_m_s2",
                            metavar="G", help="gravity (m/s², engines only); default 0 (off)")
+
+
+def _add_ball_model_flags(group: argparse._ArgumentGroup) -> None:
+    """The contact model (zoo), the nominal restitution and the ball's material."""
+    from impactbench.reference.materials import materials
+    from impactbench.reference.models import MODELS
+
+    group.add_argument("--model", choices=MODELS, default=None,
+                       help="contact model (default hunt-crossley; every other model needs "
+                       "--nominal-restitution)")
+    group.add_argument("--nominal-restitution", type=number, default=None,
+                       dest="nominal_restitution", metavar="E",
+                       help="nominal restitution e in (0, 1] the model's damping is set from "
+                       "at each impact velocity (replaces --damping)")
+    group.add_argument("--material", choices=tuple(materials()), default=None,
+                       help="ball material: mass from --radius and density, Hertz c on the "
+                       "plate from E and ν (explicit --mass wins)")
+    group.add_argument("--plate-material", choices=tuple(materials()), default=None,
+                       help="plate material for the Hertz c (default steel)")
+    group.add_argument("--youngs-modulus", type=number, default=None, dest="youngs_modulus_pa",
+                       metavar="PA", help="ball Young's modulus E (Pa), with --poisson: "
+                       "Hertz c (overrides the material's)")
+    group.add_argument("--poisson", type=number, default=None, metavar="NU",
+                       help="ball Poisson's ratio ν (overrides the material's)")
+
+
+def _ball_values(args: argparse.Namespace, values: dict[str, Any]) -> dict[str, Any]:
+    """Fill mass, c, n and R from a material or elastic constants, when given."""
+    material = getattr(args, "material", None)
+    young = getattr(args, "youngs_modulus_pa", None)
+    poisson = getattr(args, "poisson", None)
+    plate = getattr(args, "plate_material", None)
+    if material is None and young is None and poisson is None:
+        if plate is not None:
+            raise ValueError(f"plate_material = {plate!r}: needs --material or "
+                             "--youngs-modulus/--poisson")
+        return values
+    if "stiffness" in values:
+        raise ValueError(f"stiffness = {values['stiffness']!r}: give either --stiffness or "
+                         "a material (--material, --youngs-modulus/--poisson), not both")
+    if values.get("exponent", 1.5) != 1.5:
+        raise ValueError(f"exponent = {values['exponent']!r}: a material gives the Hertz "
+                         "law; must be 1.5")
+    from impactbench.reference.materials import ball_parameters
+
+    values.update(ball_parameters(
+        values.get("radius_m", BallOnPlate().radius_m), material_name=material,
+        youngs_modulus_pa=young, poisson=poisson, mass_kg=values.get("mass_kg"),
+        plate_material=plate or "steel"))
+    return values
 
 
 def add_law_flags(parser: argparse.ArgumentParser, *, default: str | None = "linear") -> None:
@@ -68,5 +125,7 @@ def scenario_from_args(scenario: str, args: argparse.Namespace,
     cls = SCENARIO_CLASSES[scenario]
     fields = set(cls.field_names())
     values = {k: v for k, v in vars(args).items() if k in fields and v is not None}
+    if cls is BallOnPlate:
+        values = _ball_values(args, values)
     values.update(overrides)
     return cls(**values)

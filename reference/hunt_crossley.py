@@ -333,7 +333,23 @@ def solve(scenario: BallOnPlate) -> dict[str, float]:
     :data:`impactbench.reference.metrics.BALL_METRICS`."""
     if not isinstance(scenario, BallOnPlate):
         raise ValueError(f"scenario = {scenario!r}: must be a BallOnPlate")
+    if scenario.is_linear:  # a Kelvin–Voigt model of the zoo: its own closed form
+        return _linear(scenario)
     return solve_law(scenario.law(), scenario.mass_kg, scenario.velocity_m_s)
+
+
+def _linear(scenario: BallOnPlate, samples: int | None = None):
+    """The Kelvin–Voigt models' metrics (or, with ``samples``, history), in closed form."""
+    from impactbench.reference import kelvin_voigt
+
+    law = scenario.law()
+    args = (scenario.mass_kg, law.stiffness, law.damping_ns_per_m, scenario.velocity_m_s,
+            law.clipped)
+    if samples is None:
+        return kelvin_voigt.solve(*args)
+    return kelvin_voigt.history(*args, samples=samples, meta={
+        "engine": "reference", "mode": "closed_form", "scenario": "ball-on-plate",
+        "parameters": scenario.to_dict()})
 
 
 def solve_law(law: HuntCrossley, mass_kg: float, velocity_m_s: float) -> dict[str, float]:
@@ -618,6 +634,8 @@ def history(scenario: BallOnPlate, samples: int = 4001) -> ImpactRecord:
         raise ValueError(f"scenario = {scenario!r}: must be a BallOnPlate")
     if isinstance(samples, bool) or not isinstance(samples, int) or samples < 16:
         raise ValueError(f"samples = {samples!r}: must be an integer >= 16")
+    if scenario.is_linear:
+        return _linear(scenario, samples)
     m, v0 = scenario.mass_kg, scenario.velocity_m_s
     c, n, b = scenario.stiffness, scenario.exponent, scenario.damping_s_per_m
     a = b * v0

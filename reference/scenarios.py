@@ -23,6 +23,14 @@ from impactbench.reference.laws import (
     StiffnessMutation,
     StructuralLaw,
 )
+from impactbench.reference.models import (
+    HYSTERESIS_MODELS,
+    LINEAR_MODELS,
+    MODELS,
+    KelvinVoigt,
+    check_restitution,
+    linear_damping_ns_per_m,
+)
 
 STEEL_YOUNG_PA = 2.0e11
 STEEL_POISSON = 0.25
@@ -68,6 +76,13 @@ class BallOnPlate(_Scenario):
 
     Hunt–Crossley contact F = c·xⁿ·(1 + b·ẋ). Gravity is off by default (the paper's
     impact is collinear and gravity-free); ``gravity_m_s2 = 9.81`` turns it on in engines.
+
+    ``model`` picks a contact model of the zoo (:mod:`impactbench.reference.models`); with
+    ``nominal_restitution`` e set, the model's damping follows from e at ``velocity_m_s``:
+    for the hysteresis-damping models ``damping_s_per_m`` is *derived* (b = α(e)/V0, any given
+    value is replaced), for the linear Kelvin–Voigt models ``stiffness`` is k in N/m
+    (``exponent`` must be 1) and d = 2ζ√(k·m). The default model ``hunt-crossley`` without e
+    takes ``damping_s_per_m`` as given (the paper's b).
     """
 
     velocity_m_s: float = 1.0
@@ -77,6 +92,8 @@ class BallOnPlate(_Scenario):
     damping_s_per_m: float = 0.1
     radius_m: float = PAPER_RADIUS_M
     gravity_m_s2: float = 0.0
+    model: str = "hunt-crossley"
+    nominal_restitution: float | None = None
 
     def __post_init__(self) -> None:
         check.positive("velocity_m_s", self.velocity_m_s)
@@ -86,14 +103,44 @@ class BallOnPlate(_Scenario):
         check.non_negative("damping_s_per_m", self.damping_s_per_m)
         check.positive("radius_m", self.radius_m)
         check.non_negative("gravity_m_s2", self.gravity_m_s2)
+        check.one_of("model", self.model, MODELS)
+        e = self.nominal_restitution
+        if e is None:
+            if self.model != "hunt-crossley":
+                raise ValueError(f"nominal_restitution = None: model {self.model!r} needs a "
+                                 "nominal restitution in (0, 1]")
+            return
+        check_restitution("nominal_restitution", e)
+        if self.model in LINEAR_MODELS:
+            if self.exponent != 1.0:
+                raise ValueError(f"exponent = {self.exponent!r}: model {self.model!r} is a "
+                                 "linear spring (stiffness in N/m); must be 1")
+            object.__setattr__(self, "damping_s_per_m", 0.0)
+        else:
+            b = HYSTERESIS_MODELS[self.model].alpha(float(e)) / self.velocity_m_s
+            object.__setattr__(self, "damping_s_per_m", b)
 
     @property
     def alpha(self) -> float:
-        """α = b·V0, the only parameter restitution depends on."""
+        """α = b·V0, the only parameter restitution depends on (hysteresis models)."""
         return self.damping_s_per_m * self.velocity_m_s
 
-    def law(self) -> HuntCrossley:
-        return HuntCrossley(self.stiffness, self.exponent, self.damping_s_per_m)
+    @property
+    def is_linear(self) -> bool:
+        """True for the linear Kelvin–Voigt models."""
+        return self.model in LINEAR_MODELS
+
+    def law(self) -> HuntCrossley | KelvinVoigt:
+        """The contact law: a Hunt–Crossley-family law, or a Kelvin–Voigt spring–damper."""
+        if self.is_linear:
+            d = linear_damping_ns_per_m(float(self.nominal_restitution), self.stiffness,
+                                        self.mass_kg)
+            return KelvinVoigt(self.stiffness, d, clipped=LINEAR_MODELS[self.model])
+        if self.nominal_restitution is None:
+            return HuntCrossley(self.stiffness, self.exponent, self.damping_s_per_m)
+        return HYSTERESIS_MODELS[self.model](
+            stiffness=self.stiffness, exponent=self.exponent,
+            nominal_restitution=self.nominal_restitution, velocity_m_s=self.velocity_m_s)
 
 
 @dataclass(frozen=True)

@@ -4,6 +4,10 @@ Both solve the Hunt–Crossley ball-on-plate impact (MODELS.md §1) with the clo
 (:mod:`impactbench.reference.hunt_crossley`); defaults are the preprint's case (m = 0.1 kg,
 c = 1.7135e10 N/m^1.5, n = 1.5, b = 0.1 s/m).
 
+``--model NAME --nominal-restitution E`` picks a contact model of the zoo
+(:mod:`impactbench.reference.models`) set from a nominal restitution; ``--material``,
+``--radius`` (or ``--youngs-modulus --poisson``) give mass and Hertz c of the user's ball.
+
 ``reference ball-on-plate --json`` prints one JSON object with exactly the keys
 ``restitution, duration_s, peak_force_n, max_penetration_m, energy_loss_fraction`` (SI), or a
 list of such objects, in input order, when several velocities are given (repeated
@@ -32,8 +36,8 @@ from impactbench.cliutil import (
 )
 from impactbench.params import add_parameter_flags, scenario_from_args
 
-REFERENCE_HELP = "Hunt–Crossley ball on a fixed plate: closed-form metrics"
-SWEEP_HELP = "Hunt–Crossley ball on a fixed plate: metrics over a velocity grid into a table"
+REFERENCE_HELP = "ball on a fixed plate (Hunt–Crossley or any --model): closed-form metrics"
+SWEEP_HELP = "ball on a fixed plate: metrics over a velocity grid into a table"
 
 
 def register(top: argparse._SubParsersAction, groups: dict) -> None:
@@ -66,13 +70,16 @@ def reference_main(args: argparse.Namespace) -> int:
     from impactbench.reference.metrics import BALL_METRICS
 
     velocities = args.velocities or [1.0]
-    results = [solve(scenario_from_args("ball-on-plate", args, velocity_m_s=v))
-               for v in velocities]
+    scenarios = [scenario_from_args("ball-on-plate", args, velocity_m_s=v) for v in velocities]
+    results = [solve(s) for s in scenarios]
     if args.json:
         print_json(results[0] if len(results) == 1 else results)
         return 0
-    print(f"Hunt–Crossley ball on plate: m = {args.mass_kg:g} kg, c = {args.stiffness:g} N/m^n, "
-          f"n = {args.exponent:g}, b = {args.damping_s_per_m:g} s/m")
+    s = scenarios[0]
+    damping = (f"nominal e = {s.nominal_restitution:g}" if s.nominal_restitution is not None
+               else f"b = {s.damping_s_per_m:g} s/m")
+    print(f"{s.model} ball on plate: m = {s.mass_kg:g} kg, c = {s.stiffness:g} N/m^n, "
+          f"n = {s.exponent:g}, {damping}")
     rows = [{"velocity_m_s": v, **r} for v, r in zip(velocities, results, strict=True)]
     print_table(rows, ("velocity_m_s", *BALL_METRICS), floatfmt=".8g")
     return 0
@@ -82,10 +89,9 @@ def sweep_main(args: argparse.Namespace) -> int:
     table_format(args.out)
     tic = time.perf_counter()
     velocities = grid(args.start, args.stop, args.step)
-    from impactbench.reference.hunt_crossley import sweep
+    from impactbench.reference.zoo import sweep
 
-    table = sweep(velocities, mass_kg=args.mass_kg, stiffness=args.stiffness,
-                  exponent=args.exponent, damping_s_per_m=args.damping_s_per_m)
+    table = sweep(scenario_from_args("ball-on-plate", args), velocities)
     write_table(table, args.out)
     wall = time.perf_counter() - tic
     print(f"wrote {len(table)} rows to {args.out} in {wall:.3g} s", file=sys.stderr)
