@@ -28,6 +28,10 @@ scenario's own settings; the defaults used go into ``meta["engine_defaults"]``) 
 (the user's own engine parameters, ``settings.params``, keyed by the engine's own names; the
 valid names are the adapter's :attr:`Adapter.parameter_keys`).
 
+In ``injected`` mode the scenario's contact model (``BallOnPlate.model``, any of
+:mod:`impactbench.reference.models` except the adhesive unclipped Kelvin–Voigt, which is
+``unsupported``) is what ``scenario.law()`` returns, so every adapter follows it.
+
 An adapter lists the modes it implements in :attr:`Adapter.modes`; :meth:`Adapter.run` turns
 any other mode into an ``unsupported`` record, and rejects unknown ``custom`` keys with a
 ValueError that lists the valid ones.
@@ -141,6 +145,11 @@ class Adapter(ABC):
             return ImpactRecord.failed(
                 Status.UNSUPPORTED, f"{self.name} does not implement mode {mode!r} "
                 f"(it implements {', '.join(self.modes)})", engine=self.name, mode=mode)
+        if mode == "injected" and getattr(scenario, "model", None) == "kelvin-voigt":
+            return ImpactRecord.failed(
+                Status.UNSUPPORTED, "model 'kelvin-voigt' (unclipped) pulls the ball back "
+                "(F < 0): no engine contact can pull, and the metrics path measures contact "
+                "by F > 0; inject 'kelvin-voigt-clipped'", engine=self.name, mode=mode)
         dt = settings.timestep_s or self.default_timestep_s(scenario, mode)
         if settings.timestep_s is None:
             from dataclasses import replace

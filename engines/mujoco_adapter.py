@@ -81,6 +81,7 @@ from impactbench.engines.common import (
 )
 from impactbench.reference import validation as check
 from impactbench.reference.laws import no_further_contact
+from impactbench.reference.models import spring_damper
 from impactbench.reference.record import ImpactRecord, Status
 from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
 
@@ -362,16 +363,17 @@ def run_ball(s: BallOnPlate, mode: str, settings: RunSettings) -> ImpactRecord:
     hook = None
     if mode == "injected":
         solref = _enable_override(model)
-        c, n, b = s.stiffness, s.exponent, s.damping_s_per_m
+        law = s.law()  # the scenario's contact model (Hunt–Crossley family or Kelvin–Voigt)
 
         def hook(q: list[float], v: list[float]) -> None:
             x = -q[0]
             if x > 0.0:
-                k = c * x ** (n - 1.0)  # secant stiffness c·x^(n−1) (N/m)
+                # F = k·x + d·ẋ: HC k = c·x^(n−1), d = c·b·xⁿ; Kelvin–Voigt k, d as given
+                k, d = spring_damper(law, x)
                 solref[0] = -k * a
-                solref[1] = -k * x * b * a  # damping c·b·xⁿ (N·s/m)
+                solref[1] = -d * a
 
-        meta.update(law="hunt_crossley", solimp=list(SOLIMP))
+        meta.update(law=s.model, solimp=list(SOLIMP))
     else:
         v_ref = float(settings.options.get("reference_velocity_m_s",
                                            NATIVE_REFERENCE_VELOCITY_M_S))

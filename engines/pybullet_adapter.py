@@ -82,6 +82,7 @@ from typing import Any
 from impactbench.engines.base import Adapter, EngineUnavailable, RunSettings, Scenario
 from impactbench.engines.common import NATIVE_REFERENCE_VELOCITY_M_S, Recorder, classify
 from impactbench.reference import validation as check
+from impactbench.reference.models import spring_damper
 from impactbench.reference.record import ImpactRecord, Status
 from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
 
@@ -339,8 +340,7 @@ def _run_ball(p: Any, s: BallOnPlate, mode: str, settings: RunSettings, dt: floa
                     x_end = x + dt * (v + g_dt - target * dt / m)
                     set_contact(target / x_end if x_end > 0.0 and target > 0.0 else 0.0, 0.0)
                 else:
-                    f_el = law.elastic_force(x)
-                    set_contact(f_el / x, f_el * law.damping)
+                    set_contact(*spring_damper(law, x))  # F = k·x + d·ẋ at this x
                 scheduled = True
             elif scheduled:
                 set_contact(0.0, 0.0)

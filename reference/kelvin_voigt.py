@@ -103,8 +103,9 @@ def history(mass_kg: float, stiffness_n_per_m: float, damping_ns_per_m: float,
     """Exact time history of the impact as an :class:`ImpactRecord`.
 
     ``samples`` points: the contact [0, T] evenly (first touch and separation included, the
-    instant of peak force inserted) plus four samples of free flight on each side. The unclipped law's force turns negative (it
-    pulls) before x returns to 0; the record keeps that force as it is.
+    instant of peak force inserted) plus four samples of free flight on each side. The
+    unclipped law's force turns negative (it pulls) before x returns to 0; the record keeps
+    that force as it is.
     """
     if isinstance(samples, bool) or not isinstance(samples, int) or samples < 16:
         raise ValueError(f"samples = {samples!r}: must be an integer >= 16")
@@ -125,7 +126,9 @@ def history(mass_kg: float, stiffness_n_per_m: float, damping_ns_per_m: float,
     if not clipped:
         x[-1] = 0.0
     f = k * x + d * v
-    f[0] = 0.0  # x = 0: no contact yet (the jump d·V0 acts from the first instant x > 0)
+    # first touch: F(0⁺) = d·V0 is the peak when ζ > ½ (recorded there); otherwise x = 0 and
+    # F = 0 (the metrics path then locates the start at the zero of x, exactly t = 0)
+    f[0] = d * v0 if z > 0.5 else 0.0
     f[-1] = 0.0  # separation: F = 0 (clipped) or x = 0 (unclipped)
     if clipped:
         f = np.maximum(f, 0.0)
