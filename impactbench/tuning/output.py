@@ -203,7 +203,8 @@ def tuned_tables(result: TuneResult) -> dict[str, dict[str, Any]]:
                      "scipy least_squares trf polish",
         "seed": SEED,
         "limits": list(result.space.limits),
-        **{f"scenario_{k}": v for k, v in s.to_dict().items() if k != "velocity_m_s"},
+        **{f"scenario_{k}": v for k, v in s.to_dict().items()
+           if k != "velocity_m_s" and v is not None},  # TOML has no null
     }
     start, tuned = result.max_abs_error("start"), result.max_abs_error("tuned")
     for k in REPORTED:

@@ -282,7 +282,9 @@ def pymunk_space(scenario: BallOnPlate, variant: str = "elasticity") -> Space:
     def law_run(v: np.ndarray, s: BallOnPlate, timestep_s: float | None
                 ) -> tuple[BallOnPlate, str, RunSettings]:
         # the adapter's injected restitution rule uses the scenario's b: hand it the tuned b
-        return (s.replace(damping_s_per_m=float(v[0])), "injected",
+        # (as a plain Hunt–Crossley b: a model's nominal restitution would re-derive b)
+        return (s.replace(damping_s_per_m=float(v[0]), model="hunt-crossley",
+                          nominal_restitution=None), "injected",
                 RunSettings(timestep_s=timestep_s, options={"injection": "restitution"}))
 
     def law_snippet(t: dict[str, Any]) -> str:
