@@ -55,6 +55,20 @@ Modes
   No fallback to applied forces was needed: the force always comes out of the contact solver.
 * ``tuned``: native with ``settings.tuned["contact_stiffness"]`` (pair K, N/m) and
   ``settings.tuned["contact_damping"]`` (pair D, N·s/m; default 0); ``unsupported`` without them.
+* ``default`` (ball): Bullet out of the box. Only the step (``fixedTimeStep``), gravity,
+  geometry, mass and the scenario's zero friction are set; everything else is Bullet's:
+  the rigid ERP/CFM contact (no contactStiffness/Damping), restitution 0 on both bodies
+  (Bullet combines restitutions by product), ``restitutionVelocityThreshold`` 0.2 m/s,
+  the default contact breaking threshold and slop, split impulse, 50 solver iterations and
+  linear/angular damping 0.04. ``meta["engine_defaults"]`` holds what pybullet reports
+  (``getPhysicsEngineParameters``, ``getDynamicsInfo``) and the threshold.
+* ``custom`` (ball): ``default`` plus the user's ``settings.params`` by Bullet's own names
+  (:data:`PARAMETER_KEYS`). Body keys (``restitution``, ``contactStiffness`` with
+  ``contactDamping``, ``linearDamping``) go to the ball with ``changeDynamics`` and are pair
+  values: the plate then gets restitution 1, stiffness ∞ and damping 0 so the pair has exactly
+  the given value; engine keys (``restitutionVelocityThreshold``, ``erp``, ``contactERP``,
+  ``numSolverIterations``, ``useSplitImpulse``, ``contactSlop``,
+  ``contactBreakingThreshold``, …) go to ``setPhysicsEngineParameter``.
 
 Large steps: Bullet's soft contact is backward Euler, hence unconditionally stable. In
 ``native`` mode a step far too large gives a finite, over-damped result (V0 = 5 m/s:
@@ -92,11 +106,31 @@ first touch between two samples, so the shared metrics locate it by the penetrat
 crossing instead of extrapolating the force."""
 BREAKING_THRESHOLD_M = 1e-12
 PLATE_HALF_THICKNESS_M = 0.01
+OUT_OF_BOX_PLATE_HALF_THICKNESS_M = 0.5
+"""``default``/``custom``: a thick plate, so a rigid contact that lets the ball sink a whole
+step (1/240 s at 5 m/s: 21 mm) never puts its centre below the box's mid-plane (which would
+flip the contact normal: tunnelling that is the plate's thinness, not the engine's)."""
+RESTITUTION_VELOCITY_THRESHOLD_M_S = 0.2
+"""Bullet's default ``btContactSolverInfo::m_restitutionVelocityThreshold`` (m/s): below this
+approach speed Bullet applies no restitution."""
+BODY_KEYS: tuple[str, ...] = ("restitution", "contactStiffness", "contactDamping",
+                              "linearDamping")
+ENGINE_KEYS: tuple[str, ...] = ("restitutionVelocityThreshold", "erp", "contactERP",
+                                "numSolverIterations", "useSplitImpulse",
+                                "splitImpulsePenetrationThreshold", "contactSlop",
+                                "contactBreakingThreshold", "numSubSteps")
+PARAMETER_KEYS: tuple[str, ...] = BODY_KEYS + ENGINE_KEYS
+"""``custom``-mode keys: pybullet's own ``changeDynamics`` / ``setPhysicsEngineParameter``
+argument names."""
+INTEGER_KEYS = ("numSolverIterations", "useSplitImpulse", "numSubSteps")
 RF_MIN_RADIUS_M = 0.05
 INJECTIONS = ("explicit", "secant")
 BALL_DEFAULT_DT_S = 1e-6
 RF_DEFAULT_DT_S = 1e-5
 MIN_STEPS = 64
+OUT_OF_BOX_TIME_CAP_S = 0.5
+"""``default``/``custom`` without a soft contact: the rigid contact's push-out (ERP) spans a
+few steps, not a physical duration; the cap only bounds a ball that never lets go."""
 
 
 def _import_engine() -> Any:
@@ -143,21 +177,80 @@ def _plain(p: Any, cid: int, body: int, link: int) -> None:
                      physicsClientId=cid)
 
 
-class BallWorld:
-    """Free sphere above a static box plate; pair contact K (N/m), D (N·s/m)."""
+def custom_parameters(params: dict[str, Any]) -> dict[str, Any]:
+    """Validated ``custom`` parameters (numbers ≥ 0; integers where Bullet wants them)."""
+    out: dict[str, Any] = {}
+    for key, value in params.items():
+        if key in INTEGER_KEYS:
+            if isinstance(value, bool) or not isinstance(value, int | float) \
+                    or value != int(value) or value < 0:
+                raise ValueError(f"param {key} = {value!r}: must be an integer >= 0")
+            out[key] = int(value)
+        elif key == "splitImpulsePenetrationThreshold":
+            out[key] = check.finite(f"param {key}", value)
+        else:
+            out[key] = check.non_negative(f"param {key}", value)
+    if ("contactStiffness" in out) != ("contactDamping" in out):
+        raise ValueError("param contactStiffness/contactDamping: give both (Bullet applies "
+                         "a soft contact only with both set)")
+    return out
 
-    def __init__(self, p: Any, scenario: BallOnPlate, dt: float, k: float, d: float) -> None:
+
+class BallWorld:
+    """Free sphere above a static box plate; pair contact K (N/m), D (N·s/m).
+
+    ``out_of_box`` (``default``/``custom`` modes): Bullet's defaults plus these user
+    parameters instead of impactbench's contact set-up (K and D are then ignored)."""
+
+    def __init__(self, p: Any, scenario: BallOnPlate, dt: float, k: float, d: float,
+                 out_of_box: dict[str, Any] | None = None) -> None:
         self.p, self.dt, self.radius = p, dt, scenario.radius_m
-        self.cid = _connect(p, dt, -scenario.gravity_m_s2)
+        self.out_of_box = out_of_box
+        if out_of_box is None:
+            self.cid = _connect(p, dt, -scenario.gravity_m_s2)
+        else:
+            self.cid = p.connect(p.DIRECT)
+            p.setPhysicsEngineParameter(fixedTimeStep=dt, physicsClientId=self.cid)
+            p.setGravity(0.0, 0.0, -scenario.gravity_m_s2, physicsClientId=self.cid)
         try:
             self._build(scenario, k, d)
         except BaseException:
             self.close()
             raise
 
+    def engine_defaults(self) -> dict[str, Any]:
+        """What pybullet reports for this world before the user's parameters are applied."""
+        p, cid = self.p, self.cid
+        info = p.getDynamicsInfo(self.ball, -1, physicsClientId=cid)
+        engine = p.getPhysicsEngineParameters(physicsClientId=cid)
+        return {**{k: engine[k] for k in ("fixedTimeStep", "numSubSteps", "numSolverIterations")
+                   if k in engine},
+                "restitution": info[5], "contactDamping": info[8], "contactStiffness": info[9],
+                "collisionMargin_m": info[11],
+                "restitutionVelocityThreshold": RESTITUTION_VELOCITY_THRESHOLD_M_S,
+                "contact": "rigid (ERP/CFM): contactStiffness/contactDamping unset (-1)"}
+
+    def _apply_custom(self, params: dict[str, Any]) -> None:
+        p, cid = self.p, self.cid
+        engine = {k: v for k, v in params.items() if k in ENGINE_KEYS}
+        if engine:
+            p.setPhysicsEngineParameter(**engine, physicsClientId=cid)
+        if "restitution" in params:
+            p.changeDynamics(self.plate, -1, restitution=1.0, physicsClientId=cid)
+            p.changeDynamics(self.ball, -1, restitution=params["restitution"],
+                             physicsClientId=cid)
+        if "linearDamping" in params:
+            p.changeDynamics(self.ball, -1, linearDamping=params["linearDamping"],
+                             physicsClientId=cid)
+        if "contactStiffness" in params:
+            p.changeDynamics(self.plate, -1, contactStiffness=math.inf, contactDamping=0.0,
+                             physicsClientId=cid)
+            self.set_contact(params["contactStiffness"], params["contactDamping"])
+
     def _build(self, scenario: BallOnPlate, k: float, d: float) -> None:
         p, cid, dt = self.p, self.cid, self.dt
-        h = PLATE_HALF_THICKNESS_M
+        h = PLATE_HALF_THICKNESS_M if self.out_of_box is None \
+            else OUT_OF_BOX_PLATE_HALF_THICKNESS_M
         box = p.createCollisionShape(p.GEOM_BOX, halfExtents=[0.1, 0.1, h], physicsClientId=cid)
         self.plate = p.createMultiBody(0.0, box, basePosition=[0.0, 0.0, -h],
                                        physicsClientId=cid)
@@ -167,11 +260,18 @@ class BallWorld:
         self.ball = p.createMultiBody(scenario.mass_kg, sphere,
                                       basePosition=[0.0, 0.0, scenario.radius_m + self.gap_m],
                                       physicsClientId=cid)
-        for body in (self.plate, self.ball):
-            _plain(p, cid, body, -1)
-        p.changeDynamics(self.plate, -1, contactStiffness=math.inf, contactDamping=0.0,
-                         physicsClientId=cid)
-        self.set_contact(k, d)
+        if self.out_of_box is not None:
+            for body in (self.plate, self.ball):  # the scenario is frictionless
+                p.changeDynamics(body, -1, lateralFriction=0.0, rollingFriction=0.0,
+                                 spinningFriction=0.0, physicsClientId=cid)
+            self.defaults = self.engine_defaults()
+            self._apply_custom(self.out_of_box)
+        else:
+            for body in (self.plate, self.ball):
+                _plain(p, cid, body, -1)
+            p.changeDynamics(self.plate, -1, contactStiffness=math.inf, contactDamping=0.0,
+                             physicsClientId=cid)
+            self.set_contact(k, d)
         p.resetBaseVelocity(self.ball, [0.0, 0.0, -scenario.velocity_m_s], [0.0, 0.0, 0.0],
                             physicsClientId=cid)
 
@@ -253,6 +353,8 @@ class PybulletAdapter(Adapter):
     """PyBullet (Bullet 3, maximal-coordinate sphere / Featherstone prismatic links)."""
 
     name = "pybullet"
+    modes = ("native", "injected", "tuned", "default", "custom")
+    parameter_keys = PARAMETER_KEYS
 
     def version(self) -> str:
         return _version()
@@ -271,6 +373,9 @@ class PybulletAdapter(Adapter):
         dt = float(settings.timestep_s or self.default_timestep_s(scenario, mode))
         if isinstance(scenario, BallOnPlate):
             return _run_ball(p, scenario, mode, settings, dt, injection)
+        if mode in ("default", "custom"):
+            return ImpactRecord.failed(
+                Status.UNSUPPORTED, f"{mode} mode is implemented for ball-on-plate only")
         return _run_flex(p, scenario, mode, settings, dt, injection)
 
 
@@ -309,7 +414,13 @@ def _run_ball(p: Any, s: BallOnPlate, mode: str, settings: RunSettings, dt: floa
     """Record the ball's impact; see the module docstring for the physics."""
     injected = mode == "injected"
     meta: dict[str, Any] = {"scenario": "ball-on-plate"}
-    if injected:
+    out_of_box = None
+    if mode in ("default", "custom"):
+        out_of_box = custom_parameters(settings.params or {}) if mode == "custom" else {}
+        k0 = out_of_box.get("contactStiffness", 0.0)
+        d0 = out_of_box.get("contactDamping", 0.0)
+        meta["params"] = dict(out_of_box)
+    elif injected:
         k0, d0 = 0.0, 0.0
         meta["injection"] = injection
     else:
@@ -317,13 +428,18 @@ def _run_ball(p: Any, s: BallOnPlate, mode: str, settings: RunSettings, dt: floa
         meta.update(native)
     t_cap = settings.max_time_s or (
         FLIGHT_STEPS * dt + 5.0 * _hertz_duration_s(s)
-        + (0.0 if injected else 5.0 * math.pi * math.sqrt(s.mass_kg / k0)))
+        + (0.0 if injected else OUT_OF_BOX_TIME_CAP_S if out_of_box is not None and k0 == 0.0
+           else 5.0 * math.pi * math.sqrt(s.mass_kg / k0)))
     n_max = max(MIN_STEPS, math.ceil(t_cap / dt))
     m, radius = s.mass_kg, s.radius_m
+    # tunnelled: the centre past the plate's surface (thin plate) or through the thick one
+    beyond = radius if out_of_box is None else radius + 2.0 * OUT_OF_BOX_PLATE_HALF_THICKNESS_M
     law = s.law()
     g_dt = s.gravity_m_s2 * dt
     rec = Recorder()
-    world = BallWorld(p, s, dt, k0, d0)
+    world = BallWorld(p, s, dt, k0, d0, out_of_box)
+    if out_of_box is not None:
+        meta["engine_defaults"] = world.defaults
     try:
         ball, plate, cid = world.ball, world.plate, world.cid
         get_pos, get_vel = p.getBasePositionAndOrientation, p.getBaseVelocity
@@ -354,8 +470,8 @@ def _run_ball(p: Any, s: BallOnPlate, mode: str, settings: RunSettings, dt: floa
                 touched = True
             elif touched and v < 0.0 and x <= 0.0:
                 break
-            if x > radius or not math.isfinite(x):
-                tunneled = x > radius
+            if x > beyond or not math.isfinite(x):
+                tunneled = x > beyond
                 break
         else:
             timed_out = True
@@ -365,7 +481,7 @@ def _run_ball(p: Any, s: BallOnPlate, mode: str, settings: RunSettings, dt: floa
     finally:
         world.close()
     out = rec.record(m, math.inf, **meta)
-    tunneled = tunneled or x_end > radius
+    tunneled = tunneled or x_end > beyond
     return classify(out, initial_kinetic_j=0.5 * m * (s.velocity_m_s**2 + 2 * s.gravity_m_s2
                                                       * world.gap_m),
                     final_kinetic_j=0.5 * m * v_end**2, tunneled=tunneled,
