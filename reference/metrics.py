@@ -22,7 +22,15 @@ Definitions (SI):
   to the bracketing step (a clipped spring–damper lets go while still penetrating; an
   elastoplastic contact starts and ends at its permanent set).
 - ``restitution`` k = −ẋ(end of last contact) / ẋ(start of first contact), relative normal
-  velocities interpolated at those instants.
+  velocities interpolated at those instants. A contact spanning fewer than
+  ``MIN_CONTACT_SAMPLES`` force samples (a step as long as the contact) has no interior to
+  interpolate in: its velocities are read at the free-flight samples just outside it (the
+  velocity before the first contact sample and after the last), so the restitution of a
+  one-step impulse stays comparable.
+- *Resolution* (:func:`resolved`): with fewer than ``MIN_CONTACT_SAMPLES`` samples in the
+  first contact, the time-resolved metrics (duration, pulse width, contact time, peak force,
+  max penetration, energy loss) are one- or few-step artefacts of the step size and are flagged
+  not resolved; restitution, impulse and the impact count stay comparable.
 - ``duration_s``: the first contact's duration. ``pulse_width_s``: first contact's start to
   the last contact's end. ``contact_time_s``: summed contact durations. ``impacts``: count.
 - ``peak_force_n``: the largest force sample; ``max_penetration_m``: the largest penetration
@@ -53,6 +61,20 @@ when its last three samples fall at least geometrically, f_j·f_{j−2} ≥ FADE
 (log F not concave: an exponential decay such as Hunt–Crossley's, ratio ≥ 1). A force that
 reaches zero at a finite rate, f ∝ (t0 − t)^p, gives at most 1 − 1/(1+θ)^(2p) ≤ 3/4 for
 p = 1 (θ·dt = t0 − t_j ≤ dt), so 0.9 separates the two with margin."""
+
+MIN_CONTACT_SAMPLES = 10
+"""A contact sampled fewer times than this is not time-resolved: a half-sine pulse sampled 10
+times has its peak within 5 % and its located duration within ~10 % of a step."""
+
+TIME_RESOLVED: tuple[str, ...] = (
+    "duration_s",
+    "peak_force_n",
+    "max_penetration_m",
+    "energy_loss_fraction",
+    "pulse_width_s",
+    "contact_time_s",
+)
+"""Metrics that need the contact resolved in time (see :func:`resolved`)."""
 
 METRICS: tuple[str, ...] = (
     "restitution",
@@ -179,8 +201,15 @@ def compute(rec: ImpactRecord) -> dict[str, float]:
     if not cs:
         return out
     first, last = cs[0], cs[-1]
-    v_in = _interp(rec, rec.penetration_rate_m_s, first.start_s)
-    v_out = _interp(rec, rec.penetration_rate_m_s, last.end_s)
+    rate = rec.penetration_rate_m_s
+    if first.last - first.first + 1 < MIN_CONTACT_SAMPLES and first.first > 0:
+        v_in = float(rate[first.first - 1])  # free flight just before the contact
+    else:
+        v_in = _interp(rec, rate, first.start_s)
+    if last.last - last.first + 1 < MIN_CONTACT_SAMPLES and last.last < rate.size - 1:
+        v_out = float(rate[last.last + 1])  # free flight just after the contact
+    else:
+        v_out = _interp(rec, rate, last.end_s)
     f, x = rec.normal_force_n, rec.penetration_m
     inside = np.zeros(f.size, dtype=bool)
     for c in cs:
@@ -201,6 +230,15 @@ def compute(rec: ImpactRecord) -> dict[str, float]:
         impacts=len(cs),
     )
     return out
+
+
+def resolved(rec: ImpactRecord) -> dict[str, bool]:
+    """Per metric: is it resolved in time? False for :data:`TIME_RESOLVED` metrics when the
+    first contact spans fewer than :data:`MIN_CONTACT_SAMPLES` force samples (the step is about
+    as long as the contact); always True for the others and for a record without contact."""
+    cs = contacts(rec) if len(rec) else []
+    ok = not cs or cs[0].last - cs[0].first + 1 >= MIN_CONTACT_SAMPLES
+    return {k: (ok or k not in TIME_RESOLVED) for k in METRICS}
 
 
 def relative_error(value: float, reference: float) -> float:
