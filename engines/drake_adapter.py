@@ -41,6 +41,25 @@ Ball on plate (MODELS.md §1)
     * tuned: native with ``settings.tuned`` keys ``point_stiffness_n_per_m`` (pair k, N/m,
       required) and ``hunt_crossley_dissipation_s_per_m`` (pair d, s/m; default b).
 
+Out of the box (ball; ``default`` and ``custom`` modes)
+    A *discrete* plant with time step = ``timestep_s``, as a Drake user builds it
+    (``AddMultibodyPlant(MultibodyPlantConfig(time_step=dt))``): Drake's default contact model
+    (hydroelastic with fallback: the geometries carry no hydroelastic properties, so it falls
+    back to point contact), its default discrete contact approximation (``lagged`` in Drake
+    1.51) and its default point stiffness and dissipation, estimated by the plant from the
+    ``penetration_allowance`` (1 mm); the only contact property set is the scenario's zero
+    friction. ``meta["engine_defaults"]`` holds the plant configuration and the plant's
+    penalty time scale. ``custom`` overrides these with ``settings.params`` by Drake's own names
+    (:data:`PARAMETER_KEYS`): ``point_stiffness`` (pair N/m, each geometry gets 2k) and
+    ``hunt_crossley_dissipation`` (s/m), ``relaxation_time`` (s, the dissipation SAP-family
+    approximations use), ``discrete_contact_approximation`` (tamsi, sap, similar, lagged;
+    ``discrete_contact_solver`` is Drake's older name, tamsi or sap), ``contact_model``,
+    ``penetration_allowance`` and ``stiction_tolerance``. ``tuned`` with a
+    ``discrete_contact_approximation`` key runs this discrete plant with the tuned point
+    stiffness and dissipation (Drake's customary 1 ms step). The discrete plant's contact results
+    port is sampled: after a step it holds the force applied over that step, so sample k pairs
+    the state before step k with that force, as the other engines' records do.
+
 Rigid–flexible (MODELS.md §2)
     Two bodies on prismatic joints along world x, positions measured from first touch: body 1
     (a sphere whose front surface is at q1) and body 2 (a box whose front face is at q2);
@@ -101,6 +120,17 @@ PLATE_SIDE_M = 1.0
 half-spaces on every registration)."""
 BALL_TIME_CAP_DURATIONS = 100.0
 """Default ball time cap: the free flight plus this many elastic (b = 0) contact durations."""
+
+DISCRETE_APPROXIMATIONS = ("tamsi", "sap", "similar", "lagged")
+PARAMETER_KEYS: tuple[str, ...] = (
+    "point_stiffness", "hunt_crossley_dissipation", "relaxation_time",
+    "discrete_contact_approximation", "discrete_contact_solver", "contact_model",
+    "penetration_allowance", "stiction_tolerance")
+"""``custom``-mode keys: Drake's own names (contact properties and MultibodyPlantConfig)."""
+CONTACT_MODELS = ("point", "hydroelastic_with_fallback", "hydroelastic")
+OUT_OF_BOX_CAP_TIME_SCALES = 20.0
+"""``default``/``custom`` time cap: this many of the plant's penalty time scales (the default
+contact is soft: ~10 ms for the paper's ball)."""
 
 _DRAKE: Any = None
 
@@ -190,7 +220,10 @@ class DrakeModel:
         self.simulator.Initialize()
 
     def state(self) -> list[float]:
-        """[q…, v…] of the diagram's only continuous state (the plant's), as Python floats."""
+        """[q…, v…] of the plant, as Python floats."""
+        if self.plant.time_step() > 0.0:
+            return self.plant.GetPositionsAndVelocities(
+                self.plant.GetMyContextFromRoot(self.context)).tolist()
         return self.context.get_continuous_state_vector().CopyToVector().tolist()
 
 
@@ -237,10 +270,97 @@ def _integrator(settings: RunSettings) -> str:
     return check.one_of("integrator", name, tuple(_drake().GetIntegrationSchemes()))
 
 
-def build_ball(scenario: BallOnPlate, mode: str, settings: RunSettings) -> DrakeModel:
-    """The ball-on-plate diagram for ``mode`` (native, tuned or injected)."""
+def custom_parameters(params: dict[str, Any]) -> dict[str, Any]:
+    """Validated ``custom`` parameters (Drake's names; see :data:`PARAMETER_KEYS`)."""
+    out: dict[str, Any] = {}
+    for key in ("point_stiffness", "penetration_allowance", "stiction_tolerance"):
+        if key in params:
+            out[key] = check.positive(f"param {key}", params[key])
+    for key in ("hunt_crossley_dissipation", "relaxation_time"):
+        if key in params:
+            out[key] = check.non_negative(f"param {key}", params[key])
+    if "discrete_contact_solver" in params:
+        solver = check.one_of("param discrete_contact_solver",
+                              params["discrete_contact_solver"], ("tamsi", "sap"))
+        out["discrete_contact_approximation"] = solver
+    if "discrete_contact_approximation" in params:
+        out["discrete_contact_approximation"] = check.one_of(
+            "param discrete_contact_approximation", params["discrete_contact_approximation"],
+            DISCRETE_APPROXIMATIONS)
+    if "contact_model" in params:
+        out["contact_model"] = check.one_of("param contact_model", params["contact_model"],
+                                            CONTACT_MODELS)
+    return out
+
+
+def _discrete_parameters(mode: str, settings: RunSettings) -> dict[str, Any] | None:
+    """The discrete plant's user parameters, or None for the continuous plant."""
+    if mode == "default":
+        return {}
+    if mode == "custom":
+        return custom_parameters(settings.params or {})
+    tuned = settings.tuned or {}
+    if mode == "tuned" and "discrete_contact_approximation" in tuned:
+        k, diss = _tuned_point_contact(tuned, 0.0)
+        return custom_parameters({"point_stiffness": k, "hunt_crossley_dissipation": diss,
+                                  "discrete_contact_approximation":
+                                      tuned["discrete_contact_approximation"]})
+    return None
+
+
+def build_discrete_ball(scenario: BallOnPlate, params: dict[str, Any], dt: float
+                        ) -> DrakeModel:
+    """The ball on a discrete plant with Drake's defaults plus ``params`` (see module doc)."""
     d = _drake()
+    m, r = scenario.mass_kg, scenario.radius_m
+    config_keys = ("discrete_contact_approximation", "contact_model", "penetration_allowance",
+                   "stiction_tolerance")
+    config = d.MultibodyPlantConfig(time_step=dt,
+                                    **{k: params[k] for k in config_keys if k in params})
+    builder = d.DiagramBuilder()
+    plant, _ = d.AddMultibodyPlant(config, builder)
+    ball = plant.AddRigidBody("ball", d.SpatialInertia.SolidSphereWithMass(m, r))
+    plant.AddJoint(d.PrismaticJoint("z", plant.world_frame(), ball.body_frame(), [0.0, 0.0, 1.0]))
+    plant.mutable_gravity_field().set_gravity_vector([0.0, 0.0, -scenario.gravity_m_s2])
+    props = d.ProximityProperties()
+    material: dict[str, Any] = {}
+    if "point_stiffness" in params:  # a pair value: series combination of 2k and 2k
+        material["point_stiffness"] = 2.0 * params["point_stiffness"]
+    if "hunt_crossley_dissipation" in params:
+        material["dissipation"] = params["hunt_crossley_dissipation"]
+    d.AddContactMaterial(friction=d.CoulombFriction(0.0, 0.0), properties=props, **material)
+    if "relaxation_time" in params:
+        props.AddProperty("material", "relaxation_time", params["relaxation_time"])
+    plant.RegisterCollisionGeometry(ball, d.RigidTransform(), d.Sphere(r), "ball", props)
+    side = PLATE_SIDE_M
+    plant.RegisterCollisionGeometry(plant.world_body(), d.RigidTransform([0, 0, -side / 2]),
+                                    d.Box(side, side, side), "plate", props)
+    plant.Finalize()
+    defaults = {"time_step": config.time_step, "contact_model": config.contact_model,
+                "discrete_contact_approximation": config.discrete_contact_approximation,
+                "penetration_allowance": config.penetration_allowance,
+                "stiction_tolerance": config.stiction_tolerance,
+                "contact_penalty_method_time_scale_s":
+                    plant.get_contact_penalty_method_time_scale()}
+    meta: dict[str, Any] = {
+        "plant": f"discrete (time_step = {dt!r} s), {config.discrete_contact_approximation}",
+        "force_source": "contact results output port (sampled: the force of the last step)",
+        "params": dict(params), "engine_defaults": defaults}
+    sim, context = _simulator(d, builder, plant, dt, DEFAULT_INTEGRATOR)
+    gap = FREE_FLIGHT_STEPS * scenario.velocity_m_s * dt
+    model = DrakeModel(sim, plant, context, dt, np.array([r + gap]),
+                       np.array([-scenario.velocity_m_s]), lambda: 0.0, meta=meta)
+    model.force = _force_reader(model, axis=2)
+    return model
+
+
+def build_ball(scenario: BallOnPlate, mode: str, settings: RunSettings) -> DrakeModel:
+    """The ball-on-plate diagram for ``mode`` (every mode; see the module docstring)."""
     dt = float(settings.timestep_s or BALL_TIMESTEP_S)
+    discrete = _discrete_parameters(mode, settings)
+    if discrete is not None:
+        return build_discrete_ball(scenario, discrete, dt)
+    d = _drake()
     m, r = scenario.mass_kg, scenario.radius_m
     builder = d.DiagramBuilder()
     plant, _ = d.AddMultibodyPlantSceneGraph(builder, 0.0)
@@ -414,6 +534,8 @@ class DrakeAdapter(Adapter):
 
     name: ClassVar[str] = "drake"
     pip: ClassVar[str] = PIP["drake"]
+    modes: ClassVar[tuple[str, ...]] = ("native", "injected", "tuned", "default", "custom")
+    parameter_keys: ClassVar[tuple[str, ...]] = PARAMETER_KEYS
 
     def __init__(self) -> None:
         self._import_engine()  # a missing pydrake raises EngineUnavailable here (the registry)
@@ -442,6 +564,9 @@ class DrakeAdapter(Adapter):
             return ImpactRecord.failed(
                 Status.UNSUPPORTED, "tuned mode needs tuned parameters "
                 "(point_stiffness_n_per_m, hunt_crossley_dissipation_s_per_m); none given")
+        if mode in ("default", "custom") and not isinstance(scenario, BallOnPlate):
+            return ImpactRecord.failed(
+                Status.UNSUPPORTED, f"{mode} mode is implemented for ball-on-plate only")
         model = self.build(scenario, mode, settings)
         with np.errstate(over="ignore", invalid="ignore"):  # a blow-up is a status, not noise
             if isinstance(scenario, BallOnPlate):
@@ -459,10 +584,16 @@ def _advance(model: DrakeModel, monitor: Callable[[Any], bool], t_cap: float
     go = d.EventStatus.DidNothing()
 
     model.reset()
-    state = model.context.get_continuous_state_vector()  # a view that stays valid
+    if model.plant.time_step() > 0.0:
+        read = model.state
+    else:
+        view = model.context.get_continuous_state_vector()  # a view that stays valid
+
+        def read() -> list[float]:
+            return view.CopyToVector().tolist()
 
     def on_step(_context: Any) -> Any:
-        return stop if monitor(state.CopyToVector().tolist()) else go
+        return stop if monitor(read()) else go
 
     monitor(model.state())  # sample 0: the initial state
     model.simulator.set_monitor(on_step)
@@ -491,21 +622,36 @@ def _run_ball(model: DrakeModel, scenario: BallOnPlate, settings: RunSettings) -
     rec = Recorder()
     flags = {"tunneled": False}
     context = model.context
+    discrete = model.plant.time_step() > 0.0
+    # continuous: the whole ball past the surface; discrete (a soft default contact may sink
+    # the ball deeper than its diameter): its centre past the plate box's mid-plane
+    beyond = r + PLATE_SIDE_M / 2.0 if discrete else 2.0 * r
+    before: list[float] = []  # discrete: the state before the step whose force is sampled
 
     def monitor(state: list[float]) -> bool:
         x, rate = r - state[0], -state[1]
         force = model.force()
-        rec.append(context.get_time(), x, rate, force, rate)
+        if not discrete:
+            rec.append(context.get_time(), x, rate, force, rate)
+        elif before:
+            rec.append(before[0], before[1], before[2], force, before[2])
+        before[:] = (context.get_time(), x, rate)
         if not math.isfinite(x + rate + force):
             return True
         if x < 0.0 and rate < 0.0:
             return True  # outside the plate and moving away (the force is 0 there): separated
-        if x >= 2.0 * r:  # the whole ball is past the plate's surface
+        if x >= beyond:
             flags["tunneled"] = True
             return True
         return False
 
-    stopped, error = _advance(model, monitor, _ball_time_cap(scenario, settings, dt))
+    t_cap = _ball_time_cap(scenario, settings, dt)
+    if discrete and settings.max_time_s is None:
+        scale = model.meta["engine_defaults"]["contact_penalty_method_time_scale_s"]
+        t_cap = max(t_cap, OUT_OF_BOX_CAP_TIME_SCALES * scale)
+    stopped, error = _advance(model, monitor, t_cap)
+    if discrete and before:
+        rec.append(before[0], before[1], before[2], 0.0, before[2])  # the last state
     out = rec.record(scenario.mass_kg, **model.meta)
     m, g = scenario.mass_kg, scenario.gravity_m_s2
 
