@@ -65,6 +65,16 @@ penetration x = R − y. Gravity ``scenario.gravity_m_s2`` acts along −y.
 - ``tuned``: ``settings.tuned["elasticity"]`` (pair restitution) replaces e; otherwise
   ``unsupported``.
 
+- ``default``: pymunk out of the box: elasticity 0 on both shapes (pymunk's default; the pair
+  restitution is the product), ``collision_slop`` 0.1, ``collision_bias`` (1 − 0.1)^60,
+  ``iterations`` 10, ``damping`` 1 — only geometry, mass, the step, gravity and zero friction
+  are set. The plate is a thick segment (radius 0.5 m, top face y = 0) so that a step as long
+  as pymunk's customary 1/60 s cannot carry the ball's centre past it.
+  ``meta["engine_defaults"]`` holds the values read back from the space and shapes.
+- ``custom``: ``default`` plus ``settings.params`` by pymunk's own names
+  (:data:`PARAMETER_KEYS`): ``elasticity`` (pair restitution: the ball gets it, the plate 1),
+  ``collision_slop``, ``collision_bias``, ``iterations``, ``damping``.
+
 Rigid–flexible: body 1 (circle, m1) moves along +x at v1 into body 2 (circle, m2), which a
 ``GrooveJoint`` keeps on the x axis (infinite moments) and a ``DampedSpring`` (damping 0,
 anchored far to its right, rest length L) ties to the ground: force k2·x2 for the linear
@@ -125,6 +135,13 @@ TAIL_STEPS = 2
 BALL_TIME_CAP_S = 2e-3
 """Default ball time cap after first touch (s): ~20 contact durations of the paper's ball."""
 
+PARAMETER_KEYS: tuple[str, ...] = ("elasticity", "collision_slop", "collision_bias",
+                                   "iterations", "damping")
+"""``custom``-mode keys (pymunk's Shape/Space attribute names)."""
+THICK_PLATE_RADIUS_M = 0.5
+OUT_OF_BOX_TIME_CAP_S = 0.5
+"""``default``/``custom`` cap after first touch (s): an inelastic ball may never let go."""
+
 
 def _import_pymunk() -> Any:
     try:
@@ -165,20 +182,42 @@ class BallModel:
     """
 
     def __init__(self, scenario: BallOnPlate, contact: str, dt: float, *,
-                 elasticity: float = 1.0, iterations: int = 10, measure: bool = True) -> None:
+                 elasticity: float = 1.0, iterations: int = 10, measure: bool = True,
+                 out_of_box: dict[str, Any] | None = None) -> None:
         pymunk = _import_pymunk()
         self.scenario, self.contact, self.dt = scenario, contact, dt
         self.gap_m = GAP_STEPS * scenario.velocity_m_s * dt
-        self.space = space = _space(pymunk, iterations, scenario.gravity_m_s2)
+        if out_of_box is None:
+            self.space = space = _space(pymunk, iterations, scenario.gravity_m_s2)
+        else:
+            self.space = space = pymunk.Space()
+            space.gravity = (0.0, -scenario.gravity_m_s2)
         radius = scenario.radius_m
         self.body = body = pymunk.Body(scenario.mass_kg, math.inf)
         body.position = (0.0, radius + self.gap_m)
         body.velocity = (0.0, -scenario.velocity_m_s)
         ball = pymunk.Circle(body, radius)
         half = 10.0 * radius
-        plate = pymunk.Segment(space.static_body, (-half, 0.0), (half, 0.0), 0.0)
+        if out_of_box is None:
+            plate = pymunk.Segment(space.static_body, (-half, 0.0), (half, 0.0), 0.0)
+            ball.elasticity, plate.elasticity = elasticity, 1.0
+        else:
+            h = THICK_PLATE_RADIUS_M
+            plate = pymunk.Segment(space.static_body, (-half, -h), (half, -h), h)
+            self.defaults = {"elasticity": ball.elasticity,
+                             "plate_elasticity": plate.elasticity,
+                             "collision_slop": space.collision_slop,
+                             "collision_bias": space.collision_bias,
+                             "iterations": space.iterations, "damping": space.damping}
+            for key in ("collision_slop", "collision_bias", "iterations", "damping"):
+                if key in out_of_box:
+                    setattr(space, key, out_of_box[key])
+            if "elasticity" in out_of_box:
+                ball.elasticity, plate.elasticity = out_of_box["elasticity"], 1.0
         ball.friction = plate.friction = 0.0
-        ball.elasticity, plate.elasticity = elasticity, 1.0
+        self.out_of_box = out_of_box is not None
+        # tunnelled: the centre past the surface, or through the thick plate's core line
+        self.beyond_m = radius + (THICK_PLATE_RADIUS_M if self.out_of_box else 0.0)
         space.add(body, ball, plate)
         self._position, self._velocity, self._handle = _readers(body)
         self.force_n = 0.0
@@ -290,6 +329,8 @@ class PymunkAdapter(Adapter):
     """pymunk 7 (Chipmunk2D): rigid contacts natively, penalty forces when injected."""
 
     name = "pymunk"
+    modes = ("native", "injected", "tuned", "default", "custom")
+    parameter_keys = PARAMETER_KEYS
 
     def version(self) -> str:
         return str(_import_pymunk().version)
@@ -307,6 +348,9 @@ class PymunkAdapter(Adapter):
         if isinstance(scenario, BallOnPlate):
             model, meta = ball_model(scenario, mode, settings, dt, iterations)
             return run_ball(model, settings, meta)
+        if mode in ("default", "custom"):
+            return ImpactRecord.failed(
+                Status.UNSUPPORTED, f"{mode} mode is implemented for ball-on-plate only")
         if isinstance(scenario, RigidFlexible):
             model, meta = rigid_flexible_model(scenario, mode, settings, dt, iterations)
             return run_rigid_flexible(model, settings, meta)
@@ -335,9 +379,34 @@ def _reference_restitution(scenario: BallOnPlate) -> float:
     return float(hunt_crossley.solve(scenario)["restitution"])
 
 
+def custom_parameters(params: dict[str, Any]) -> dict[str, Any]:
+    """Validated ``custom`` parameters (pymunk's names; see :data:`PARAMETER_KEYS`)."""
+    out: dict[str, Any] = {}
+    for key in ("elasticity", "collision_slop"):
+        if key in params:
+            out[key] = check.non_negative(f"param {key}", params[key])
+    for key in ("collision_bias", "damping"):
+        if key in params:
+            out[key] = check.non_negative(f"param {key}", params[key])
+            if out[key] > 1.0:
+                raise ValueError(f"param {key} = {params[key]!r}: must be in [0, 1]")
+    if "iterations" in params:
+        it = params["iterations"]
+        if isinstance(it, bool) or not isinstance(it, int | float) or it != int(it) or it < 1:
+            raise ValueError(f"param iterations = {it!r}: must be an integer >= 1")
+        out["iterations"] = int(it)
+    return out
+
+
 def ball_model(scenario: BallOnPlate, mode: str, settings: RunSettings, dt: float,
                iterations: int, measure: bool = True) -> tuple[BallModel, dict[str, Any]]:
     """Build the ball space for ``mode``; returns it and the meta of its parameters."""
+    if mode in ("default", "custom"):
+        params = custom_parameters(settings.params or {}) if mode == "custom" else {}
+        model = BallModel(scenario, "rigid", dt, measure=measure, out_of_box=params)
+        return model, {"contact": "rigid", "params": params,
+                       "engine_defaults": model.defaults,
+                       "not_comparable": RIGID_BALL_ARTEFACTS}
     meta: dict[str, Any] = {"iterations": iterations, "collision_slop": 0.0}
     if mode == "injected":
         injection = settings.options.get("injection", "penalty")
@@ -431,7 +500,9 @@ def run_ball(model: BallModel, settings: RunSettings, meta: dict[str, Any]) -> I
     """
     sc, dt = model.scenario, model.dt
     radius, v0 = sc.radius_m, sc.velocity_m_s
-    cap_s = settings.max_time_s or (model.gap_m / v0 + BALL_TIME_CAP_S)
+    cap_s = settings.max_time_s or (model.gap_m / v0 + (
+        OUT_OF_BOX_TIME_CAP_S if model.out_of_box else BALL_TIME_CAP_S))
+    rests = model.out_of_box  # an inelastic rigid contact may leave the ball at rest, overlapping
     n_max = max(1, math.ceil(cap_s / dt))
     step = model.space.step
     position, velocity, handle = _readers(model.body)
@@ -458,9 +529,9 @@ def run_ball(model: BallModel, settings: RunSettings, meta: dict[str, Any]) -> I
             tail -= 1
             if tail == 0:
                 break
-        elif touched and tail < 0 and v < 0.0 and x <= 0.0:
+        elif touched and tail < 0 and (v < 0.0 and x <= 0.0 or rests and v <= 0.0):
             tail = TAIL_STEPS
-        if x > radius:  # the centre passed the plate's surface
+        if x > model.beyond_m:  # the centre passed the plate's surface (or core)
             tunneled = True
             break
         if not (math.isfinite(x) and math.isfinite(v)):
