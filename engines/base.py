@@ -20,6 +20,21 @@ Adding an engine (a checklist, in the manner of scipy's ``OdeSolver``):
 5. Register the class in :data:`ENGINES` as ``"module:Class"`` and add a test module in
    ``tests/engines/`` that ``importorskip``s the engine.
 
+6. ``default`` and ``custom`` (the contract every adapter follows): ``default`` builds the
+   scenario the way a user of the engine would with nothing but geometry, mass, the step,
+   gravity and the scenario's own settings (zero friction), leaving every contact parameter at
+   the engine's default, and records those defaults, read back from the engine where it can
+   report them, in ``meta["engine_defaults"]``. ``custom`` is ``default`` plus
+   ``settings.params``: the adapter lists the accepted names in :attr:`Adapter.parameter_keys`
+   (the engine's own spelling: MJCF attributes, pybullet keyword arguments, Drake property and
+   config names), validates the values with a one-line ValueError naming the key, and records
+   what it applied in ``meta["params"]``. Pair values: where the engine combines two bodies'
+   values (restitution products, stiffness in series), the plate gets the neutral value so the
+   pair has exactly the user's number. Both modes must run at the engine's customary steps
+   (up to 1e-2 s): a contact shorter than a step is still measured (the metrics flag what is
+   not resolved), and a plate thick enough that one step cannot carry the ball through it.
+   A scenario the modes do not cover returns ``unsupported``.
+
 Modes: ``native`` (the engine's own contact model, parameters mapped from the physical ones),
 ``tuned`` (native with fitted parameters from a tuned-parameter file), ``injected`` (the
 reference force law driven through the engine each step, so only the time stepping differs),
@@ -90,6 +105,9 @@ class RunSettings:
         max_time_s: simulated-time cap (s); ``None`` lets the adapter choose from the scenario.
         tuned: fitted native parameters for ``tuned`` mode (engine-specific keys).
         params: the user's engine parameters for ``custom`` mode (engine's own key names).
+        tuned_for: the provenance of ``tuned`` (a tuned file's ``[provenance]``: engine,
+            scenario parameters, timestep). A ``tuned`` run of another scenario or timestep is
+            ``unsupported`` (:func:`impactbench.tuned.binding_mismatch`); None: not checked.
         options: engine-specific extras (e.g. an integrator name), recorded in the metadata.
     """
 
@@ -97,6 +115,7 @@ class RunSettings:
     max_time_s: float | None = None
     tuned: dict[str, Any] | None = None
     params: dict[str, Any] | None = None
+    tuned_for: dict[str, Any] | None = None
     options: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -155,6 +174,14 @@ class Adapter(ABC):
             from dataclasses import replace
 
             settings = replace(settings, timestep_s=dt)
+        if mode == "tuned" and settings.tuned_for is not None:
+            from impactbench.tuned import binding_mismatch
+
+            why = binding_mismatch(settings.tuned_for, self.name, scenario, dt)
+            if why:
+                return ImpactRecord.failed(Status.UNSUPPORTED, why, engine=self.name,
+                                           engine_version=self.version(), mode=mode,
+                                           timestep_s=dt)
         t0 = time.perf_counter()
         rec = self._run(scenario, mode, settings)
         rec.meta.update(
@@ -214,6 +241,18 @@ def get_adapter(name: str) -> Adapter:
     module_name, _, attr = registry[name].partition(":")
     module = importlib.import_module(module_name)
     return getattr(module, attr)()
+
+
+def parameter_keys(name: str) -> tuple[str, ...]:
+    """The ``custom``-mode keys of engine ``name`` (:attr:`Adapter.parameter_keys`), read from
+    the adapter class without importing the engine itself."""
+    registry = _registry()
+    if name not in registry:
+        raise ValueError(
+            f"engine = {name!r}: must be one of {', '.join(registry)}{_suggest(name)}"
+        )
+    module_name, _, attr = registry[name].partition(":")
+    return tuple(getattr(importlib.import_module(module_name), attr).parameter_keys)
 
 
 def available_engines() -> list[str]:

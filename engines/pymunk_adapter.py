@@ -529,7 +529,7 @@ def run_ball(model: BallModel, settings: RunSettings, meta: dict[str, Any]) -> I
             tail -= 1
             if tail == 0:
                 break
-        elif touched and tail < 0 and (v < 0.0 and x <= 0.0 or rests and v <= 0.0):
+        elif touched and tail < 0 and ((v < 0.0 and x <= 0.0) or (rests and v <= 0.0)):
             tail = TAIL_STEPS
         if x > model.beyond_m:  # the centre passed the plate's surface (or core)
             tunneled = True

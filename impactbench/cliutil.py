@@ -30,6 +30,31 @@ def number_list(text: str) -> list[float]:
     return [number(p.strip()) for p in parts]
 
 
+def param_value(text: str) -> Any:
+    """A ``--param`` value: a TOML literal (``1e6``, ``[0.02, 1.0]``, ``true``, ``"sap"``), a
+    comma list of numbers (``0.02,1``) or else a bare string (``sap``)."""
+    import tomllib
+
+    try:
+        return tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        pass
+    if "," in text:
+        try:
+            return [number(p.strip()) for p in text.split(",")]
+        except argparse.ArgumentTypeError:
+            pass
+    return text.strip()
+
+
+def key_value(text: str) -> tuple[str, Any]:
+    """argparse type: ``KEY=VALUE`` (the value as :func:`param_value` reads it)."""
+    key, sep, value = text.partition("=")
+    if not sep or not key.strip():
+        raise argparse.ArgumentTypeError(f"{text!r} is not KEY=VALUE")
+    return key.strip(), param_value(value.strip())
+
+
 def _jsonable(value: Any) -> Any:
     if isinstance(value, float) and not math.isfinite(value):
         return None

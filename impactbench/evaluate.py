@@ -72,6 +72,7 @@ def compare(engine: str, scenario: Scenario, mode: str,
     rec = run_safely(engine, scenario, mode, settings)
     ref = reference if reference is not None else reference_metrics(scenario)
     got = record_metrics(rec, scenario)
+    resolved = record_resolution(rec, scenario)
     out: dict[str, Any] = {
         "status": str(rec.status),
         "message": rec.message,
@@ -82,7 +83,22 @@ def compare(engine: str, scenario: Scenario, mode: str,
         "wall_s": rec.meta.get("wall_s", math.nan),
         **got,
         "not_comparable": dict(rec.meta.get("not_comparable", {})),
+        "resolved": resolved,
+        "params": dict(rec.meta.get("params", {})),
+        "engine_defaults": dict(rec.meta.get("engine_defaults", {})),
         "reference": ref,
-        "rel_error": {k: metrics.relative_error(float(got[k]), float(ref[k])) for k in got},
+        # an unresolved metric is reported, never compared: no relative error
+        "rel_error": {k: (metrics.relative_error(float(got[k]), float(ref[k]))
+                          if resolved[k] else math.nan) for k in got},
     }
     return out, rec
+
+
+def record_resolution(rec: ImpactRecord, scenario: Scenario) -> dict[str, bool]:
+    """Per scenario metric: is it resolved in time (``impactbench.reference.metrics.resolved``;
+    a step about as long as the contact leaves duration and peak force unresolved)?"""
+    names = SCENARIO_METRICS[scenario_name(scenario)]
+    if rec.status not in (Status.OK, Status.MAX_TIME, Status.STRUCTURE_COLLAPSED):
+        return dict.fromkeys(names, True)
+    flags = metrics.resolved(rec)
+    return {k: flags.get(k, True) for k in names}

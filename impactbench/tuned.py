@@ -48,6 +48,97 @@ def load_tuned_file(path: Path | str) -> dict[str, Any] | None:
     return data
 
 
+TIMESTEP_RTOL = 1e-9
+
+
+def _close(a: Any, b: Any) -> bool:
+    try:
+        a, b = float(a), float(b)
+    except (TypeError, ValueError):
+        return a == b
+    return a == b or abs(a - b) <= TIMESTEP_RTOL * max(abs(a), abs(b))
+
+
+def packaged_tuned_files(engine: str, scenario: str) -> list[Path]:
+    """The packaged tuned files of ``engine`` and ``scenario`` (every fitted timestep)."""
+    return sorted(TUNED_DIR.glob(f"{engine}_{scenario.replace('-', '_')}*.toml"))
+
+
+def find_tuned(engine: str, scenario: str, timestep_s: float | None = None,
+               variant: dict[str, Any] | None = None) -> Path:
+    """The packaged tuned file fitted at ``timestep_s`` (and with the fixed engine settings of
+    ``variant``, e.g. Drake's ``discrete_contact_approximation``); the main file
+    (:func:`tuned_path`, fitted at 1e-6 s) when none matches — the run then reports the
+    mismatch as ``unsupported`` (:func:`binding_mismatch`)."""
+    for path in packaged_tuned_files(engine, scenario):
+        data = load_tuned_file(path) or {}
+        prov, params = data.get("provenance", {}), data.get("parameters", {})
+        if timestep_s is not None and not _close(prov.get("timestep_s"), timestep_s):
+            continue
+        if timestep_s is None and path != tuned_path(engine, scenario):
+            continue
+        if all(params.get(k) == v for k, v in (variant or {}).items()):
+            return path
+    return tuned_path(engine, scenario)
+
+
+def load_tuned_settings(engine: str, scenario: str, timestep_s: float | None = None,
+                        path: Path | str | None = None, variant: dict[str, Any] | None = None
+                        ) -> tuple[dict[str, Any] | None, dict[str, Any] | None]:
+    """(parameters, provenance) of a tuned file (``path``, else the packaged one for this
+    timestep and variant); (None, None) when no file exists."""
+    path = Path(path) if path is not None else find_tuned(engine, scenario, timestep_s, variant)
+    data = load_tuned_file(path)
+    if data is None:
+        if path is not None and not Path(path).exists() and path != tuned_path(engine, scenario):
+            raise ValueError(f"tuned = {str(path)!r}: no such file")
+        return None, None
+    prov = data.get("provenance")
+    shown = path.name if path.parent == TUNED_DIR else str(path)
+    return data["parameters"], (dict(prov, file=shown) if isinstance(prov, dict) else None)
+
+
+def tune_command(engine: str, scenario: Any, timestep_s: float) -> str:
+    """The ``impactbench tune`` command line that fits ``engine`` to ``scenario`` at this step."""
+    from impactbench.params import BALL_FLAGS
+
+    default = type(scenario)()
+    flags = [f"--{flag} {getattr(scenario, field):g}" for flag, (field, _) in BALL_FLAGS.items()
+             if getattr(scenario, field) != getattr(default, field)]
+    return " ".join(["impactbench tune", f"--engine {engine}", *flags,
+                     f"--timestep {timestep_s:g}", "--out tuned.toml"])
+
+
+def binding_mismatch(provenance: dict[str, Any], engine: str, scenario: Any,
+                     timestep_s: float) -> str:
+    """Why a tuned file does not apply to this run ('' when it does).
+
+    A tuned file is bound to the engine, scenario (every physical parameter except the impact
+    velocity) and timestep it was fitted for; the message names the first differing field and
+    the ``impactbench tune`` command that fits this case."""
+    from impactbench.evaluate import scenario_name
+
+    name = scenario_name(scenario)
+    diffs: list[str] = []
+    if provenance.get("engine", engine) != engine:
+        diffs.append(f"engine = {provenance['engine']!r} (this run: {engine!r})")
+    if provenance.get("scenario", name) != name:
+        diffs.append(f"scenario = {provenance['scenario']!r} (this run: {name!r})")
+    for field in scenario.field_names():
+        key = f"scenario_{field}"
+        if field == "velocity_m_s" or key not in provenance:
+            continue
+        if not _close(provenance[key], getattr(scenario, field)):
+            diffs.append(f"{field} = {provenance[key]!r} (this run: {getattr(scenario, field)!r})")
+    if "timestep_s" in provenance and not _close(provenance["timestep_s"], timestep_s):
+        diffs.append(f"timestep_s = {provenance['timestep_s']!r} (this run: {timestep_s!r})")
+    if not diffs:
+        return ""
+    where = provenance.get("file", "the tuned file")
+    return (f"{where} was fitted for {'; '.join(diffs)}: its parameters do not apply here; "
+            f"fit them with `{tune_command(engine, scenario, timestep_s)}`")
+
+
 def _key(key: str) -> str:
     return key if _BARE_KEY.match(key) else json.dumps(key)
 

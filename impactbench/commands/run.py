@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
-from impactbench.cliutil import number, print_json, print_table, stdout_to_stderr
+from impactbench.cliutil import key_value, number, print_json, print_table, stdout_to_stderr
 from impactbench.engines.base import ENGINES, MODES, RunSettings
 from impactbench.evaluate import compare
 from impactbench.params import add_law_flags, add_parameter_flags, scenario_from_args
@@ -17,10 +18,18 @@ def register(top: argparse._SubParsersAction, groups: dict) -> None:
                        "scenarios are accepted; those of the other scenario are ignored.")
     p.add_argument("--engine", required=True, choices=tuple(ENGINES))
     p.add_argument("--scenario", required=True, choices=("ball-on-plate", "rigid-flexible"))
-    p.add_argument("--mode", default="native", choices=MODES,
+    p.add_argument("--mode", default=None, choices=MODES,
                    help="native: the engine's contact model with mapped parameters; "
                    "injected: the reference law driven through the engine; tuned: fitted "
-                   "parameters (default native)")
+                   "parameters; default: the engine's out-of-the-box contact; custom: "
+                   "default plus your --param settings (default native; tuned with --tuned)")
+    p.add_argument("--param", type=key_value, action="append", default=[], dest="params",
+                   metavar="KEY=VALUE",
+                   help="custom mode: one engine parameter by the engine's own name "
+                   "(repeatable), e.g. solref=0.02,1 or contactStiffness=1e5")
+    p.add_argument("--tuned", type=Path, default=None, dest="tuned_file", metavar="FILE",
+                   help="tuned mode with this tuned file (written by `impactbench tune "
+                   "--out`); it applies only to the scenario and timestep it was fitted for")
     p.add_argument("--velocity", type=number, required=True, dest="velocity_m_s",
                    metavar="V", help="impact velocity V0 or v1 (m/s)")
     p.add_argument("--timestep", type=number, default=None, dest="timestep_s", metavar="S",
@@ -34,14 +43,23 @@ def register(top: argparse._SubParsersAction, groups: dict) -> None:
 
 def main(args: argparse.Namespace) -> int:
     scenario = scenario_from_args(args.scenario, args)
-    settings = RunSettings(timestep_s=args.timestep_s)
-    if args.mode == "tuned":
-        from impactbench.tuned import load_tuned
+    mode = args.mode or ("tuned" if args.tuned_file else "native")
+    if args.params and mode != "custom":
+        raise ValueError(f"param = {args.params[0][0]}: --param needs --mode custom "
+                         f"(got {mode})")
+    if args.tuned_file and mode != "tuned":
+        raise ValueError(f"tuned = {str(args.tuned_file)!r}: --tuned needs --mode tuned "
+                         f"(got {mode})")
+    _check_param_keys(args.engine, args.params)
+    settings = RunSettings(timestep_s=args.timestep_s, params=dict(args.params) or None)
+    if mode == "tuned":
+        from impactbench.tuned import load_tuned_settings
 
-        settings = RunSettings(timestep_s=args.timestep_s,
-                               tuned=load_tuned(args.engine, args.scenario))
+        tuned, provenance = load_tuned_settings(args.engine, args.scenario, args.timestep_s,
+                                                args.tuned_file)
+        settings = RunSettings(timestep_s=args.timestep_s, tuned=tuned, tuned_for=provenance)
     with stdout_to_stderr():
-        out, _ = compare(args.engine, scenario, args.mode, settings)
+        out, _ = compare(args.engine, scenario, mode, settings)
     if args.json:
         print_json(out)
         return 0
@@ -50,6 +68,18 @@ def main(args: argparse.Namespace) -> int:
           + (f" ({out['message']})" if out["message"] else "")
           + f"  wall {out['wall_s']:.3g} s")
     rows = [{"metric": k, "engine": out[k], "reference": out["reference"][k],
-             "rel_error": out["rel_error"][k]} for k in out["rel_error"]]
+             "rel_error": out["rel_error"][k] if out["resolved"][k] else "not resolved"}
+            for k in out["rel_error"]]
     print_table(rows)
     return 0
+
+
+def _check_param_keys(engine: str, params: list[tuple[str, object]]) -> None:
+    """An unknown --param key is a one-line error listing the engine's keys."""
+    from impactbench.engines.base import parameter_keys
+
+    valid = parameter_keys(engine)
+    for key, _ in params:
+        if key not in valid:
+            raise ValueError(f"param = {key!r}: not a {engine} parameter; valid keys: "
+                             f"{', '.join(valid) or '(none)'}")
