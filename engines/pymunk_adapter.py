@@ -139,6 +139,8 @@ PARAMETER_KEYS: tuple[str, ...] = ("elasticity", "collision_slop", "collision_bi
                                    "iterations", "damping")
 """``custom``-mode keys (pymunk's Shape/Space attribute names)."""
 THICK_PLATE_RADIUS_M = 0.5
+MIN_CAP_STEPS = 50
+"""The ball's time cap is at least this many steps (a coarse step: 2 ms is two steps)."""
 OUT_OF_BOX_TIME_CAP_S = 0.5
 """``default``/``custom`` cap after first touch (s): an inelastic ball may never let go."""
 
@@ -500,8 +502,8 @@ def run_ball(model: BallModel, settings: RunSettings, meta: dict[str, Any]) -> I
     """
     sc, dt = model.scenario, model.dt
     radius, v0 = sc.radius_m, sc.velocity_m_s
-    cap_s = settings.max_time_s or (model.gap_m / v0 + (
-        OUT_OF_BOX_TIME_CAP_S if model.out_of_box else BALL_TIME_CAP_S))
+    cap_s = settings.max_time_s or (model.gap_m / v0 + max(
+        OUT_OF_BOX_TIME_CAP_S if model.out_of_box else BALL_TIME_CAP_S, MIN_CAP_STEPS * dt))
     rests = model.out_of_box  # an inelastic rigid contact may leave the ball at rest, overlapping
     n_max = max(1, math.ceil(cap_s / dt))
     step = model.space.step

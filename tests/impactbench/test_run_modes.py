@@ -1,0 +1,111 @@
+"""``impactbench run`` with default, custom and tuned modes; tuned files bound to the scenario
+and timestep they were fitted for (real engines)."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+from impactbench.engines.base import RunSettings
+from impactbench.reference.scenarios import BallOnPlate
+
+from impactbench.cli import main
+from impactbench.cliutil import param_value
+from impactbench.evaluate import compare
+from impactbench.tuned import binding_mismatch, load_tuned_settings
+from tests.conftest import require_engine
+
+CUSTOMARY = [("mujoco", "2e-3"), ("pybullet", "0.004166666666666667"), ("drake", "1e-3"),
+             ("pymunk", "0.016666666666666666")]
+
+
+def run(capsys, *argv: str) -> tuple[int, str, str]:
+    code = main(list(argv))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.mark.parametrize(("engine", "dt"), CUSTOMARY)
+def test_default_mode_json_at_the_customary_step(capsys, engine, dt):
+    require_engine(engine)
+    code, out, _ = run(capsys, "run", "--engine", engine, "--scenario", "ball-on-plate",
+                       "--mode", "default", "--velocity", "2", "--timestep", dt, "--json")
+    obj = json.loads(out)
+    assert code == 0 and obj["status"] == "ok"
+    assert isinstance(obj["restitution"], float) and obj["engine_defaults"]
+
+
+def test_custom_param_reaches_mujoco(capsys):
+    require_engine("mujoco")
+    code, out, _ = run(capsys, "run", "--engine", "mujoco", "--scenario", "ball-on-plate",
+                       "--mode", "custom", "--param", "solref=0.01,0.5", "--velocity", "2",
+                       "--timestep", "2e-3", "--json")
+    obj = json.loads(out)
+    assert code == 0 and obj["params"] == {"solref": [0.01, 0.5]}
+
+
+@pytest.mark.parametrize("argv", [
+    ["--mode", "custom", "--param", "solrf=1"],
+    ["--mode", "native", "--param", "solref=1,1"],
+    ["--mode", "native", "--tuned", "x.toml"],
+    ["--mode", "custom", "--param", "novalue"],
+])
+def test_bad_param_use_exits_2_with_one_line(capsys, argv):
+    code, out, err = run(capsys, "run", "--engine", "mujoco", "--scenario", "ball-on-plate",
+                         "--velocity", "1", *argv)
+    assert code == 2 and out == "" and len(err.strip().splitlines()) == 1
+
+
+def test_unknown_key_lists_the_valid_ones(capsys):
+    _, _, err = run(capsys, "run", "--engine", "pybullet", "--scenario", "ball-on-plate",
+                    "--mode", "custom", "--param", "stiffness=1", "--velocity", "1")
+    assert "contactStiffness" in err and "restitutionVelocityThreshold" in err
+
+
+def test_param_values():
+    assert param_value("0.02,1") == [0.02, 1.0]
+    assert param_value("[0.02, 1.0]") == [0.02, 1.0]
+    assert param_value("1e6") == 1e6
+    assert param_value("sap") == "sap"
+    assert param_value("true") is True
+
+
+def test_tuned_with_a_changed_scenario_is_unsupported_naming_the_field(capsys):
+    require_engine("mujoco")
+    code, out, _ = run(capsys, "run", "--engine", "mujoco", "--scenario", "ball-on-plate",
+                       "--mode", "tuned", "--velocity", "2", "--mass", "0.072",
+                       "--stiffness", "1.4e6", "--json")
+    obj = json.loads(out)
+    assert obj["status"] == "unsupported"
+    assert "mass_kg" in obj["message"] and "stiffness" in obj["message"]
+    assert "impactbench tune --engine mujoco --mass 0.072" in obj["message"]
+
+
+def test_tuned_at_another_timestep_is_unsupported_naming_the_timestep():
+    require_engine("drake")
+    tuned, prov = load_tuned_settings("drake", "ball-on-plate")  # fitted at 1e-6 s
+    out, _ = compare("drake", BallOnPlate(velocity_m_s=1.0), "tuned",
+                     RunSettings(timestep_s=2e-6, tuned=tuned, tuned_for=prov))
+    assert out["status"] == "unsupported" and "timestep_s" in out["message"]
+    assert "--timestep 2e-06" in out["message"]
+
+
+def test_binding_accepts_the_fitted_case():
+    _, prov = load_tuned_settings("mujoco", "ball-on-plate")
+    assert binding_mismatch(prov, "mujoco", BallOnPlate(velocity_m_s=3.0), 1e-6) == ""
+    assert "engine" in binding_mismatch(prov, "drake", BallOnPlate(), 1e-6)
+
+
+def test_tuned_file_from_tune_out_runs_with_run_tuned(capsys, tmp_path):
+    require_engine("pymunk")
+    path = tmp_path / "t.toml"
+    code, _, _ = run(capsys, "tune", "--engine", "pymunk", "--velocities", "1,2",
+                     "--targets", "restitution", "--timestep", "1e-3", "--max-evals", "3",
+                     "--out", str(path), "--no-plot")
+    assert code == 0
+    code, out, _ = run(capsys, "run", "--engine", "pymunk", "--scenario", "ball-on-plate",
+                       "--tuned", str(path), "--velocity", "2", "--timestep", "1e-3", "--json")
+    assert json.loads(out)["status"] == "ok"
+    code, out, _ = run(capsys, "run", "--engine", "pymunk", "--scenario", "ball-on-plate",
+                       "--tuned", str(path), "--velocity", "2", "--timestep", "1e-4", "--json")
+    assert json.loads(out)["status"] == "unsupported"
