@@ -72,7 +72,7 @@ def test_param_values():
 
 def test_tuned_with_a_changed_scenario_is_unsupported_naming_the_field(capsys):
     require_engine("mujoco")
-    code, out, _ = run(capsys, "run", "--engine", "mujoco", "--scenario", "ball-on-plate",
+    _, out, _ = run(capsys, "run", "--engine", "mujoco", "--scenario", "ball-on-plate",
                        "--mode", "tuned", "--velocity", "2", "--mass", "0.072",
                        "--stiffness", "1.4e6", "--json")
     obj = json.loads(out)
