@@ -46,3 +46,4 @@ def test_wheel_ships_every_source_package(wheel: Path) -> None:
         top, _, rest = rel.partition("/")
         assert f"{installed.get(top, top)}/{rest}" in names, rel
     assert "impactbench/data/default.toml" in names
+    assert "impactbench/reference/data/materials.toml" in names
