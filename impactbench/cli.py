@@ -21,6 +21,7 @@ from collections.abc import Sequence
 COMMAND_MODULES: tuple[str, ...] = (
     # one line per subcommand module; keep this list sorted
     "impactbench.commands.ball_on_plate",
+    "impactbench.commands.calibrate",
     "impactbench.commands.figures",
     "impactbench.commands.gate",
     "impactbench.commands.report",

@@ -83,6 +83,9 @@ def _add_ball_model_flags(group: argparse._ArgumentGroup) -> None:
                        "Hertz c (overrides the material's)")
     group.add_argument("--poisson", type=number, default=None, metavar="NU",
                        help="ball Poisson's ratio ν (overrides the material's)")
+    group.add_argument("--scenario-file", default=None, metavar="FILE",
+                       help="TOML with a [ball_on_plate] table of scenario fields (e.g. from "
+                       "impactbench calibrate); flags given here override it")
 
 
 def _ball_values(args: argparse.Namespace, values: dict[str, Any]) -> dict[str, Any]:
@@ -127,5 +130,9 @@ def scenario_from_args(scenario: str, args: argparse.Namespace,
     values = {k: v for k, v in vars(args).items() if k in fields and v is not None}
     if cls is BallOnPlate:
         values = _ball_values(args, values)
+        if getattr(args, "scenario_file", None):
+            from impactbench.scenario_file import load_scenario_file
+
+            values = {**load_scenario_file(args.scenario_file), **values}
     values.update(overrides)
     return cls(**values)

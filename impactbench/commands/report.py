@@ -21,6 +21,9 @@ def register(top: argparse._SubParsersAction, groups: dict) -> None:
                    help="comma list restricting the config's engines, e.g. mujoco,drake")
     p.add_argument("--workers", type=int, default=None, metavar="N",
                    help="worker processes (default: one per core)")
+    p.add_argument("--scenario-file", type=Path, default=None, metavar="FILE",
+                   help="TOML [ball_on_plate] scenario fields (e.g. from impactbench "
+                   "calibrate) replacing the config's ball parameters")
     p.set_defaults(func=main)
 
 
@@ -28,6 +31,13 @@ def main(args: argparse.Namespace) -> int:
     from impactbench import config, report
 
     cfg = config.load(args.config)
+    if args.scenario_file is not None:
+        from impactbench.scenario_file import load_scenario_file
+
+        fields = load_scenario_file(args.scenario_file)
+        raw = dict(cfg.raw)
+        raw["ball_on_plate"] = {**raw.get("ball_on_plate", {}), **fields}
+        cfg = config.parse(raw, source=f"{cfg.source} + {args.scenario_file}")
     engines = None
     if args.engines:
         engines = [e.strip() for e in args.engines.split(",") if e.strip()]

@@ -1,0 +1,84 @@
+"""``impactbench calibrate --data FILE.csv``: fit a contact model to measured impacts.
+
+Fits the model's damping (b, or the nominal restitution), and its stiffness c (and with
+``--fit-exponent`` n) when durations or peak forces are given, by least squares on relative
+residuals with 95 % confidence intervals from the Jacobian (:mod:`impactbench.calibrate`);
+prints the estimates and the residual of every measured value, and writes a scenario file
+(``--out``) that ``run``, ``tune`` and ``report`` accept with ``--scenario-file``. The ball's
+fixed fields (mass, radius, model, …) come from the usual ball flags.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import shlex
+import sys
+from pathlib import Path
+
+from impactbench.cliutil import number, print_json, print_table
+from impactbench.params import add_parameter_flags, scenario_from_args
+
+HELP = "fit a contact model's damping (and stiffness) to measured impacts, with intervals"
+
+
+def register(top: argparse._SubParsersAction, groups: dict) -> None:
+    p = top.add_parser("calibrate", help=HELP, description=__doc__.split("\n\n")[1])
+    p.add_argument("--data", type=Path, required=True, metavar="FILE",
+                   help="CSV with velocity_m_s, restitution and optionally duration_s, "
+                   "peak_force_n (one impact per row; # comments)")
+    p.add_argument("--out", type=Path, default=None, metavar="FILE",
+                   help="scenario file to write (default <data name>_scenario.toml in the cwd)")
+    p.add_argument("--fit-exponent", action="store_true",
+                   help="also fit the exponent n (needs durations or peak forces)")
+    p.add_argument("--confidence", type=number, default=0.95, metavar="P",
+                   help="confidence level of the intervals; default 0.95")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    add_parameter_flags(p, "ball-on-plate", with_gravity=False)
+    p.set_defaults(func=main)
+
+
+def main(args: argparse.Namespace) -> int:
+    from impactbench.calibrate import calibrate, read_measurements, write_scenario_file
+
+    data = read_measurements(args.data)
+    model = args.model or "hunt-crossley"
+    # a model set from a nominal restitution fits that e: any start value will do
+    placeholder = {} if model == "hunt-crossley" or args.nominal_restitution is not None \
+        else {"nominal_restitution": 0.9}
+    base = scenario_from_args("ball-on-plate", args, **placeholder)
+    cal = calibrate(data, base, fit_exponent=args.fit_exponent, confidence=args.confidence)
+    out = args.out or Path(f"{args.data.stem}_scenario.toml")
+    command = "impactbench " + " ".join(shlex.quote(a) for a in sys.argv[1:])
+    path = write_scenario_file(cal, out, command=command)
+    if args.json:
+        print_json({
+            "model": cal.scenario.model, "estimates": cal.estimates,
+            "intervals": {k: list(v) for k, v in cal.intervals.items()},
+            "standard_errors": cal.standard_errors, "confidence": cal.confidence,
+            "points": cal.points, "dof": cal.dof, "rms_rel_error": cal.rms_rel_error,
+            "residuals": cal.residuals.to_dict(orient="records"),
+            "scenario": {k: v for k, v in cal.scenario.to_dict().items()
+                         if k != "velocity_m_s"},
+            "scenario_file": str(path)})
+        return 0
+    pct = f"{100 * cal.confidence:g} %"
+    print(f"calibrated {cal.scenario.model} (m = {cal.scenario.mass_kg:g} kg) to "
+          f"{cal.points} values of {data.source}; {cal.dof} degrees of freedom")
+    rows = [{"parameter": p.name, "unit": p.unit, "estimate": cal.estimates[p.name],
+             "std_error": cal.standard_errors[p.name],
+             f"{pct} low": cal.intervals[p.name][0], f"{pct} high": cal.intervals[p.name][1]}
+            for p in cal.parameters]
+    print_table(rows, floatfmt=".6g")
+    if cal.dof == 0:
+        print("(as many values as parameters: the fit interpolates; no intervals)")
+    print(f"\nresiduals (model − measured)/measured; rms {cal.rms_rel_error:.3g}:")
+    print_table(cal.residuals.to_dict(orient="records"), floatfmt=".6g")
+    eff = cal.scenario.replace(velocity_m_s=1.0)
+    if not math.isnan(cal.estimates.get("nominal_restitution", math.nan)):
+        from impactbench.reference.models import effective_restitution
+
+        print(f"\neffective restitution of the fitted model: "
+              f"{effective_restitution(eff.model, eff.nominal_restitution):.6g}")
+    print(f"\nscenario file: {path}  (use with run/tune/report --scenario-file)")
+    return 0
