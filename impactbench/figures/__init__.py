@@ -5,4 +5,5 @@ writes its PNGs into ``out_dir`` (Agg backend) and returns their paths.
 """
 
 FIGURE_MODULES: tuple[str, ...] = ("impactbench.figures.hunt_crossley",
-                                   "impactbench.figures.rigid_flexible")
+                                   "impactbench.figures.rigid_flexible",
+                                   "impactbench.figures.zoo")
