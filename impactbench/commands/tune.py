@@ -24,7 +24,8 @@ from impactbench.params import add_parameter_flags, scenario_from_args
 from impactbench.reference import validation as check
 from impactbench.reference.scenarios import PAPER_VELOCITIES_M_S
 
-HELP = "fit an engine's native contact parameters to the Hunt–Crossley reference"
+HELP = ("fit an engine's native contact parameters to the reference (Hunt–Crossley, or any "
+        "--model)")
 SCENARIOS = ("ball-on-plate", "rigid-flexible")
 REPO_FIGURES = Path(__file__).resolve().parents[2] / "reports" / "figures"
 
@@ -116,8 +117,10 @@ def main(args: argparse.Namespace) -> int:
         print(f"impactbench: error: {exc}")
         return 1
     tuned_file, plot_file = _paths(args)
+    model = scenario.model + (f" (nominal e = {scenario.nominal_restitution:g})"
+                              if scenario.nominal_restitution is not None else "")
     header = (f"impactbench tune: {result.space.engine} ({result.space.variant}) fitted to "
-              f"Hunt–Crossley on ball-on-plate.\nRead by `impactbench run --mode tuned` and "
+              f"{model} on ball-on-plate.\nRead by `impactbench run --mode tuned` and "
               f"the report; [parameters] uses the adapter's tuned keys.")
     files = {"tuned": str(write_tuned(tuned_file, output.tuned_tables(result), header))}
     if plot_file is not None:

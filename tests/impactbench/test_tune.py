@@ -227,3 +227,21 @@ def test_cli_bad_input_exits_2_with_one_line(argv, needle, capsys, tmp_path, mon
     assert needle in err
     assert "Traceback" not in err
     assert not list(tmp_path.iterdir())  # nothing written
+
+
+def test_cli_tunes_to_any_model(tmp_path, capsys):
+    """A model set from a nominal e has one restitution at every velocity, so pymunk's
+    constant elasticity fitted to it must equal that model's exact effective restitution."""
+    require_engine("pymunk")
+    from impactbench.reference.models import effective_restitution
+
+    out = tmp_path / "flores.toml"
+    code = main(["tune", "--engine", "pymunk", "--model", "flores", "--nominal-restitution",
+                 "0.5", "--velocities", "1,3", "--no-plot", "--out", str(out), "--json"])
+    obj = json.loads(capsys.readouterr().out)
+    assert code == 0
+    k = effective_restitution("flores", 0.5)
+    refs = [r["reference"] for r in obj["residuals"] if r["metric"] == "restitution"]
+    assert refs == pytest.approx([k, k], rel=1e-12)
+    assert obj["parameters"]["elasticity"] == pytest.approx(k, rel=1e-5)
+    assert tomllib.loads(out.read_text())["provenance"]["scenario_model"] == "flores"
