@@ -135,6 +135,13 @@ class Adapter(ABC):
     """The modes this adapter implements (a subset of :data:`MODES`)."""
     parameter_keys: ClassVar[tuple[str, ...]] = ()
     """The engine's own parameter names accepted in ``custom`` mode (``settings.params``)."""
+    injection: ClassVar[str] = ""
+    """How ``injected`` mode reaches this engine, in one line (the report shows it).
+
+    Injection has one meaning in every adapter: the reference force law through the engine's
+    own contact integration (its contact solver and time stepping, with their errors). An
+    engine that cannot run a force law through its contact starts the line with ``cannot:``
+    and says how the law is applied instead, so its injected numbers are read accordingly."""
 
     @abstractmethod
     def version(self) -> str:

@@ -34,7 +34,12 @@ Ball on plate (MODELS.md §1)
       Drake combines the two geometries' point stiffnesses in series and their dissipations
       weighted by the other's stiffness (d = (k₂d₁ + k₁d₂)/(k₁ + k₂)); both geometries get
       stiffness 2k and dissipation d so the *pair* has exactly k and d (verified by a run).
-    * injected: no collision geometry; a LeafSystem computes the reference law
+    * injected: Drake *cannot* run the reference law through its contact model (point
+      contact is linear, k·x·(1 + d·ẋ)₊, with no xⁿ and no elastoplastic memory; see
+      :attr:`DrakeAdapter.injection`). In the continuous plant a contact force is one more
+      term of the ODE right-hand side, integrated by the same fixed-step RK3, so the law is
+      applied where a contact force would enter: no collision geometry; a LeafSystem computes
+      the reference law
       F = c·xⁿ·(1 + b·ẋ)₊ (``scenario.law()``) from the plant state and feeds it to the plant's
       applied-generalized-force input, so it acts inside every integrator stage. The recorded
       force is that system's output — the force Drake applies.
@@ -533,6 +538,10 @@ class DrakeAdapter(Adapter):
     """Drake (pydrake) behind the adapter contract; see the module docstring for the physics."""
 
     name: ClassVar[str] = "drake"
+    injection: ClassVar[str] = (
+        "cannot: its point contact is k·x·(1 + d·ẋ)₊ (no xⁿ, no memory); the law is a "
+        "generalized force integrated by the same RK3 stages that integrate contact forces "
+        "in the continuous plant")
     pip: ClassVar[str] = PIP["drake"]
     modes: ClassVar[tuple[str, ...]] = ("native", "injected", "tuned", "default", "custom")
     parameter_keys: ClassVar[tuple[str, ...]] = PARAMETER_KEYS

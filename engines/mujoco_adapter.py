@@ -31,7 +31,9 @@ Modes:
   solref = (−K·A, −D·A), solimp = (d, d, 1 mm, 0.5, 2) on both geoms.
 - ``native``, rigid–flexible: the contact stiffness k1 without damping for every local law
   (solref = (−k1·A, 0)) — a user's natural mapping; elastoplastic and mutation are not modelled.
-- ``injected``: the reference law is driven through MuJoCo's own contact pipeline by scheduling
+- ``injected`` (injection's one meaning, :attr:`MujocoAdapter.injection`: the law through the
+  engine's own contact integration): the reference law is driven through MuJoCo's own contact
+  pipeline by scheduling
   the global override solref every step from the current penetration x_k (the same x MuJoCo's
   collision sees at the start of the step): for Hunt–Crossley the secant stiffness c·x^(n−1)
   and damping c·b·xⁿ, each times A; for a local law the secant F1(Δx)/Δx times A (no damping),
@@ -640,6 +642,8 @@ class MujocoAdapter(Adapter):
     pip = "pip install mujoco"
     modes = ("native", "injected", "tuned", "default", "custom")
     parameter_keys = PARAMETER_KEYS
+    injection = ("the law through MuJoCo's soft-contact solver: a direct solref scheduled each "
+                 "step to the law's secant stiffness and damping at the start state (Euler)")
 
     def version(self) -> str:
         return str(_mujoco().__version__)

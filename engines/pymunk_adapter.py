@@ -52,11 +52,16 @@ penetration x = R − y. Gravity ``scenario.gravity_m_s2`` acts along −y.
   sample is the pre-step one) that say nothing about the physics: a rigid contact has no
   duration.
 - ``injected`` (``settings.options["injection"] = "penalty"``, the default): a compliant
-  Hunt–Crossley penalty contact. In ``pre_solve`` the rigid contact is rejected
-  (``arbiter.process_collision = False``), x = R − y is read from the geometry (the handler runs
-  exactly while the shapes overlap, i.e. x > 0, so first touch is the first step that ends in
-  overlap) and F = c·xⁿ·(1 + b·ẋ) (the scenario's ``HuntCrossley`` object) is applied to the
-  ball. That force is the engine's contact output in this mode.
+  Hunt–Crossley penalty contact. pymunk *cannot* run a force law through its own contact
+  (injection's meaning elsewhere: the law through the engine's contact integration, see
+  :attr:`PymunkAdapter.injection`): its contacts are rigid velocity-level impulses. The law
+  therefore bypasses the contact solver and is integrated by pymunk's body step (drift–kick,
+  symplectic), which is what injected numbers measure here. In ``pre_solve`` the rigid
+  contact is rejected (``arbiter.process_collision = False``), x = R − y is read from the
+  geometry (the handler runs exactly while the shapes overlap, i.e. x > 0, so first touch is
+  the first step that ends in overlap) and F = c·xⁿ·(1 + b·ẋ) (the scenario's
+  ``HuntCrossley`` object) is applied to the ball. That force is the engine's contact output
+  in this mode.
 - ``injected`` with ``injection = "restitution"``: the rigid contact kept, with
   ``arbiter.restitution`` set in ``pre_solve`` to Hunt–Crossley's k(α = b·ẋ) for the current
   approach speed ẋ (closed form, ``impactbench.reference.hunt_crossley.restitution``). Restitution
@@ -333,6 +338,8 @@ class PymunkAdapter(Adapter):
     name = "pymunk"
     modes = ("native", "injected", "tuned", "default", "custom")
     parameter_keys = PARAMETER_KEYS
+    injection = ("cannot: pymunk's contacts are rigid impulses with no compliance; the law is "
+                 "a penalty force (contact rejected) integrated by pymunk's drift–kick step")
 
     def version(self) -> str:
         return str(_import_pymunk().version)

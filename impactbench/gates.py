@@ -4,13 +4,25 @@ A gate file (TOML) lists gates; each expands into *checks* (one per engine, mode
 timestep, law pair and metric). A check passes when the engine's metric is within its
 tolerance of the reference solution, ``|rel_error| ≤ tolerance`` with
 ``rel_error = (engine − reference)/|reference|`` (dimensionless), and — when a baseline of
-earlier measured values exists — when its error has not grown beyond the baseline margin.
+earlier measured values exists — when its *signed* error has not moved away from the
+baseline's beyond a band relative to it::
+
+    band = baseline_margin·|e_base| + baseline_floor
+    |e − e_base| ≤ band                  pass
+    |e| ≤ |e_base| − band                better (shrank by more than the band, either sign)
+    otherwise                            worse  (grew, or changed sign without shrinking)
+
+The band is relative, so an accurate check is held to its own accuracy (with the default
+margin 0.5 an error of 3e-6 may drift to 4.5e-6, not to the tolerance): the absolute floor
+only absorbs round-off (1e-8 by default; errors near round-off, ~1e-13, sit inside it).
+Comparing signed errors catches an error that flips sign at the same size (a changed
+integrator or contact rule), which |e| alone would not.
 
 Gate file schema::
 
     [defaults]                      # optional
-    baseline_margin = 0.5           # |err| may grow by this fraction of the baseline |err| …
-    baseline_floor = 1e-4           # … plus this absolute amount (dimensionless) before `worse`
+    baseline_margin = 0.5           # the signed error may move by this fraction of |e_base| …
+    baseline_floor = 1e-8           # … plus this absolute amount (dimensionless) before `worse`
 
     [[gate]]                        # any number of gates
     engine = "mujoco"               # one name or a list (engines.base.ENGINES)
@@ -20,6 +32,7 @@ Gate file schema::
     timesteps_s = [1e-6]            # optional; default: the adapter's default for scenario and mode
     local = "linear"                # rigid-flexible only; one law or a list; default "linear"
     structure = "linear"            # rigid-flexible only; one law or a list; default "linear"
+    parameters = {m2_kg = 0.3}      # optional scenario fields beyond the papers' defaults
     baseline_margin = 0.5           # optional per-gate overrides of [defaults]
     baseline_floor = 1e-4
     [gate.tolerance]                # metric -> tolerated |relative error| (≥ 0)
@@ -34,9 +47,10 @@ Marks (asv-style), and whether they fail the run:
 
 ========================  ==================================================================
 ``pass``                  within tolerance and not worse than the baseline (or no baseline)
-``better``                passes, and |err| shrank beyond the margin: consider
+``better``                passes, and |err| shrank by more than the band: consider
                           ``--update-baseline`` (passes)
-``worse``                 within tolerance, but |err| > |err_base|·(1 + margin) + floor (fails)
+``worse``                 within tolerance, but the signed error left the baseline's band
+                          other than towards zero (fails)
 ``fail``                  |err| > tolerance, or the engine produced no value (crashed,
                           diverged, tunneled, no contact …), and the baseline failed too or
                           there is none (fails)
@@ -81,7 +95,7 @@ DEFAULT_VELOCITIES_M_S: dict[str, tuple[float, ...]] = {
     "rigid-flexible": (RigidFlexible().velocity_m_s,),
 }
 DEFAULT_MARGIN = 0.5
-DEFAULT_FLOOR = 1e-4
+DEFAULT_FLOOR = 1e-8
 
 PASS, BETTER, WORSE, FAIL, NEW_FAILURE, NOT_COMPARABLE = (
     "pass", "better", "worse", "fail", "new-failure", "not-comparable")
@@ -90,7 +104,9 @@ FAILING: frozenset[str] = frozenset({WORSE, FAIL, NEW_FAILURE})
 NOT_COMPARABLE_STATUSES: frozenset[str] = frozenset({"unavailable", "unsupported"})
 
 GATE_KEYS = ("engine", "mode", "scenario", "velocities_m_s", "timesteps_s", "local",
-             "structure", "tolerance", "baseline_margin", "baseline_floor")
+             "structure", "parameters", "tolerance", "baseline_margin", "baseline_floor")
+FIXED_FIELDS = ("velocity_m_s", "local", "structure")
+"""Scenario fields a gate sets through its own keys, not through ``parameters``."""
 DEFAULT_KEYS = ("baseline_margin", "baseline_floor")
 
 
@@ -116,20 +132,24 @@ class RunKey:
     timestep_s: float | None  # None: the adapter's default could not be resolved here
     local: str = ""
     structure: str = ""
+    parameters: tuple[tuple[str, float], ...] = ()
+    """Scenario fields that differ from the papers' defaults, sorted by name."""
 
     @property
     def label(self) -> str:
         laws = f"-{self.local}-{self.structure}" if self.scenario == "rigid-flexible" else ""
+        params = "".join(f"-{k}{v:g}" for k, v in self.parameters)
         dt = "default" if self.timestep_s is None else f"{self.timestep_s:g}"
-        return (f"{self.engine}-{self.mode}-{self.scenario}{laws}"
+        return (f"{self.engine}-{self.mode}-{self.scenario}{laws}{params}"
                 f"-v{self.velocity_m_s:g}-dt{dt}")
 
     def build_scenario(self) -> Any:
-        """The scenario object (papers' defaults, this velocity and these laws)."""
+        """The scenario object (papers' defaults, these parameters, velocity and laws)."""
+        kwargs: dict[str, Any] = dict(self.parameters, velocity_m_s=self.velocity_m_s)
         if self.scenario == "rigid-flexible":
-            return RigidFlexible(velocity_m_s=self.velocity_m_s, local=self.local,
-                                 structure=self.structure)
-        return SCENARIOS[self.scenario](velocity_m_s=self.velocity_m_s)
+            kwargs.update(local=self.local, structure=self.structure)
+            return RigidFlexible(**kwargs)
+        return SCENARIOS[self.scenario](**kwargs)
 
 
 @dataclass(frozen=True)
@@ -240,6 +260,22 @@ def _numbers(value: Any, field_name: str) -> list[float]:
     return [check.positive(field_name, v) for v in items]
 
 
+def _parameters(value: Any, scenario: str) -> tuple[tuple[str, float], ...]:
+    """A gate's ``parameters`` table, validated by building the scenario with them."""
+    if not isinstance(value, dict) or not value:
+        raise ValueError(f"parameters = {value!r}: must be a non-empty table of scenario "
+                         "field = number")
+    names = [f for f in SCENARIOS[scenario].field_names() if f not in FIXED_FIELDS]
+    out = []
+    for key, number in sorted(value.items()):
+        check.one_of("parameters key", key, tuple(names))
+        if isinstance(number, bool) or not isinstance(number, int | float):
+            raise ValueError(f"parameters.{key} = {number!r}: must be a number")
+        out.append((key, float(number)))
+    SCENARIOS[scenario](**dict(out))  # the scenario's own validation (one-line ValueError)
+    return tuple(out)
+
+
 def _default_timestep(engine: str, mode: str, scenario: Any) -> float | None:
     """The adapter's default step (s), or None when the adapter cannot be loaded here."""
     try:
@@ -302,6 +338,12 @@ def _expand_gate(n: int, gate: Mapping[str, Any], defaults: Mapping[str, float],
         except ValueError as exc:
             raise fail(("structure",), exc) from None
         laws = [(lo, st) for lo in locals_ for st in structures]
+    params: tuple[tuple[str, float], ...] = ()
+    if "parameters" in gate:
+        try:
+            params = _parameters(gate["parameters"], scenario)
+        except ValueError as exc:
+            raise fail(("parameters",), exc) from None
     margins = dict(defaults)
     for key in DEFAULT_KEYS:
         if key in gate:
@@ -328,10 +370,11 @@ def _expand_gate(n: int, gate: Mapping[str, Any], defaults: Mapping[str, float],
             for local, structure in laws:
                 for v in velocities:
                     for dt in timesteps:
-                        run = RunKey(engine, mode, scenario, v, dt, local, structure)
+                        run = RunKey(engine, mode, scenario, v, dt, local, structure, params)
                         if dt is None:
                             dt = _default_timestep(engine, mode, run.build_scenario())
-                            run = RunKey(engine, mode, scenario, v, dt, local, structure)
+                            run = RunKey(engine, mode, scenario, v, dt, local, structure,
+                                         params)
                         out.extend(Check(run, m, t, margins["baseline_margin"],
                                          margins["baseline_floor"], n, line)
                                    for m, t in tol.items())
@@ -405,7 +448,7 @@ def _job(run: RunKey) -> Any:
     from impactbench.matrix import Job
 
     return Job("gate", run.engine, run.scenario, run.mode, run.velocity_m_s, run.timestep_s,
-               (), run.local, run.structure)
+               run.parameters, run.local, run.structure)
 
 
 def execute(runs: Iterable[RunKey], jobs: int = 2,
@@ -466,15 +509,19 @@ def judge(check_: Check, result: Mapping[str, Any],
                        f"no value (status {status}: {result.get('message', '')})")
         return out
     if math.isfinite(base_err):
-        grown = abs(base_err) * (1.0 + check_.margin) + check_.floor
-        if abs(err) > grown:
-            out.mark = WORSE
-            out.message = (f"|rel error| {abs(err):.3g} > baseline {abs(base_err):.3g} "
-                           f"× (1 + {check_.margin:g}) + {check_.floor:g}")
-        elif abs(base_err) > abs(err) * (1.0 + check_.margin) + check_.floor:
-            out.mark = BETTER
-            out.message = f"|rel error| {abs(err):.3g} < baseline {abs(base_err):.3g}"
+        out.mark, out.message = drift(err, base_err, check_.margin, check_.floor)
     return out
+
+
+def drift(err: float, base_err: float, margin: float, floor: float) -> tuple[str, str]:
+    """Mark a signed error against its baseline (module docstring): pass, better or worse."""
+    band = margin * abs(base_err) + floor
+    if abs(err - base_err) <= band:
+        return PASS, ""
+    if abs(err) <= abs(base_err) - band:
+        return BETTER, f"rel error {err:+.3g} shrank from baseline {base_err:+.3g}"
+    return WORSE, (f"rel error {err:+.3g} moved from baseline {base_err:+.3g} by "
+                   f"{err - base_err:+.3g}, beyond ±{band:.3g} ({margin:g}·|base| + {floor:g})")
 
 
 def evaluate(checks: Iterable[Check], baseline: Mapping[str, Mapping[str, Any]] | None = None,

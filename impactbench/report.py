@@ -125,6 +125,17 @@ def _judge(err: float) -> str:
     return "faithful" if err <= 0.01 else "noticeably off" if err <= 0.05 else "far off"
 
 
+def injection_line(engine: str) -> str:
+    """The adapter's one-line statement of what injected mode means in it (``""`` if the
+    adapter cannot be loaded here)."""
+    try:
+        from impactbench.engines.base import get_adapter
+
+        return str(get_adapter(engine).injection)
+    except Exception:
+        return ""
+
+
 def interpretation(df: pd.DataFrame, engine: str) -> str:
     """A generated paragraph: which metric is off by how much, and whose error it is."""
     rows = df[(df.study == "matrix") & (df.engine == engine)]
@@ -135,6 +146,7 @@ def interpretation(df: pd.DataFrame, engine: str) -> str:
         return f"**{engine}** is not installed here ({rows.message.iloc[0]}); its rows say " \
                "`unavailable`."
     parts = [f"**{engine} {version}**."]
+    how = injection_line(engine)
     for scenario, metric_names in HEADLINE.items():
         s = rows[rows.scenario == scenario]
         if s.empty:
@@ -157,6 +169,9 @@ def interpretation(df: pd.DataFrame, engine: str) -> str:
                 f"{dt_text}): worst errors {worst(inj) or 'none measured'} — the time "
                 f"stepping is {_judge(inj_w)}."
             )
+            if how:
+                parts.append(f"Injection in {engine}: {how}.")
+                how = ""  # once per engine
         if len(nat):
             if not (math.isfinite(inj_w) and math.isfinite(nat_w)):
                 owner = ""

@@ -93,6 +93,53 @@ def test_runs_are_deduplicated_across_metrics_and_gates() -> None:
     assert len(gates.plan(parsed.checks)) == len({default_dt, 1e-5, 2e-5})
 
 
+def test_parameters_reach_the_scenario_and_the_check_id(tmp_path) -> None:
+    extra = "local = \"elastoplastic\"\nparameters = { m2_kg = 0.3, k2_n_per_m = 1e3 }\n"
+    (c, _) = gates.parse_gates(gate_text("pymunk", extra=extra)).checks
+    scenario = c.run.build_scenario()
+    assert (scenario.m2_kg, scenario.k2_n_per_m, scenario.local) == (0.3, 1e3, "elastoplastic")
+    assert "-elastoplastic-linear-k2_n_per_m1000-m2_kg0.3-v2-" in c.id
+    for bad, words in (("parameters = { m2 = 0.3 }\n", ("parameters key = 'm2'", "m2_kg")),
+                       ("parameters = { m2_kg = -1 }\n", ("m2_kg = -1",)),
+                       ("parameters = { velocity_m_s = 3 }\n", ("velocity_m_s",))):
+        with pytest.raises(ValueError) as info:
+            gates.parse_gates(gate_text("pymunk", extra=bad), tmp_path / "gates.toml")
+        assert "gates.toml:6: gate 1:" in str(info.value), info.value
+        for w in words:
+            assert w in str(info.value), info.value
+
+
+def shipped_gates() -> tuple[gates.GateFile, dict]:
+    root = Path(__file__).resolve().parents[2]
+    return gates.load_gates(root / "gates.toml"), gates.load_baseline(root / "gates_baseline.json")
+
+
+def synthetic_result(check: gates.Check, rel_error: float) -> dict:
+    return {"status": "ok", check.metric: 1.0 + rel_error, "reference": {check.metric: 1.0},
+            "rel_error": {check.metric: rel_error}}
+
+
+def test_four_fold_regression_of_an_accurate_shipped_check_fails() -> None:
+    """Issue 16: the old 1e-4 absolute allowance let the most accurate checks worsen 4–100×
+    unseen. With the shipped gates and baseline, every check whose error is measurably
+    non-zero fails as ``worse`` at 4× its baseline error, and at the same size with the other
+    sign; the baseline itself passes."""
+    parsed, baseline = shipped_gates()
+    accurate = [c for c in parsed.checks
+                if c.id in baseline and abs(baseline[c.id]["rel_error"]) > 1e-6]
+    assert len(accurate) >= 20
+    assert min(abs(baseline[c.id]["rel_error"]) for c in accurate) < 1e-4  # the old floor
+    for c in accurate:
+        base = baseline[c.id]["rel_error"]
+        assert gates.judge(c, synthetic_result(c, base), baseline).mark == gates.PASS, c.id
+        if 4 * abs(base) <= c.tolerance:
+            got = gates.judge(c, synthetic_result(c, 4 * base), baseline)
+            assert got.mark == gates.WORSE, (c.id, got.message)
+        if abs(base) <= c.tolerance:
+            got = gates.judge(c, synthetic_result(c, -base), baseline)
+            assert got.mark == gates.WORSE, (c.id, got.message)
+
+
 # ------------------------------------------------------------------ real runs
 
 
@@ -116,15 +163,18 @@ def test_injected_gate_passes_and_tolerance_zero_fails(engine, measured) -> None
 
 def test_baseline_marks_worse_better_new_failure(engine, measured) -> None:
     peak = measured[0]
-    err = abs(peak.rel_error)
+    signed = peak.rel_error
+    err = abs(signed)
     c = gates.Check(peak.check.run, peak.check.metric, peak.check.tolerance, 0.5, 0.0)
     # a baseline with a much smaller error: within tolerance but grown -> worse
     assert err > 0
-    assert gates.judge(c, peak.result, {c.id: {"rel_error": err / 10}}).mark == gates.WORSE
-    assert gates.judge(c, peak.result, {c.id: {"rel_error": err}}).mark == gates.PASS
-    # a baseline with a larger error -> better (passes)
-    large = {c.id: {"rel_error": 2 * err * (1 + c.margin)}}
-    assert gates.judge(c, peak.result, large).mark == gates.BETTER
+    assert gates.judge(c, peak.result, {c.id: {"rel_error": signed / 10}}).mark == gates.WORSE
+    assert gates.judge(c, peak.result, {c.id: {"rel_error": signed}}).mark == gates.PASS
+    # the same size with the other sign: the error moved by 2·|e| -> worse
+    assert gates.judge(c, peak.result, {c.id: {"rel_error": -signed}}).mark == gates.WORSE
+    # a baseline with a larger error, of either sign -> better (passes)
+    for large in (2 * signed * (1 + c.margin), -2 * signed * (1 + c.margin)):
+        assert gates.judge(c, peak.result, {c.id: {"rel_error": large}}).mark == gates.BETTER
     # fails now (tolerance below the error) but passed in the baseline -> new-failure
     tight = gates.Check(c.run, c.metric, err / 2, c.margin, c.floor)
     assert gates.judge(tight, peak.result, {tight.id: {"rel_error": 0.0}}).mark == \
@@ -154,8 +204,8 @@ def test_must_fail_gate_exits_1_with_junit_failure(engine, tmp_path, capsys,
 
 
 def test_update_baseline_then_worse_is_caught(engine, tmp_path, capsys) -> None:
-    # floor 0: any growth beyond the 50 % margin counts (the errors here are ~1e-5)
-    path = write(tmp_path, "[defaults]\nbaseline_floor = 0\n" + gate_text(engine))
+    # the default floor (1e-8) is far below the errors here (~1e-5)
+    path = write(tmp_path, gate_text(engine))
     base = tmp_path / "gates_baseline.json"
     assert main(["gate", "--config", str(path), "--update-baseline", "--jobs", "0"]) == 0
     stored = json.loads(base.read_text())["checks"]

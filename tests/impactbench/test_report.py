@@ -68,6 +68,19 @@ def test_headline_tables_show_statuses_as_words(small_report: report.Report) -> 
         assert f"**{engine} " in text
 
 
+def test_report_says_how_injection_reaches_each_engine(small_report: report.Report) -> None:
+    """Issue 16: injection is the law through the engine's own contact integration; the report
+    shows each adapter's line, and the engines that cannot do that say so."""
+    from impactbench.engines.base import get_adapter
+
+    text = (small_report.out_dir / "README.md").read_text()
+    for engine in available_engines():
+        line = get_adapter(engine).injection
+        assert line and f"Injection in {engine}: {line}." in text, engine
+    cannot = {e for e in available_engines() if get_adapter(e).injection.startswith("cannot:")}
+    assert cannot <= {"pymunk", "drake"} and {"mujoco", "pybullet"}.isdisjoint(cannot)
+
+
 def test_report_survives_an_unavailable_engine(tmp_path: Path,
                                                monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv(DISABLE_ENV, "pymunk")
