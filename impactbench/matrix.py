@@ -47,8 +47,9 @@ class Job:
     def id(self) -> str:
         laws = f"/{self.local}/{self.structure}" if self.local else ""
         dt = f"{self.timestep_s:.3e}" if self.timestep_s else "default"
+        params = "".join(f"/{k}={v!r}" for k, v in self.parameters)  # ids must be unique
         return (f"{self.study}/{self.scenario}{laws}/v{self.velocity_m_s:09.4f}/"
-                f"{self.engine}/{self.mode}/dt{dt}")
+                f"{self.engine}/{self.mode}/dt{dt}{params}")
 
     def build_scenario(self):
         kwargs = dict(self.parameters, velocity_m_s=self.velocity_m_s)

@@ -42,9 +42,11 @@ def test_injected_ball_reproduces_reference(drake: DrakeAdapter, velocity: float
     assert rec.mass_2_kg == math.inf and not rec.velocity_2_m_s.any()
     err = _errors(compute(rec), hunt_crossley.solve(scenario),
                   ("restitution", "duration_s", "peak_force_n"))
-    assert err["restitution"] <= 0.005, err
-    assert err["duration_s"] <= 0.01, err
-    assert err["peak_force_n"] <= 0.01, err
+    # measured at 1e-7 s (RK3; 1 / 5 m/s): restitution 4.8e-9 / 6.1e-8, duration 7.4e-10 /
+    # 1.0e-9, peak 1.7e-6 / 2.7e-6 (a sampled maximum: the peak falls between samples)
+    assert err["restitution"] <= 1.8e-7, err
+    assert err["duration_s"] <= 3.2e-9, err
+    assert err["peak_force_n"] <= 8.1e-6, err
 
 
 @pytest.mark.parametrize("velocity", [1.0, 5.0])
@@ -68,7 +70,9 @@ def test_native_ball_restitution_exact_and_duration_matched_at_reference_velocit
     rec = drake.run(scenario, "native", RunSettings(timestep_s=1e-7))
     assert rec.status is Status.OK, rec.message
     m, ref = compute(rec), hunt_crossley.solve(scenario)
-    assert abs(relative_error(m["restitution"], ref["restitution"])) <= 1e-4
+    # measured at 1e-7 s: restitution 7.2e-7 / 2.6e-7 / 8.8e-7 (0.5 / 1 / 5 m/s); duration
+    # against linear HC 9.5e-11 / 3.6e-10 / 8.2e-9
+    assert abs(relative_error(m["restitution"], ref["restitution"])) <= 2.7e-6
     native = rec.meta["native_parameters"]
     k, d = native_ball_point_contact(scenario)
     assert native["point_stiffness_n_per_m"] == k
@@ -77,9 +81,10 @@ def test_native_ball_restitution_exact_and_duration_matched_at_reference_velocit
     assert rec.meta["reference_velocity_m_s"] == 1.0
     # the pair has exactly stiffness k: the linear-HC duration equals T(k) = √(m/k)·τ(α)
     linear = scenario.replace(stiffness=k, exponent=1.0)
-    assert abs(relative_error(m["duration_s"], hunt_crossley.solve(linear)["duration_s"])) <= 1e-4
+    assert abs(relative_error(m["duration_s"], hunt_crossley.solve(linear)["duration_s"])) \
+        <= 2.5e-8
     if velocity == 1.0:
-        assert abs(relative_error(m["duration_s"], ref["duration_s"])) <= 1e-4
+        assert abs(relative_error(m["duration_s"], ref["duration_s"])) <= 1.1e-9
 
 
 def test_native_ball_reference_velocity_option(drake: DrakeAdapter) -> None:
@@ -88,7 +93,8 @@ def test_native_ball_reference_velocity_option(drake: DrakeAdapter) -> None:
     rec = drake.run(scenario, "native", settings)
     assert rec.meta["reference_velocity_m_s"] == 5.0
     ref = hunt_crossley.solve(scenario)
-    assert abs(relative_error(compute(rec)["duration_s"], ref["duration_s"])) <= 1e-4
+    # measured 1.5e-8
+    assert abs(relative_error(compute(rec)["duration_s"], ref["duration_s"])) <= 4.5e-8
 
 
 @pytest.mark.parametrize("local", ["linear", "elastoplastic"])
@@ -101,24 +107,28 @@ def test_injected_rigid_flexible_reproduces_reference(drake: DrakeAdapter, local
     m = compute(rec)
     assert m["impacts"] == ref["impacts"]
     err = _errors(m, ref, RF_METRICS)
-    assert max(err.values()) <= 0.01, err
+    # measured (both laws, 1e-5 s): peak 6.2e-8, pulse width 2.0e-9, impulse 7.6e-8
+    assert max(err.values()) <= 2.3e-7, err
 
 
-@pytest.mark.parametrize(("local", "velocity"), [("elastoplastic", 20.0), ("mutation", 3.3)])
+# measured worst injected error: elastoplastic at 20 m/s 5.2e-8, mutation 4.8e-5; native
+# (linear k1) 0.59 and 0.44
+@pytest.mark.parametrize(("local", "velocity", "tol"), [("elastoplastic", 20.0, 1.6e-7),
+                                                        ("mutation", 3.3, 1.5e-4)])
 def test_injected_local_law_memory_is_driven_through_drake(drake: DrakeAdapter, local: str,
-                                                           velocity: float) -> None:
+                                                           velocity: float, tol: float) -> None:
     """Beyond yield / failure the law's memory matters; linear native contact misses it."""
     scenario = RigidFlexible(velocity_m_s=velocity, local=local)
     ref = two_dof.solve(scenario)
     injected = compute(drake.run(scenario, "injected"))
     native = compute(drake.run(scenario, "native"))
-    assert max(_errors(injected, ref, RF_METRICS).values()) <= 0.01
+    assert max(_errors(injected, ref, RF_METRICS).values()) <= tol
     assert injected["impacts"] == ref["impacts"]
-    assert max(_errors(native, ref, RF_METRICS).values()) > 0.03  # the law really differs
+    assert max(_errors(native, ref, RF_METRICS).values()) > 0.15  # the law really differs
 
 
 @pytest.mark.parametrize("structure", ["linear", "softening"])
-def test_native_linear_rigid_flexible_within_one_percent(drake: DrakeAdapter,
+def test_native_linear_rigid_flexible_matches_reference(drake: DrakeAdapter,
                                                           structure: str) -> None:
     scenario = RigidFlexible(velocity_m_s=3.3, structure=structure)
     rec = drake.run(scenario, "native")
@@ -126,7 +136,7 @@ def test_native_linear_rigid_flexible_within_one_percent(drake: DrakeAdapter,
     assert rec.meta["native_parameters"]["point_stiffness_n_per_m"] == scenario.k1_n_per_m
     assert rec.displacement_2_m is not None and rec.displacement_2_m.size == len(rec)
     err = _errors(compute(rec), two_dof.solve(scenario), RF_METRICS)
-    assert max(err.values()) <= 0.01, err
+    assert max(err.values()) <= 2.5e-7, err  # measured 7.6e-8 (linear), 8.3e-8 (softening)
 
 
 @pytest.mark.parametrize("mode", ["native", "injected"])
@@ -175,11 +185,12 @@ def test_tuned_mode(drake: DrakeAdapter) -> None:
     assert a == pytest.approx(b, rel=1e-12)
     stiffer = dict(tuned, point_stiffness_n_per_m=4 * k)
     c = compute(drake.run(scenario, "tuned", RunSettings(tuned=stiffer)))
-    assert c["duration_s"] == pytest.approx(b["duration_s"] / 2, rel=1e-3)  # T ∝ 1/√k
+    # T ∝ 1/√k: measured within 8.0e-7 (RK3 at the default 1e-6 s)
+    assert c["duration_s"] == pytest.approx(b["duration_s"] / 2, rel=2.4e-6)
     rf = RigidFlexible(velocity_m_s=3.3)
     rec = drake.run(rf, "tuned", RunSettings(tuned={"point_stiffness_n_per_m": 1e5}))
     assert compute(rec)["peak_force_n"] == pytest.approx(two_dof.solve(rf)["peak_force_n"],
-                                                         rel=1e-3)
+                                                         rel=1.9e-7)  # measured 6.2e-8
 
 
 def test_bad_options_raise_one_line_value_errors(drake: DrakeAdapter) -> None:
@@ -199,6 +210,7 @@ def test_other_integrator_and_provenance(drake: DrakeAdapter) -> None:
     assert rec.meta["integrator"] == "runge_kutta2, fixed step"
     assert rec.meta["engine"] == "drake" and rec.meta["engine_version"] == drake.version()
     ref = hunt_crossley.solve(scenario)
-    assert abs(relative_error(compute(rec)["restitution"], ref["restitution"])) <= 0.005
+    # measured 3.5e-7 (RK2 at 1e-7 s)
+    assert abs(relative_error(compute(rec)["restitution"], ref["restitution"])) <= 1.1e-6
     assert drake.default_timestep_s(scenario, "native") == 1e-6
     assert drake.default_timestep_s(RigidFlexible(), "injected") == 1e-5

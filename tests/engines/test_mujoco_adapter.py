@@ -49,9 +49,11 @@ def test_injected_ball_reproduces_reference(mj: MujocoAdapter, velocity: float) 
     assert rec.mass_2_kg == math.inf and not rec.velocity_2_m_s.any()
     assert rec.penetration_m[0] < 0.0 < rec.normal_force_n.max()
     err = _errors(compute(rec), hunt_crossley.solve(scenario), BALL)
-    assert err["restitution"] <= 0.005, err
-    assert err["duration_s"] <= 0.01, err
-    assert err["peak_force_n"] <= 0.01, err
+    # measured at 1e-7 s (1 / 5 m/s): restitution 7.8e-8 / 1.1e-7, duration 5.9e-5 / 3.5e-4,
+    # peak 1.1e-4 / 6.1e-4 (Euler's first-order error on the force; it cancels in restitution)
+    assert err["restitution"] <= 3.3e-7, err
+    assert err["duration_s"] <= 1.1e-3, err
+    assert err["peak_force_n"] <= 1.8e-3, err
 
 
 def test_injected_error_falls_with_timestep(mj: MujocoAdapter) -> None:
@@ -77,12 +79,15 @@ def test_injected_rigid_flexible_reproduces_reference(mj: MujocoAdapter, local: 
     measured = compute(rec)
     assert measured["impacts"] == ref["impacts"]
     err = _errors(measured, ref, RF)
-    assert max(err.values()) <= 0.01, err
+    # measured (both laws, 1e-5 s): peak 1.2e-5, pulse width 8.3e-6, impulse 9.8e-6
+    assert max(err.values()) <= 3.7e-5, err
 
 
-@pytest.mark.parametrize(("local", "velocity"), [("elastoplastic", 20.0), ("mutation", 3.3)])
+# measured worst (peak force): elastoplastic at 20 m/s 3.4e-5, mutation at 3.3 m/s 6.2e-5
+@pytest.mark.parametrize(("local", "velocity", "tol"), [("elastoplastic", 20.0, 1.0e-4),
+                                                        ("mutation", 3.3, 1.8e-4)])
 def test_injected_memory_laws_past_their_switch(mj: MujocoAdapter, local: str,
-                                                velocity: float) -> None:
+                                                velocity: float, tol: float) -> None:
     """Yielding (contact ends at the permanent set, contacts disabled at zero law force) and
     stiffness failure, both past the law's switch point."""
     scenario = RigidFlexible(velocity_m_s=velocity, local=local)
@@ -91,7 +96,7 @@ def test_injected_memory_laws_past_their_switch(mj: MujocoAdapter, local: str,
     ref = two_dof.solve(scenario)
     measured = compute(rec)
     assert measured["impacts"] == ref["impacts"]
-    assert max(_errors(measured, ref, RF).values()) <= 0.01
+    assert max(_errors(measured, ref, RF).values()) <= tol
     if local == "elastoplastic":
         assert rec.penetration_m.max() > scenario.eps_s_m  # it did yield
 
@@ -103,7 +108,7 @@ def test_native_rigid_flexible_linear_matches_reference(mj: MujocoAdapter) -> No
     assert rec.meta["stepping"] == "rollout"
     assert rec.meta["solref"] == [-scenario.k1_n_per_m * rec.meta["efc_diagA"], 0.0]
     err = _errors(compute(rec), two_dof.solve(scenario), RF)
-    assert max(err.values()) <= 0.01, err
+    assert max(err.values()) <= 3.7e-5, err  # measured 1.2e-5 (peak), as injected
 
 
 def test_softening_collapse_is_reported(mj: MujocoAdapter) -> None:
@@ -127,11 +132,14 @@ def test_native_ball_matches_reference_at_reference_velocity(mj: MujocoAdapter,
     k, d, a = rec.meta["stiffness_n_per_m"], rec.meta["damping_ns_per_m"], rec.meta["efc_diagA"]
     assert rec.meta["solref"] == [-k * a, -d * a]
     err = _errors(compute(rec), hunt_crossley.solve(scenario), ("restitution", "duration_s"))
-    assert err["restitution"] <= 0.005, err
-    assert err["duration_s"] <= 0.01, err
-    # a linear contact's restitution does not follow Hunt–Crossley's fall with velocity
+    # measured at 1e-7 s (V_ref = 1 / 5 m/s): restitution 4.1e-6 / 5.3e-5, duration 3.2e-5 /
+    # 2.0e-4
+    assert err["restitution"] <= 1.6e-4, err
+    assert err["duration_s"] <= 6.0e-4, err
+    # a linear contact's restitution does not follow Hunt–Crossley's fall with velocity:
+    # measured equal to 1.3e-15 at three times the velocity
     other = mj.run(BallOnPlate(velocity_m_s=v_ref * 3.0), "native", settings)
-    assert compute(other)["restitution"] == pytest.approx(compute(rec)["restitution"], rel=2e-3)
+    assert compute(other)["restitution"] == pytest.approx(compute(rec)["restitution"], rel=1e-14)
 
 
 def test_contact_sensor_is_mj_contact_force_and_direct_solref_is_physical() -> None:
@@ -176,4 +184,5 @@ def test_gravity_option_is_applied(mj: MujocoAdapter) -> None:
     off = compute(mj.run(BallOnPlate(velocity_m_s=0.5), "injected"))
     on = compute(mj.run(BallOnPlate(velocity_m_s=0.5, gravity_m_s2=9.81), "injected"))
     assert on["restitution"] < off["restitution"]
-    assert on["restitution"] == pytest.approx(off["restitution"], rel=1e-2)
+    # measured −4.6e-5: gravity's work over the contact against the impact energy
+    assert on["restitution"] == pytest.approx(off["restitution"], rel=1.4e-4)

@@ -46,10 +46,12 @@ def test_injected_ball_reproduces_hunt_crossley(adapter, velocity: float) -> Non
     ref = hunt_crossley.solve(BallOnPlate(velocity_m_s=velocity))
     assert rec.status is Status.OK, rec.message
     assert got["impacts"] == 1
-    assert rel(got["restitution"], ref["restitution"]) <= 0.005
-    assert rel(got["duration_s"], ref["duration_s"]) <= 0.01
-    assert rel(got["peak_force_n"], ref["peak_force_n"]) <= 0.01
-    assert rel(got["max_penetration_m"], ref["max_penetration_m"]) <= 0.01
+    # measured at 1e-7 s (1 / 5 m/s): restitution 7.8e-8 / 1.1e-7, duration 5.9e-5 / 3.5e-4,
+    # peak 1.1e-4 / 6.1e-4, max penetration 4.2e-5 / 2.6e-4
+    assert rel(got["restitution"], ref["restitution"]) <= 3.3e-7
+    assert rel(got["duration_s"], ref["duration_s"]) <= 1.1e-3
+    assert rel(got["peak_force_n"], ref["peak_force_n"]) <= 1.8e-3
+    assert rel(got["max_penetration_m"], ref["max_penetration_m"]) <= 8e-4
     # the record starts a few steps before touch and ends a few steps after release
     assert rec.penetration_m[0] < 0.0 and rec.penetration_m[-1] < 0.0
     assert len(rec) < 1.1 * ref["duration_s"] / 1e-7
@@ -70,12 +72,12 @@ def test_injected_ball_error_falls_with_timestep(adapter) -> None:
 def test_penalty_force_in_pre_solve_is_symplectic(adapter) -> None:
     """An elastic (b = 0) Hertz ball at ω·dt ≈ 0.04 (dt = 1e-6 s): explicit Euler (force from
     the state before the step) gains ~8 % of restitution; pymunk's drift–kick step with the
-    force applied in pre_solve keeps it at 1 to well under 1e-3."""
+    force applied in pre_solve keeps it at 1 (measured within 5.9e-5)."""
     sc = BallOnPlate(velocity_m_s=5.0, damping_s_per_m=0.0)
     rec = adapter.run(sc, "injected", RunSettings(timestep_s=1e-6))
     got = metrics.compute(rec)
     assert rec.status is Status.OK
-    assert abs(got["restitution"] - 1.0) < 1e-3
+    assert abs(got["restitution"] - 1.0) < 1.8e-4
 
 
 @pytest.mark.parametrize("velocity", [0.5, 5.0])
@@ -83,7 +85,7 @@ def test_restitution_injection_matches_hunt_crossley_restitution(adapter, veloci
     rec, got = ball(adapter, velocity, dt=1e-6, injection="restitution")
     ref = hunt_crossley.solve(BallOnPlate(velocity_m_s=velocity))
     assert rec.status is Status.OK
-    assert rel(got["restitution"], ref["restitution"]) <= 1e-9
+    assert rel(got["restitution"], ref["restitution"]) <= 1e-15  # measured 1.1e-16, 0
     assert rec.meta["injection"] == "restitution"
 
 
@@ -127,8 +129,8 @@ def test_gravity_option_runs_and_stays_close(adapter) -> None:
     got = metrics.compute(rec)
     ref = hunt_crossley.solve(BallOnPlate(velocity_m_s=1.0))
     assert rec.status is Status.OK
-    # m·g ≈ 1 N against a ~3.4 kN peak: a per-mille effect at most
-    assert rel(got["peak_force_n"], ref["peak_force_n"]) <= 0.01
+    # m·g ≈ 1 N against a ~3.4 kN peak: measured 5.1e-4 (with the 1.1e-4 stepping error)
+    assert rel(got["peak_force_n"], ref["peak_force_n"]) <= 1.5e-3
 
 
 @pytest.mark.parametrize("mode,dt", [("injected", 1e-4), ("native", 1e-2)])
@@ -137,13 +139,14 @@ def test_huge_timestep_is_a_status_not_a_number(adapter, mode: str, dt: float) -
     assert rec.status in (Status.TUNNELED, Status.DIVERGED), rec.status
 
 
-@pytest.mark.parametrize("local,velocity", [
-    ("linear", 3.3),
-    ("elastoplastic", 3.3),  # below yield at 3.3 m/s
-    ("elastoplastic", 10.0),  # yields; re-contact 1.7 ms after the first contact ends
+# measured worst of peak, pulse width, impulse at 1e-5 s: 1.7e-7, 1.7e-7, 8.1e-8
+@pytest.mark.parametrize("local,velocity,tol", [
+    ("linear", 3.3, 5e-7),
+    ("elastoplastic", 3.3, 5e-7),  # below yield at 3.3 m/s
+    ("elastoplastic", 10.0, 2.5e-7),  # yields; re-contact 1.7 ms after the first contact ends
 ])
 def test_injected_rigid_flexible_reproduces_the_reference(adapter, local: str,
-                                                         velocity: float) -> None:
+                                                         velocity: float, tol: float) -> None:
     sc = RigidFlexible(velocity_m_s=velocity, local=local, structure="linear")
     rec = adapter.run(sc, "injected")
     assert rec.meta["timestep_s"] == 1e-5
@@ -152,7 +155,7 @@ def test_injected_rigid_flexible_reproduces_the_reference(adapter, local: str,
     assert rec.status is Status.OK, rec.message
     assert got["impacts"] == ref["impacts"]
     for k in RF_METRICS:
-        assert rel(got[k], ref[k]) <= 0.01, (k, got[k], ref[k])
+        assert rel(got[k], ref[k]) <= tol, (k, got[k], ref[k])
     assert rec.displacement_2_m is not None and rec.mass_2_kg == sc.m2_kg
 
 
@@ -162,8 +165,8 @@ def test_injected_rigid_flexible_memory_law_and_softening(adapter) -> None:
     got = metrics.compute(adapter.run(sc, "injected"))
     ref = two_dof.solve(sc)
     assert got["impacts"] == ref["impacts"]
-    for k in RF_METRICS:
-        assert rel(got[k], ref[k]) <= 0.01, (k, got[k], ref[k])
+    for k in RF_METRICS:  # measured: peak 3.5e-5, pulse width 5.9e-6, impulse 6.3e-6
+        assert rel(got[k], ref[k]) <= 1.0e-4, (k, got[k], ref[k])
 
 
 def test_injected_rigid_flexible_error_falls_with_timestep(adapter) -> None:
