@@ -19,8 +19,9 @@ HELP = "check engines against the reference with the tolerances of a gate file (
 
 def register(top: argparse._SubParsersAction, groups: dict) -> None:
     p = top.add_parser("gate", help=HELP, description=HELP + ". Marks: pass, better, worse "
-                       "(error grew beyond the baseline margin: fails), fail, new-failure "
-                       "(fails now, passed in the baseline), not-comparable (engine or mode "
+                       "(the signed error left the baseline's relative band: fails), fail, "
+                       "new-failure (fails now, passed in the baseline), not-comparable (engine "
+                       "or mode "
                        "unavailable: passes unless --strict).")
     p.add_argument("--config", type=Path, default=Path("gates.toml"), metavar="FILE",
                    help="gate file (TOML); default gates.toml")

@@ -259,3 +259,19 @@ def test_update_baseline_keeps_entries_it_could_not_measure(engine, measured) ->
     new = gates.updated_baseline([*measured, nc], previous)
     assert new[other.id] == {"rel_error": 0.001}
     assert new[c.id]["rel_error"] == measured[0].rel_error
+
+
+def test_shipped_gates_cover_native_modes_and_rigid_flexible_beyond_the_base() -> None:
+    """Issue 16: native-mode gates for every engine, and rigid–flexible gates with parameters
+    other than the papers' base set."""
+    parsed, baseline = shipped_gates()
+    runs = {c.run for c in parsed.checks}
+    for engine in ENGINES:
+        for scenario in ("ball-on-plate", "rigid-flexible"):
+            assert any(r.engine == engine and r.mode == "native" and r.scenario == scenario
+                       for r in runs), (engine, scenario)
+    beyond = {dict(r.parameters).get("m2_kg") for r in runs if r.scenario == "rigid-flexible"}
+    assert len(beyond - {None}) >= 1
+    assert {r.local for r in runs if r.scenario == "rigid-flexible"} == {
+        "linear", "elastoplastic", "mutation"}
+    assert all(c.id in baseline for c in parsed.checks)  # the baseline is regenerated
