@@ -2,12 +2,14 @@
 hysteresis loops, the relative-error heatmap and the work-precision diagram.
 
 Every function takes the tidy results (a DataFrame) and/or the run histories and writes one PNG,
-returning its path. Engines keep one colour everywhere; modes one line style.
+returning its path. ``how`` is the subtitle every plot carries: modes, timesteps and velocities.
+Engines keep one colour everywhere; modes one line style.
 """
 
 from __future__ import annotations
 
 import math
+import textwrap
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -17,17 +19,30 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
+from matplotlib.colors import LogNorm
 
 ENGINE_COLORS = {"reference": "black", "mujoco": "tab:blue", "pybullet": "tab:orange",
                  "pymunk": "tab:green", "drake": "tab:red"}
-MODE_STYLES = {"native": "--", "injected": "-", "tuned": ":"}
-MODE_MARKERS = {"native": "s", "injected": "o", "tuned": "^"}
+MODE_STYLES = {"native": "--", "injected": "-", "tuned": ":", "default": "-.",
+               "custom": (0, (5, 1, 1, 1))}
+MODE_MARKERS = {"native": "s", "injected": "o", "tuned": "^", "default": "D", "custom": "v"}
 LABELS = {"restitution": "restitution k", "duration_s": "duration", "peak_force_n": "peak force",
           "max_penetration_m": "max penetration", "energy_loss_fraction": "energy loss",
           "pulse_width_s": "pulse width", "contact_time_s": "contact time",
           "impulse_ns": "impulse", "impacts": "impacts"}
+MODE_ORDER = ("native", "injected", "tuned", "default", "custom")
+BAND_LINES = (0.01, 0.05)
+"""The report's error bands (1 %, 5 %), marked on the heatmap's colour bar."""
+ROUND_OFF = 1e-10
+"""Relative errors below this are round-off: the heatmap's colour scale starts no lower."""
 
 History = Mapping[str, np.ndarray]
+
+
+def _title(ax, title: str, how: str) -> None:
+    """Title plus a smaller wrapped line saying modes, timesteps and velocities."""
+    sub = "\n".join(textwrap.wrap(how, 95))
+    ax.set_title(f"{title}\n{sub}" if sub else title, fontsize=9)
 
 
 def _aligned(h: History) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
@@ -47,34 +62,49 @@ def _save(fig, path: Path) -> Path:
     return path
 
 
+def contact_span(curves: list[tuple[np.ndarray, np.ndarray]]) -> float:
+    """The latest time any curve still carries force (aligned time, s); 0 without contact."""
+    ends = [float(t[f > 0].max()) for t, f in curves if np.any(f > 0)]
+    return max(ends, default=0.0)
+
+
 def force_time(histories: Mapping[tuple[str, str], History], reference: History,
-               title: str, path: Path, time_unit: float = 1e-6, unit_label: str = "µs") -> Path:
-    """F(t) of the reference and of each (engine, mode), aligned at the contact start."""
-    fig, ax = plt.subplots(figsize=(7, 4))
+               title: str, how: str, path: Path, time_unit: float = 1e-6,
+               unit_label: str = "µs") -> Path:
+    """F(t) of the reference and of each (engine, mode), aligned at the contact start.
+
+    The time axis spans every curve up to its last sample with force (not only the
+    reference's contact), so a longer engine contact is shown whole."""
+    fig, ax = plt.subplots(figsize=(7, 4.2))
+    curves = []
     ref = _aligned(reference)
     if ref is not None:
         ax.plot(ref[0] / time_unit, ref[1], color="black", lw=2.2, alpha=0.6, label="reference")
-    for (engine, mode), h in sorted(histories.items()):
+        curves.append(ref[:2])
+    for (engine, mode), h in sorted(histories.items(),
+                                    key=lambda kv: (kv[0][0], MODE_ORDER.index(kv[0][1])
+                                                    if kv[0][1] in MODE_ORDER else 9)):
         a = _aligned(h)
         if a is None:
             continue
-        ax.plot(a[0] / time_unit, a[1], MODE_STYLES.get(mode, "-"),
+        ax.plot(a[0] / time_unit, a[1], linestyle=MODE_STYLES.get(mode, "-"),
                 color=ENGINE_COLORS.get(engine), lw=1.2, label=f"{engine} {mode}")
-    if ref is not None:
-        end = (ref[0][ref[1] > 0].max() if np.any(ref[1] > 0) else ref[0][-1]) / time_unit
-        ax.set_xlim(-0.05 * end, 1.25 * end)
+        curves.append(a[:2])
+    end = contact_span(curves) / time_unit
+    if end > 0:
+        ax.set_xlim(-0.03 * end, 1.06 * end)
     ax.set_xlabel(f"time from first contact ({unit_label})")
     ax.set_ylabel("normal force F (N)")
-    ax.set_title(title)
+    _title(ax, f"Force against time, {title}", how)
     ax.legend(fontsize=7, ncol=2)
     ax.grid(alpha=0.3)
     return _save(fig, path)
 
 
 def hysteresis(histories: Mapping[tuple[str, str], History], reference: History,
-               title: str, path: Path) -> Path:
+               title: str, how: str, path: Path) -> Path:
     """F against penetration x: the loop area is the energy lost in the contact."""
-    fig, ax = plt.subplots(figsize=(6, 4))
+    fig, ax = plt.subplots(figsize=(7, 4.2))
     if reference:
         m = reference["normal_force_n"] > 0
         ax.plot(reference["penetration_m"][m] * 1e6, reference["normal_force_n"][m],
@@ -83,17 +113,19 @@ def hysteresis(histories: Mapping[tuple[str, str], History], reference: History,
         if not h:
             continue
         m = h["normal_force_n"] > 0
-        ax.plot(h["penetration_m"][m] * 1e6, h["normal_force_n"][m], MODE_STYLES.get(mode, "-"),
-                color=ENGINE_COLORS.get(engine), lw=1.1, label=f"{engine} {mode}")
+        ax.plot(h["penetration_m"][m] * 1e6, h["normal_force_n"][m],
+                linestyle=MODE_STYLES.get(mode, "-"), color=ENGINE_COLORS.get(engine), lw=1.1,
+                label=f"{engine} {mode}")
     ax.set_xlabel("penetration x (µm)")
     ax.set_ylabel("normal force F (N)")
-    ax.set_title(title)
+    _title(ax, f"Force against penetration, {title}", how)
     ax.legend(fontsize=7, ncol=2)
     ax.grid(alpha=0.3)
     return _save(fig, path)
 
 
-def restitution_vs_velocity(df: pd.DataFrame, damping_s_per_m: float, path: Path) -> Path:
+def restitution_vs_velocity(df: pd.DataFrame, damping_s_per_m: float, how: str,
+                            path: Path) -> Path:
     """The reference curve k(b·V0) with every engine's measured points."""
     from impactbench.reference.hunt_crossley import restitution
 
@@ -101,7 +133,7 @@ def restitution_vs_velocity(df: pd.DataFrame, damping_s_per_m: float, path: Path
               & (df.metric == "restitution")]
     vmax = max(float(rows.velocity_m_s.max()) if len(rows) else 5.0, 1.0) * 1.1
     v = np.linspace(0.0, vmax, 300)
-    fig, ax = plt.subplots(figsize=(7, 4))
+    fig, ax = plt.subplots(figsize=(7, 4.2))
     ax.plot(v, restitution(damping_s_per_m * v), color="black", lw=2, label="Hunt–Crossley k(b·V0)")
     for (engine, mode), g in rows[rows.status == "ok"].groupby(["engine", "mode"]):
         ax.plot(g.velocity_m_s, g.value, MODE_MARKERS.get(mode, "o"), ls="none", ms=6,
@@ -109,62 +141,117 @@ def restitution_vs_velocity(df: pd.DataFrame, damping_s_per_m: float, path: Path
                 color=ENGINE_COLORS.get(engine), label=f"{engine} {mode}")
     ax.set_xlabel("impact velocity V0 (m/s)")
     ax.set_ylabel("restitution k (–)")
-    ax.set_title("Restitution against impact velocity (ball on plate)")
+    _title(ax, "Restitution against impact velocity, ball on plate", how)
     ax.legend(fontsize=7, ncol=2)
     ax.grid(alpha=0.3)
     return _save(fig, path)
 
 
-def error_heatmap(df: pd.DataFrame, scenario: str, metric_names: tuple[str, ...],
+def _point_label(row) -> str:
+    v = f"{row.velocity_m_s:g} m/s"
+    if row.scenario == "rigid-flexible":
+        return f"{row.local}\n{row.structure}\n{v}"
+    return v
+
+
+def _error_text(err: float) -> str:
+    if err == 0:
+        return "0"
+    pct = 100 * err
+    return f"{pct:+.0f}%" if abs(pct) >= 10 else f"{pct:+.2g}%"
+
+
+def error_heatmap(df: pd.DataFrame, scenario: str, metric_names: tuple[str, ...], how: str,
                   path: Path) -> Path:
-    """|relative error| per (engine, mode) against (metric, point); failed runs marked."""
+    """|relative error| per (engine, mode) row and scenario point column, one panel per
+    metric; each cell annotated with the signed error (or the run's status). The colour scale
+    is logarithmic over the true range of the nonzero errors shown (exact zeros take its
+    lowest colour), with the 1 % and 5 % bands marked on the colour bar."""
     rows = df[(df.study == "matrix") & (df.scenario == scenario)
               & df.metric.isin(metric_names)].copy()
-    point = rows.velocity_m_s.map(lambda v: f"{v:g}")
-    if scenario == "rigid-flexible":
-        point = rows.local.str[:4] + "/" + rows.structure.str[:4] + " " + point
-    rows["col"] = rows.metric.map(lambda m: LABELS.get(m, m)) + "\n" + point
+    rows["col"] = [_point_label(r) for r in rows.itertuples()]
     rows["row"] = rows.engine + " " + rows["mode"]
-    cols = list(dict.fromkeys(rows.sort_values(["metric", "local", "structure",
-                                                "velocity_m_s"]).col))
-    index = sorted(rows.row.unique())
-    err = rows.pivot_table(index="row", columns="col", values="rel_error",
-                           aggfunc="first", dropna=False).reindex(index=index, columns=cols)
-    status = rows.pivot_table(index="row", columns="col", values="status",
-                              aggfunc="first").reindex(index=index, columns=cols)
-    data = np.log10(np.clip(np.abs(err.to_numpy(dtype=float)), 1e-6, 10))
-    fig, ax = plt.subplots(figsize=(max(6, 0.42 * len(cols) + 2), 0.45 * len(index) + 2))
-    im = ax.imshow(data, cmap="RdYlGn_r", vmin=-4, vmax=0, aspect="auto")
-    for i in range(len(index)):
-        for j in range(len(cols)):
-            s = status.iat[i, j]
-            if isinstance(s, str) and s != "ok":
-                ax.text(j, i, s[:7], ha="center", va="center", fontsize=5, rotation=90)
-    ax.set_xticks(range(len(cols)), cols, rotation=90, fontsize=6)
-    ax.set_yticks(range(len(index)), index, fontsize=7)
-    cb = fig.colorbar(im, ax=ax)
-    cb.set_label("log10 |relative error|")
-    ax.set_title(f"Relative error against the reference ({scenario})")
-    return _save(fig, path)
+    order = rows.sort_values(["local", "structure", "velocity_m_s"])
+    cols = list(dict.fromkeys(order.col))
+    mode_rank = {m: i for i, m in enumerate(MODE_ORDER)}
+    index = sorted(rows.row.unique(), key=lambda r: (r.split()[0], mode_rank.get(
+        r.split()[-1], 9)))
+    err = np.abs(pd.to_numeric(rows.rel_error, errors="coerce").to_numpy(dtype=float))
+    finite = err[np.isfinite(err) & (err > 0) & (rows.status == "ok").to_numpy()]
+    lo, hi = (float(finite.min()), float(finite.max())) if finite.size else (1e-3, 1e-1)
+    floored = lo < ROUND_OFF
+    lo = max(lo, ROUND_OFF)
+    if hi <= lo * 1.0001:
+        lo, hi = lo / 3, max(hi, lo) * 3
+    norm = LogNorm(vmin=lo, vmax=hi)
+    cmap = plt.get_cmap("RdYlGn_r").with_extremes(bad="#e6e6e6")
+    n_rows, n_cols = len(index), len(cols)
+    heights = [0.28 * n_rows + 0.45] * len(metric_names)
+    label_h = 0.5 if scenario == "rigid-flexible" else 0.25
+    fig_w = max(7.5, 0.8 * n_cols + 3.4)
+    fig_h = sum(heights) + label_h * len(metric_names) + 0.9
+    fig, axes = plt.subplots(len(metric_names), 1, figsize=(fig_w, fig_h), squeeze=False,
+                             gridspec_kw={"height_ratios": heights}, layout="constrained")
+    im = None
+    for ax, metric in zip(axes[:, 0], metric_names, strict=True):
+        m = rows[rows.metric == metric]
+        e = m.pivot_table(index="row", columns="col", values="rel_error", aggfunc="first",
+                          dropna=False).reindex(index=index, columns=cols)
+        st = m.pivot_table(index="row", columns="col", values="status",
+                           aggfunc="first").reindex(index=index, columns=cols)
+        signed = e.to_numpy(dtype=float)
+        data = np.where(np.isfinite(signed), np.maximum(np.abs(signed), lo), np.nan)
+        im = ax.imshow(np.ma.masked_invalid(data), cmap=cmap, norm=norm, aspect="auto")
+        for i in range(n_rows):
+            for j in range(n_cols):
+                s, v = st.iat[i, j], signed[i, j]
+                if not isinstance(s, str):
+                    text, color = "", "black"
+                elif s != "ok":
+                    text, color = s[:11], "#6a1b9a"
+                elif not math.isfinite(v):
+                    text, color = "n/a", "#555555"
+                else:
+                    text = _error_text(v)
+                    color = "black"
+                ax.text(j, i, text, ha="center", va="center", fontsize=6.5, color=color)
+        ax.set_xticks(range(n_cols), cols, fontsize=7)
+        ax.set_yticks(range(n_rows), index, fontsize=7.5)
+        ax.set_title(f"{LABELS.get(metric, metric)}", fontsize=9, loc="left")
+        ax.tick_params(length=0)
+    cb = fig.colorbar(im, ax=axes[:, 0].tolist(), fraction=0.03, pad=0.01,
+                      extend="min" if floored else "neither")
+    cb.set_label("|relative error| (log scale over the values shown"
+                 + (f"; below {ROUND_OFF:g}: round-off)" if floored else ")"), fontsize=8)
+    for bound in BAND_LINES:
+        if lo < bound < hi:
+            cb.ax.axhline(bound, color="black", lw=1.2)
+            cb.ax.text(-0.15, bound, f"{100 * bound:g} %", fontsize=7, va="center", ha="right",
+                       transform=cb.ax.get_yaxis_transform())
+    fig.suptitle(f"Relative error against the reference, {scenario}\n"
+                 + "\n".join(textwrap.wrap(how, 110)), fontsize=9)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
 
 
-def work_precision(df: pd.DataFrame, metric_names: tuple[str, ...], path: Path) -> Path:
+def work_precision(df: pd.DataFrame, metric_names: tuple[str, ...], how: str,
+                   path: Path) -> Path:
     """Error against wall time over timesteps, one curve per engine × mode (log–log)."""
     rows = df[(df.study == "work_precision") & (df.status == "ok")]
-    fig, axes = plt.subplots(1, len(metric_names), figsize=(4.2 * len(metric_names), 4))
+    fig, axes = plt.subplots(1, len(metric_names), figsize=(4.2 * len(metric_names), 4.2))
     for ax, metric in zip(np.atleast_1d(axes), metric_names, strict=True):
         for (engine, mode), g in rows[rows.metric == metric].groupby(["engine", "mode"]):
             g = g.sort_values("timestep_s", ascending=False)
             err = np.abs(g.rel_error.to_numpy(dtype=float))
-            ax.loglog(g.wall_s, np.clip(err, 1e-10, None), MODE_STYLES.get(mode, "-"),
+            ax.loglog(g.wall_s, np.clip(err, 1e-10, None), linestyle=MODE_STYLES.get(mode, "-"),
                       marker=MODE_MARKERS.get(mode, "o"), ms=4,
                       color=ENGINE_COLORS.get(engine), label=f"{engine} {mode}")
         ax.set_xlabel("wall time per run (s)")
         ax.set_ylabel(f"|relative error| of {LABELS.get(metric, metric)}")
         ax.grid(alpha=0.3, which="both")
-    v = rows.velocity_m_s.iloc[0] if len(rows) else math.nan
-    fig.suptitle(f"Work–precision, ball on plate at V0 = {v:g} m/s "
-                 "(points: timesteps, coarse to fine)")
+    fig.suptitle("Work–precision, ball on plate (points: timesteps, coarse to fine)\n" + how,
+                 fontsize=9)
     np.atleast_1d(axes)[0].legend(fontsize=7)
     return _save(fig, path)
 

@@ -47,3 +47,11 @@ def test_wheel_ships_every_source_package(wheel: Path) -> None:
         assert f"{installed.get(top, top)}/{rest}" in names, rel
     assert "impactbench/data/default.toml" in names
     assert "impactbench/reference/data/materials.toml" in names
+
+
+def test_wheel_ships_the_report_templates(wheel: Path) -> None:
+    names = set(zipfile.ZipFile(wheel).namelist())
+    templates = [p for p in (ROOT / "impactbench" / "templates").rglob("*") if p.is_file()]
+    assert templates
+    for path in templates:
+        assert path.relative_to(ROOT).as_posix() in names, path

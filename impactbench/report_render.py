@@ -1,0 +1,231 @@
+"""The report's document model and its Jinja2 rendering: one source, Markdown and HTML.
+
+A report is a list of :class:`Section` objects. Each is a small template in
+``impactbench/templates/sections/`` and a data function ``data(ctx) -> dict | None`` (``None``
+leaves the section out). A section template is written once and rendered twice, with ``m``
+bound to the Markdown macros (``templates/md.j2``) and then to the HTML macros
+(``templates/html.j2``), which share their names and arguments: ``m.h(level, text)``,
+``{% call m.para() %}…{% endcall %}``, ``m.note``, ``m.ul(items)``, ``m.table(Table)``,
+``m.figure(FigureRef)``, ``m.figures(list)``, ``m.link(text, url)``. Prose uses inline Markdown
+(``**bold**``, ```code```, ``[text](url)``), which the HTML side converts. The page templates
+(``page.md.j2``, ``page.html.j2``) add the title, the table of contents and the style.
+
+To add a section: write ``templates/sections/NAME.j2``, a data function, and put
+``Section("NAME", "Title", data)`` in :data:`impactbench.report_sections.SECTIONS`.
+"""
+
+from __future__ import annotations
+
+import html
+import re
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import jinja2
+import pandas as pd
+
+BANDS: tuple[tuple[str, float, str], ...] = (
+    ("good", 0.01, "within 1 %"),
+    ("fair", 0.05, "within 5 %"),
+    ("poor", float("inf"), "more than 5 % off"),
+)
+"""Error bands of the scoreboard and the tables: name, upper bound of |relative error|, words."""
+MARKS = {"good": "🟢", "fair": "🟡", "poor": "🔴", "na": "⚪", "fail": "⛔"}
+"""How a band shows in Markdown (HTML colours the cell)."""
+
+
+def band(err: float | None) -> str:
+    """The band of a relative error: good, fair, poor, or na when it is not a number."""
+    if err is None or not isinstance(err, int | float) or err != err:
+        return "na"
+    return next(name for name, bound, _ in BANDS if abs(err) <= bound)
+
+
+@dataclass(frozen=True)
+class Cell:
+    """A table cell: its text (inline Markdown), an optional band (colour) and tooltip."""
+
+    text: str
+    band: str = ""
+    title: str = ""
+    wrap: bool = False
+
+
+@dataclass(frozen=True)
+class Table:
+    """Columns and rows of cells; the first ``text_columns`` are left-aligned labels.
+
+    ``marks``: show the bands as coloured marks in Markdown too (HTML always colours);
+    ``prose_columns``: the last columns hold sentences (left-aligned, wrapping)."""
+
+    columns: Sequence[str]
+    rows: Sequence[Sequence[Cell | str]]
+    text_columns: int = 1
+    marks: bool = False
+    prose_columns: int = 0
+
+    @property
+    def alignments(self) -> list[str]:
+        """``left`` for the label and the trailing prose columns, ``right`` for numbers."""
+        n = len(self.columns)
+        return ["left" if i < self.text_columns or i >= n - self.prose_columns else "right"
+                for i in range(n)]
+
+
+@dataclass(frozen=True)
+class FigureRef:
+    """A figure of the report: its path relative to the report folder, caption and group."""
+
+    path: str
+    caption: str
+    group: str = ""
+
+
+@dataclass
+class ReportContext:
+    """Everything a section's data function may use.
+
+    ``df``: the tidy results (one row per run and metric, :func:`impactbench.matrix.tidy`);
+    ``results``: the runs with their thinned histories; ``meta``: what ``metadata.json`` holds;
+    ``figures``: the report's plots (sections may add their own with :meth:`add_figure`)."""
+
+    cfg: Any
+    df: pd.DataFrame
+    meta: dict[str, Any]
+    out_dir: Path
+    results: Sequence[Any] = ()
+    figures: list[FigureRef] = field(default_factory=list)
+
+    @property
+    def fig_dir(self) -> Path:
+        return self.out_dir / "figures"
+
+    @property
+    def matrix(self) -> pd.DataFrame:
+        """The rows of the comparison matrix (not the work-precision or other studies)."""
+        if self.df.empty:
+            return self.df
+        return self.df[self.df.study == "matrix"]
+
+    @property
+    def engines(self) -> list[str]:
+        """The engines of the results, in the config's order."""
+        present = set(self.df.engine) if not self.df.empty else set()
+        return [e for e in self.cfg.engines if e in present] + sorted(
+            present - set(self.cfg.engines))
+
+    def add_figure(self, path: Path, caption: str, group: str = "") -> FigureRef:
+        ref = FigureRef(path.relative_to(self.out_dir).as_posix(), caption, group)
+        self.figures.append(ref)
+        return ref
+
+    def figures_in(self, group: str) -> list[FigureRef]:
+        return [f for f in self.figures if f.group == group]
+
+
+@dataclass(frozen=True)
+class Section:
+    """One part of the report: ``sections/<template>.j2`` filled with ``data(ctx)``."""
+
+    template: str
+    title: str
+    data: Callable[[ReportContext], dict[str, Any] | None]
+
+
+_INLINE = re.compile(r"\*\*(.+?)\*\*|`([^`]+)`|\[([^\]]+)\]\(([^)\s]+)\)")
+
+
+def inline_html(text: Any) -> str:
+    """Inline Markdown (**bold**, `code`, [text](url)) to escaped HTML."""
+    out, pos, s = [], 0, str(text)
+    for m in _INLINE.finditer(s):
+        out.append(html.escape(s[pos:m.start()]))
+        if m.group(1) is not None:
+            out.append(f"<b>{inline_html(m.group(1))}</b>")
+        elif m.group(2) is not None:
+            out.append(f"<code>{html.escape(m.group(2))}</code>")
+        else:
+            out.append(f'<a href="{html.escape(m.group(4))}">{inline_html(m.group(3))}</a>')
+        pos = m.end()
+    out.append(html.escape(s[pos:]))
+    return "".join(out)
+
+
+def _md_cell(cell: Cell | str, marks: bool) -> str:
+    c = cell if isinstance(cell, Cell) else Cell(str(cell))
+    text = c.text.replace("|", "\\|").replace("\n", " ")
+    if marks and c.band in MARKS:
+        text = f"{MARKS[c.band]} {text}"
+    return text
+
+
+def _html_cell(cell: Cell | str, label: bool) -> str:
+    c = cell if isinstance(cell, Cell) else Cell(str(cell))
+    classes = [c.band] if c.band else []
+    if c.wrap:
+        classes.append("wrap")
+    elif label:
+        classes.append("l")
+    attrs = f' class="{" ".join(classes)}"' if classes else ""
+    if c.title:
+        attrs += f' title="{html.escape(c.title)}"'
+    return f"<td{attrs}>{inline_html(c.text)}</td>"
+
+
+def slug(text: str) -> str:
+    """GitHub's heading anchor: lower case, punctuation dropped, spaces to hyphens."""
+    return re.sub(r"[^\w\- ]", "", text.lower()).replace(" ", "-")
+
+
+class _Toc:
+    """Collects the headings of one rendering pass and gives them unique anchors."""
+
+    def __init__(self) -> None:
+        self.entries: list[dict[str, Any]] = []
+        self._seen: dict[str, int] = {}
+
+    def __call__(self, level: int, text: str) -> str:
+        base = slug(text)
+        n = self._seen.get(base, 0)
+        self._seen[base] = n + 1
+        anchor = base if n == 0 else f"{base}-{n}"
+        self.entries.append({"level": level, "text": text, "id": anchor})
+        return anchor
+
+
+def environment() -> jinja2.Environment:
+    env = jinja2.Environment(
+        loader=jinja2.PackageLoader("impactbench", "templates"),
+        autoescape=False,  # the HTML macros escape explicitly; Markdown must not be escaped
+        trim_blocks=True, lstrip_blocks=True, keep_trailing_newline=True,
+        undefined=jinja2.StrictUndefined, extensions=["jinja2.ext.do"],
+    )
+    env.filters["inline"] = inline_html
+    env.filters["md_cell"] = _md_cell
+    env.filters["md_align"] = lambda a: "---" if a == "left" else "--:"
+    env.filters["html_cell"] = _html_cell
+    return env
+
+
+def render_documents(ctx: ReportContext, sections: Sequence[Section], title: str,
+                     intro: str) -> dict[str, str]:
+    """Render every section with data into ``{"md": README text, "html": index.html text}``."""
+    env = environment()
+    filled = [(s, d) for s in sections if (d := s.data(ctx)) is not None]
+    out = {}
+    for fmt in ("md", "html"):
+        toc = _Toc()
+        env.globals["toc"] = toc
+        macros = env.get_template(f"{fmt}.j2").make_module({"toc": toc})
+        bodies = []
+        for section, data in filled:
+            head = str(macros.h(2, section.title))
+            body = env.get_template(f"sections/{section.template}.j2").render(
+                m=macros, data=data, ctx=ctx, fmt=fmt)
+            bodies.append(head + body)
+        page = env.get_template(f"page.{fmt}.j2").render(
+            title=title, intro=intro, toc=toc.entries, bodies=bodies)
+        out[fmt] = re.sub(r"\n{3,}", "\n\n", page) if fmt == "md" else page
+    return out

@@ -1,0 +1,514 @@
+"""The report's sections: one data function per template in ``templates/sections/``.
+
+:data:`SECTIONS` is the report in reading order. Each data function takes the
+:class:`~impactbench.report_render.ReportContext` and returns the dict its template reads, or
+``None`` to leave the section out. Relative errors are signed, (engine − reference)/|reference|.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from functools import partial
+from typing import Any
+
+import pandas as pd
+
+from impactbench.engines.base import MODES, PIP
+from impactbench.report_render import (
+    BANDS,
+    Cell,
+    FigureRef,
+    ReportContext,
+    Section,
+    Table,
+    band,
+)
+
+SCENARIOS = ("ball-on-plate", "rigid-flexible")
+TITLES = {"ball-on-plate": "Ball on plate", "rigid-flexible": "Rigid–flexible"}
+HEADLINE = {
+    "ball-on-plate": ("restitution", "duration_s", "peak_force_n"),
+    "rigid-flexible": ("peak_force_n", "pulse_width_s", "impulse_ns", "impacts"),
+}
+LABELS = {"restitution": "restitution", "duration_s": "duration", "peak_force_n": "peak force",
+          "pulse_width_s": "pulse width", "impulse_ns": "impulse", "impacts": "impacts",
+          "contact_time_s": "contact time", "max_penetration_m": "max penetration",
+          "energy_loss_fraction": "energy loss"}
+UNITS = {"restitution": "–", "duration_s": "s", "peak_force_n": "N", "pulse_width_s": "s",
+         "impulse_ns": "N·s", "impacts": "count", "contact_time_s": "s",
+         "max_penetration_m": "m", "energy_loss_fraction": "–"}
+RUN_KEYS = ["study", "scenario", "local", "structure", "velocity_m_s", "engine", "mode",
+            "timestep_s"]
+
+
+# ----------------------------------------------------------------------------- formatting
+
+
+def format_error(err: float) -> str:
+    """A signed relative error in percent, two significant digits (+0.0012 %, −25 %, +100 %)."""
+    if err == 0.0:
+        return "0 %"
+    pct = 100.0 * err
+    text = f"{pct:+.0f}" if abs(pct) >= 10 else f"{pct:+.2g}"
+    return f"{text} %".replace("-", "−")
+
+
+def point_keys(scenario: str) -> list[str]:
+    return ["local", "structure", "velocity_m_s"] if scenario == "rigid-flexible" \
+        else ["velocity_m_s"]
+
+
+def point_label(row: Any) -> str:
+    """``V0 = 1 m/s`` (ball) or ``elastoplastic/linear, v1 = 2 m/s`` (rigid–flexible)."""
+    if row.scenario == "rigid-flexible":
+        return f"{row.local}/{row.structure}, v1 = {row.velocity_m_s:g} m/s"
+    return f"V0 = {row.velocity_m_s:g} m/s"
+
+
+def timestep_text(rows: pd.DataFrame) -> str:
+    """``dt = 1e-06 s`` or the list of distinct steps, from the runs' recorded timesteps."""
+    dts = sorted({float(t) for t in rows.timestep_s.dropna()})
+    if not dts:
+        return "the adapter's default step"
+    return "dt = " + ", ".join(f"{t:g}" for t in dts) + " s"
+
+
+def value_cell(row: Any) -> Cell:
+    """``value (±err %)`` banded by |err|; a failed run's status; n/a with its reason."""
+    if row.status != "ok":
+        return Cell(str(row.status), "fail", str(row.message or ""))
+    value, err = row.value, row.rel_error
+    if not (isinstance(value, int | float) and math.isfinite(value)):
+        return Cell("n/a", "na", str(row.message or "not comparable"))
+    if row.metric == "impacts":
+        ok = isinstance(err, float) and err == 0
+        return Cell(f"{value:g}" + ("" if ok else " ✗"), "good" if ok else "poor")
+    text = f"{value:.5g}"
+    if isinstance(err, int | float) and math.isfinite(err):
+        text += f" ({format_error(err)})"
+    return Cell(text, band(err))
+
+
+def _runs(rows: pd.DataFrame) -> pd.DataFrame:
+    """One row per run (the tidy table has one per run and metric)."""
+    return rows.drop_duplicates(RUN_KEYS)
+
+
+def _status_counts(runs: pd.DataFrame) -> str:
+    counts = runs.status.value_counts()
+    return ", ".join(f"{n} {s}" for s, n in sorted(counts.items()))
+
+
+# ----------------------------------------------------------------------------- scoreboard
+
+
+def worst(rows: pd.DataFrame, metric: str) -> tuple[float, Any]:
+    """The signed relative error of largest magnitude among ok runs, and its row."""
+    r = rows[(rows.metric == metric) & (rows.status == "ok")]
+    r = r[pd.to_numeric(r.rel_error, errors="coerce").notna()]
+    if r.empty:
+        return math.nan, None
+    i = r.rel_error.astype(float).abs().idxmax()
+    return float(r.rel_error[i]), r.loc[i]
+
+
+def verdict(rows: pd.DataFrame, scenario: str) -> str:
+    """One sentence on one engine and mode over one scenario's points."""
+    runs = _runs(rows)
+    n, ok = len(runs), int((runs.status == "ok").sum())
+    if ok == 0:
+        status = runs.status.iloc[0] if n else "none"
+        if (runs.status == status).all() and status == "unsupported":
+            return "The adapter does not implement this mode."
+        if (runs.status == status).all() and status == "unavailable":
+            return "The engine is not installed here."
+        return f"No run gave numbers ({_status_counts(runs)})."
+    found = [(m, *worst(rows, m)) for m in HEADLINE[scenario] if m != "impacts"]
+    measured = [(m, e, r) for m, e, r in found if math.isfinite(e)]
+    missing = [LABELS[m] for m, e, _ in found if not math.isfinite(e)]
+    parts = []
+    if measured:
+        m, e, r = max(measured, key=lambda t: abs(t[1]))
+        name = band(e)
+        if name == "good":
+            parts.append(f"Faithful: every measured metric within 1 % at {ok} point"
+                         + ("s" if ok > 1 else ""))
+        else:
+            rest = [abs(x) for mm, x, _ in measured if mm != m]
+            word = "Noticeably off" if name == "fair" else "Far off"
+            tail = f"; the others within {format_error(max(rest))[1:]}" if rest else ""
+            parts.append(f"{word}: {LABELS[m]} {format_error(e)} at {point_label(r)}{tail}")
+    if missing:
+        parts.append(f"{' and '.join(missing)} not comparable")
+    if "impacts" in HEADLINE[scenario]:
+        counts = rows[(rows.metric == "impacts") & (rows.status == "ok")]
+        wrong = counts[pd.to_numeric(counts.rel_error, errors="coerce").fillna(1) != 0]
+        if len(wrong):
+            parts.append(f"the impact count differs at {len(wrong)} of {len(counts)} points")
+    sentence = "; ".join(parts) + "."
+    if ok < n:
+        bad = runs[runs.status != "ok"]
+        sentence += f" {n - ok} of {n} runs gave no numbers ({_status_counts(bad)})."
+    return sentence
+
+
+def scoreboard(ctx: ReportContext) -> dict[str, Any] | None:
+    """Per scenario a table: engine × mode rows, the worst relative error of each metric."""
+    m = ctx.matrix
+    if m.empty:
+        return None
+    tables = []
+    for scenario in SCENARIOS:
+        s = m[m.scenario == scenario]
+        if s.empty:
+            continue
+        metrics = HEADLINE[scenario]
+        rows = []
+        for engine in ctx.engines:
+            e = s[s.engine == engine]
+            if e.empty:
+                continue
+            if (e.status == "unavailable").all():
+                rows.append([Cell(engine), Cell("all"), *[Cell("—", "na")] * len(metrics),
+                             Cell("0/" + str(len(_runs(e)))),
+                             Cell(f"Not installed here (`{PIP.get(engine, 'pip install')}`).",
+                                  wrap=True)])
+                continue
+            for mode in [x for x in MODES if x in set(e["mode"])]:
+                g = e[e["mode"] == mode]
+                runs = _runs(g)
+                cells = [Cell(engine), Cell(mode)]
+                for metric in metrics:
+                    err, _ = worst(g, metric)
+                    cells.append(Cell(format_error(err), band(err)) if math.isfinite(err)
+                                 else Cell("—", "na"))
+                cells.append(Cell(f"{int((runs.status == 'ok').sum())}/{len(runs)}"))
+                cells.append(Cell(verdict(g, scenario), wrap=True))
+                rows.append(cells)
+        columns = ["engine", "mode", *[LABELS[x] for x in metrics], "runs ok", "in one sentence"]
+        tables.append({"title": f"Scoreboard: {TITLES[scenario].lower()}",
+                       "table": Table(columns, rows, text_columns=2, marks=True,
+                                      prose_columns=1)})
+    legend = ", ".join(f"{name}: {words}" for name, _, words in BANDS)
+    return {"tables": tables, "legend": legend}
+
+
+# ----------------------------------------------------------------------------- per scenario
+
+
+def scenario_tables(ctx: ReportContext, scenario: str) -> list[dict[str, Any]]:
+    """Per engine: rows = scenario point × (reference, modes), columns = headline metrics."""
+    s = ctx.matrix[ctx.matrix.scenario == scenario]
+    keys = point_keys(scenario)
+    metrics = HEADLINE[scenario]
+    key_columns = ["local", "structure", "v1 (m/s)"] if scenario == "rigid-flexible" \
+        else ["V0 (m/s)"]
+    columns = [*key_columns, "run", *[f"{LABELS[x]} ({UNITS[x]})" for x in metrics]]
+    out = []
+    for engine in ctx.engines:
+        e = s[s.engine == engine]
+        if e.empty:
+            continue
+        version = next((v for v in e.engine_version if v), "")
+        if (e.status == "unavailable").all():
+            out.append({"title": engine, "note": f"Not installed here "
+                        f"(`{PIP.get(engine, 'pip install')}`); every run is `unavailable`.",
+                        "table": None})
+            continue
+        rows = []
+        for point, p in e.groupby(keys, sort=True):
+            point = point if isinstance(point, tuple) else (point,)
+            labels = [f"{x:g}" if isinstance(x, float) else str(x) for x in point]
+            ref = [p[p.metric == x].reference.iloc[0] if (p.metric == x).any() else math.nan
+                   for x in metrics]
+            rows.append([*labels, Cell("**reference**"),
+                         *[Cell(f"{v:.5g}" if isinstance(v, int | float) else str(v))
+                           for v in ref]])
+            runs = {(r.mode, r.metric): r for r in p.itertuples()}
+            for mode in [x for x in MODES if x in set(p["mode"])]:
+                rows.append([*[""] * len(labels), Cell(mode),
+                             *[value_cell(runs[mode, x]) if (mode, x) in runs
+                               else Cell("—", "na") for x in metrics]])
+        out.append({"title": f"{engine} {version}".strip(),
+                    "note": f"{timestep_text(e)}; modes "
+                    + ", ".join(x for x in MODES if x in set(e["mode"])) + ".",
+                    "table": Table(columns, rows, text_columns=len(key_columns) + 1)})
+    return out
+
+
+def scenario_section(scenario: str, ctx: ReportContext) -> dict[str, Any] | None:
+    s = ctx.matrix[ctx.matrix.scenario == scenario] if not ctx.matrix.empty else ctx.matrix
+    if s.empty:
+        return None
+    v = sorted(set(s.velocity_m_s))
+    what = ("the steel ball on a massive plate, Hunt–Crossley closed form"
+            if scenario == "ball-on-plate"
+            else "a rigid body on a flexible body (2-DOF), event-driven reference")
+    points = f"{len(v)} velocit{'y' if len(v) == 1 else 'ies'} " \
+             f"({', '.join(f'{x:g}' for x in v)} m/s)"
+    if scenario == "rigid-flexible":
+        laws = sorted(set(zip(s.local, s.structure, strict=True)))
+        points += f" × {len(laws)} law pairs (local/structure: " \
+                  + ", ".join(f"{lo}/{st}" for lo, st in laws) + ")"
+    return {
+        "intro": f"{TITLES[scenario]}: {what}; {points}. Each cell: the engine's value and its "
+                 "signed relative error against the reference; a word is the run's status.",
+        "heatmaps": ctx.figures_in(f"heatmap:{scenario}"),
+        "engines": scenario_tables(ctx, scenario),
+        "figures": ctx.figures_in(f"history:{scenario}"),
+        "extra": ctx.figures_in(f"extra:{scenario}"),
+    }
+
+
+# ----------------------------------------------------------------------------- interpretation
+
+
+def _worst_text(rows: pd.DataFrame, names: list[str]) -> str:
+    out = []
+    for m in names:
+        e, _ = worst(rows, m)
+        if math.isfinite(e):
+            out.append(f"{LABELS[m]} {format_error(e)}")
+    return ", ".join(out)
+
+
+def _judge(err: float) -> str:
+    if not math.isfinite(err):
+        return "not measured"
+    return {"good": "faithful", "fair": "noticeably off", "poor": "far off"}[band(err)]
+
+
+NATIVE_MAPPING = {
+    ("ball-on-plate", ""): "a linear spring–damper matched to the reference at 1 m/s",
+    ("ball-on-plate", "pymunk"): "a rigid contact with the reference restitution at 1 m/s",
+    ("rigid-flexible", ""): "a linear, undamped k1 contact, which cannot yield or fail",
+    ("rigid-flexible", "pymunk"): "a rigid, perfectly elastic contact (e = 1), which has no "
+                                  "stiffness k1 at all",
+}
+
+
+def injection_line(engine: str) -> str:
+    """The adapter's one-line statement of what injected mode means in it (``""`` if the
+    adapter cannot be loaded here)."""
+    try:
+        from impactbench.engines.base import get_adapter
+
+        return str(get_adapter(engine).injection)
+    except Exception:
+        return ""
+
+
+def interpretation(df: pd.DataFrame, engine: str) -> str:
+    """A generated paragraph: which metric is off by how much, and whose error it is."""
+    rows = df[(df.study == "matrix") & (df.engine == engine)]
+    if rows.empty:
+        return ""
+    version = next((v for v in rows.engine_version if v), "")
+    if (rows.status == "unavailable").all():
+        return f"**{engine}** is not installed here ({rows.message.iloc[0]}); its rows say " \
+               "`unavailable`."
+    parts = [f"**{engine} {version}**."]
+    how = injection_line(engine)
+    for scenario, metric_names in HEADLINE.items():
+        s = rows[rows.scenario == scenario]
+        if s.empty:
+            continue
+        label = TITLES[scenario]
+        names = [m for m in metric_names if m != "impacts"]
+        inj, nat = s[s["mode"] == "injected"], s[s["mode"] == "native"]
+        inj_w = max((abs(worst(inj, m)[0]) for m in names), default=math.nan)
+        nat_w = max((abs(worst(nat, m)[0]) for m in names), default=math.nan)
+        if len(inj):
+            parts.append(f"{label}, injected mode (the reference law stepped by {engine} at "
+                         f"{timestep_text(inj)}): worst errors "
+                         f"{_worst_text(inj, names) or 'none measured'} — the time stepping "
+                         f"is {_judge(inj_w)}.")
+            if how:
+                parts.append(f"Injection in {engine}: {how}.")
+                how = ""  # once per engine
+        if len(nat):
+            if not (math.isfinite(inj_w) and math.isfinite(nat_w)):
+                owner = ""
+            elif nat_w <= 0.01:
+                owner = "within 1 % of the reference"
+            elif nat_w > 3 * inj_w:
+                owner = "the gap is the contact model's, not the integrator's"
+            else:
+                owner = "comparable to injected mode, so the time stepping dominates"
+            mapping = NATIVE_MAPPING.get((scenario, engine), NATIVE_MAPPING[(scenario, "")])
+            parts.append(f"Native mode (its own contact, {mapping}): "
+                         f"{_worst_text(nat, names) or 'none measured'}"
+                         + (f"; {owner}." if owner else "."))
+        tun = s[s["mode"] == "tuned"]
+        if len(tun):
+            parts.append("Tuned mode (fitted parameters, the best its contact model does over "
+                         f"the velocity set): {_worst_text(tun, names) or 'none measured'}.")
+        bad = _runs(s[s.status != "ok"])
+        if len(bad):
+            parts.append(f"{len(bad)} {label.lower()} runs gave no numbers "
+                         f"({_status_counts(bad)}).")
+    return " ".join(parts)
+
+
+def meaning(ctx: ReportContext) -> dict[str, Any] | None:
+    paragraphs = [t for e in ctx.engines if (t := interpretation(ctx.df, e))]
+    return {"paragraphs": paragraphs} if paragraphs else None
+
+
+# ----------------------------------------------------------------------------- other sections
+
+
+def how_to_read(ctx: ReportContext) -> dict[str, Any]:
+    return {"bands": [(name, words) for name, _, words in BANDS]}
+
+
+def work_precision(ctx: ReportContext) -> dict[str, Any] | None:
+    figs = ctx.figures_in("work_precision")
+    if not figs:
+        return None
+    return {"figures": figs}
+
+
+def failed_runs(ctx: ReportContext) -> dict[str, Any] | None:
+    """Every run without numbers, grouped by engine, mode, scenario, status and message."""
+    if ctx.df.empty:
+        return None
+    runs = _runs(ctx.df[ctx.df.status != "ok"]).copy()
+    if runs.empty:
+        return {"table": None, "count": 0}
+    runs["point"] = [point_label(r) for r in runs.itertuples()]
+    runs["message"] = runs.message.fillna("").astype(str)
+    rows = []
+    keys = ["engine", "mode", "study", "scenario", "status", "message"]
+    for (engine, mode, study, scenario, status, message), g in runs.groupby(keys, sort=True):
+        dt = timestep_text(g).removeprefix("dt = ")
+        points = "; ".join(g.point)
+        rows.append([Cell(engine), Cell(mode), Cell(f"{scenario} ({study})"),
+                     Cell(status, "fail"), Cell(str(len(g))), Cell(dt),
+                     Cell(points, wrap=True), Cell(message or "—", wrap=True)])
+    columns = ["engine", "mode", "scenario", "status", "runs", "timestep (s)", "points",
+               "message"]
+    return {"table": Table(columns, rows, text_columns=4, prose_columns=2),
+            "count": len(runs)}
+
+
+PARAMETER_TEXT = {
+    "velocity_m_s": "impact velocity (m/s)", "radius_m": "ball radius (m), engines' geometry",
+    "gravity_m_s2": "gravity (m/s²), engines only", "local": "local contact law",
+    "structure": "structural law", "max_time_s": "time cap of a run (s)",
+}
+
+
+def parameters(ctx: ReportContext) -> dict[str, Any] | None:
+    """The physical parameters of every scenario of the config (SI), and its timesteps."""
+    from impactbench.params import SCENARIO_CLASSES, SCENARIO_FLAGS
+
+    out = []
+    for sm in ctx.cfg.scenarios:
+        if not sm.velocities_m_s:
+            continue
+        flags = {f: text for f, text in SCENARIO_FLAGS[sm.name].values()}
+        sc = SCENARIO_CLASSES[sm.name](**sm.parameters)
+        rows = []
+        for name, value in sc.to_dict().items():
+            if name in ("velocity_m_s", "local", "structure"):
+                continue
+            text = flags.get(name) or PARAMETER_TEXT.get(name, "")
+            changed = " (set by the config)" if name in sm.parameters else ""
+            rows.append([Cell(f"`{name}`"), Cell(f"{value:g}" if isinstance(value, float)
+                                                  else str(value)), Cell(text + changed)])
+        rows.append([Cell("`velocities_m_s`"),
+                     Cell(", ".join(f"{v:g}" for v in sm.velocities_m_s)),
+                     Cell("impact velocities of the matrix (m/s)")])
+        if sm.local:
+            rows.append([Cell("`local` × `structure`"),
+                         Cell(", ".join(sm.local) + " × " + ", ".join(sm.structure)),
+                         Cell("contact and structural laws")])
+        for engine, dt in sorted(sm.timestep_s.items()):
+            rows.append([Cell(f"`timestep_s.{engine}`"), Cell(f"{dt:g}"),
+                         Cell("integration step (s)")])
+        out.append({"title": TITLES[sm.name],
+                    "table": Table(["parameter", "value", "meaning"], rows, prose_columns=1)})
+    wp = ctx.cfg.work_precision
+    if wp is not None:
+        rows = [[Cell("`velocity_m_s`"), Cell(f"{wp.velocity_m_s:g}"), Cell("ball V0 (m/s)")],
+                [Cell("`timesteps_s`"), Cell(", ".join(f"{t:g}" for t in wp.timesteps_s)),
+                 Cell("integration steps (s)")],
+                [Cell("`modes`"), Cell(", ".join(wp.modes)), Cell("modes run")]]
+        out.append({"title": "Work–precision",
+                    "table": Table(["parameter", "value", "meaning"], rows, prose_columns=1)})
+    return {"scenarios": out} if out else None
+
+
+HC_FIGURES = {
+    "hc_fig1_phase": "phase trajectories V(x) for V0 = 0.5…5 m/s",
+    "hc_fig3_restitution": "restitution k and ΔT/T = 1 − k² against α = b·V0",
+    "hc_fig4_histories": "x(t) and F(t) for the six V0",
+    "hc_fig5_maxima": "x_max, F_max and contact duration against V0",
+    "hc_fig6_hysteresis": "F against x (loop area = lost energy)",
+    "hc_fig7_energy_loss": "lost kinetic energy ΔT against V0",
+    "hc_fig8_lambert_w": "the real branches of Lambert W",
+}
+RF_WHAT = {"history": "force histories", "peak_force": "peak force", "pulse_width":
+           "pulse width", "impulse": "impulse"}
+RF_OVER = {"velocity": "impact velocity v1", "k1": "contact stiffness k1",
+           "k2": "structural stiffness k2", "m2": "flexible mass m2"}
+
+
+def paper_caption(stem: str) -> str | None:
+    """The caption of one of ``impactbench figures``' PNGs, from its file name."""
+    if stem in HC_FIGURES:
+        num = re.search(r"fig(\d+)", stem).group(1)
+        return f"Borovin et al. Fig. {num}: {HC_FIGURES[stem]} (ball on plate, reference)"
+    m = re.fullmatch(r"rf_fig(\d+)_(history|peak_force|pulse_width|impulse)_(\w+)", stem)
+    if m and m.group(3) in RF_OVER:
+        return (f"Zhou & Xiao Fig. {int(m.group(1))}: {RF_WHAT[m.group(2)]} against "
+                f"{RF_OVER[m.group(3)]} (rigid–flexible, reference)")
+    return None
+
+
+def figure_index(ctx: ReportContext) -> dict[str, Any]:
+    """Every figure of the report folder: this report's plots, the papers', the tuning plots."""
+    own = [{"path": f.path, "caption": f.caption} for f in ctx.figures]
+    paper, tuning = [], []
+    for p in sorted(ctx.fig_dir.glob("*.png")) if ctx.fig_dir.is_dir() else []:
+        path = p.relative_to(ctx.out_dir).as_posix()
+        if (caption := paper_caption(p.stem)) is not None:
+            paper.append({"path": path, "caption": caption})
+        elif p.stem.startswith("tune_"):
+            engine = p.stem.removeprefix("tune_")
+            tuning.append({"path": path, "caption": f"Tuning residuals, {engine}: relative "
+                           "error per velocity before and after the fit (ball on plate)"})
+    def links(figs: list[dict[str, str]]) -> list[str]:
+        return [f"[{f['caption']}]({f['path']})" for f in figs]
+
+    return {"own": links(own), "paper": links(paper), "paper_count": len(paper),
+            "tuning": [FigureRef(**f) for f in tuning]}
+
+
+def files(ctx: ReportContext) -> dict[str, Any]:
+    meta = ctx.meta
+    libs = meta.get("libraries", {})
+    return {
+        "commit": meta.get("commit", "unknown"), "config": meta.get("config", ""),
+        "config_hash": meta.get("config_hash", ""), "python": meta.get("python", ""),
+        "platform": meta.get("platform", ""),
+        "engines": ", ".join(f"{k} {v}" for k, v in meta.get("engines", {}).items()),
+        "libraries": ", ".join(f"{k} {v}" for k, v in libs.items()),
+    }
+
+
+SECTIONS: list[Section] = [
+    Section("scoreboard", "Scoreboard", scoreboard),
+    Section("how_to_read", "How to read it", how_to_read),
+    Section("scenario", TITLES["ball-on-plate"], partial(scenario_section, "ball-on-plate")),
+    Section("scenario", TITLES["rigid-flexible"], partial(scenario_section, "rigid-flexible")),
+    Section("work_precision", "Work–precision", work_precision),
+    Section("meaning", "What this means", meaning),
+    Section("failed_runs", "Failed runs", failed_runs),
+    Section("parameters", "Physical parameters", parameters),
+    Section("figure_index", "Index of figures", figure_index),
+    Section("files", "Files and provenance", files),
+]
+"""The report in reading order. Insert a :class:`Section` here to add one."""
