@@ -113,7 +113,8 @@ def _figures(ctx: ReportContext) -> None:
         how = f"{_modes_text(runs)}; {_dt_text(runs)}"
         if scenario == "ball-on-plate":
             title = f"Ball on plate, V0 = {v:g} m/s"
-            path = plots.force_time(hist, ref, title, how, fig_dir / f"report_force_ball_v{v:g}.png")
+            path = plots.force_time(hist, ref, title, how,
+                                    fig_dir / f"report_force_ball_v{v:g}.png")
             ctx.add_figure(path, f"F(t), {title}; {how}", f"history:{scenario}")
             ball_loops.append((title, how, v, hist, ref))
         else:

@@ -1,8 +1,26 @@
-"""Shared test helpers."""
+"""Shared test helpers and fixtures."""
 
 from __future__ import annotations
 
 import pytest
+
+SMALL_REPORT = {
+    "report": {"engines": ["mujoco", "pybullet", "pymunk", "drake"],
+               "modes": ["native", "injected"]},
+    "ball_on_plate": {"velocities_m_s": [1.0]},
+    "rigid_flexible": {"velocities_m_s": [2.0], "local": ["linear"], "structure": ["linear"]},
+    "work_precision": {"velocity_m_s": 1.0, "timesteps_s": [1e-5, 1e-6]},
+}
+"""A tiny report matrix: every engine, two modes, one point per scenario, two steps."""
+
+
+@pytest.fixture(scope="session")
+def small_report(tmp_path_factory: pytest.TempPathFactory):
+    """The report of :data:`SMALL_REPORT`, built once per session (real engines)."""
+    from impactbench import config, report
+
+    return report.build(config.parse(SMALL_REPORT), tmp_path_factory.mktemp("report"),
+                        show_progress=False)
 
 
 def require_engine(name: str):
