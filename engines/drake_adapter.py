@@ -86,8 +86,9 @@ Measurement and stopping
     injected: the applied-force system's output. The run stops when the ball is outside the
     plate and moving away (x < 0, ẋ < 0: point contact has no margin, so the force is 0),
     when no further contact is possible (``impactbench.reference.laws.no_further_contact``),
-    on structural collapse (body 2's energy above ``collapse_energy``), when a body ends past
-    the other (``tunneled``), on a non-finite state, or at the time cap (``max_time``).
+    flagging a structural collapse (body 2's energy above ``collapse_energy``) and ending
+    once body 2 escaped, when a body ends past the other (``tunneled``), on a non-finite
+    state, or at the time cap (``max_time``).
     Energy check (``impactbench.engines.common.classify``): kinetic energy (+ gravity potential for
     the
     ball; + structural potential for the 2-DOF model) at the end against the start.
@@ -697,12 +698,10 @@ def _run_rigid_flexible(model: DrakeModel, scenario: RigidFlexible, settings: Ru
             return True
         if force > 0.0:
             flags["contact"] = True
-        elif v1 <= 0.0 and flags["contact"] and no_further_contact(q1, v1, q2, v2, m2,
-                                                                     structure):
-            return True
+        elif flags["contact"] and no_further_contact(q1, v1, q2, v2, m2, structure):
+            return True  # (after a collapse: once body 2 has escaped)
         if softening and 0.5 * m2 * v2 * v2 + structure.potential(q2) > collapse:
-            flags["collapsed"] = True
-            return True
+            flags["collapsed"] = True  # flagged; the run goes on
         if law is None and dx > size:  # body 1's centre is past body 2's face
             flags["tunneled"] = True
             return True

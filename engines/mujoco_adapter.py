@@ -74,9 +74,9 @@ between steps (native/tuned with a linear structure), otherwise a lean Python lo
 runs from 2.5 steps of free flight before first touch (time 0 = the instant of first touch in
 free flight) until separation: ball apart from the plate, moving away, with zero force;
 rigid–flexible when
-:func:`impactbench.reference.laws.no_further_contact` holds, body 2's energy exceeds the softening
-law's
-collapse energy (``structure_collapsed``) or the time cap is reached (``max_time``).
+:func:`impactbench.reference.laws.no_further_contact` holds (after a collapse — body 2's energy
+above the softening law's collapse energy, status ``structure_collapsed`` — once body 2 has
+escaped past the potential's peak) or the time cap is reached (``max_time``).
 A MuJoCo instability warning (bad qpos/qvel/qacc, which makes MuJoCo reset the state) gives
 ``diverged``.
 """
@@ -567,29 +567,24 @@ def run_rigid_flexible(s: RigidFlexible, mode: str, settings: RunSettings) -> Im
 
     def find_end(q: np.ndarray, v: np.ndarray, f: np.ndarray, start: int) -> int | None:
         x1, x2, u1, u2 = q[:, 0], q[:, 1], v[:, 0], v[:, 1]
-        end = None
-        if math.isfinite(structure.collapse_energy):
+        if math.isfinite(structure.collapse_energy) and not collapsed:
+            # flagged only: the run goes on until body 2 escapes (no_further_contact)
             e2 = 0.5 * s.m2_kg * u2[start:] ** 2 + structure.potential(x2[start:])
             over = np.flatnonzero(e2 > structure.collapse_energy)
             if over.size:
-                end = start + int(over[0])
+                collapsed.append(start + int(over[0]))
         if not touch:
             touched = np.flatnonzero(f[start:] > 0.0)
             if touched.size == 0:
-                return end
+                return None
             touch.append(start + int(touched[0]))
         # within one free flight the predicate is monotone, and it was false where the
         # previous chunk ended, so searching from the new samples on is enough
         lo = max(start, touch[0])
-        free = (f[lo:] <= 0.0) & (u1[lo:] <= 0.0) & (x1[lo:] < x2[lo:])
+        free = (f[lo:] <= 0.0) & (x1[lo:] < x2[lo:])
         sep = _first_separated(free, lambda i: no_further_contact(
             x1[lo + i], u1[lo + i], x2[lo + i], u2[lo + i], s.m2_kg, structure))
-        sep = None if sep is None else lo + sep
-        if sep is not None and (end is None or sep < end):
-            return sep
-        if end is not None:
-            collapsed.append(end)
-        return end
+        return None if sep is None else lo + sep
 
     sim = _Sim(model, data, hook, commit)
     out = _drive(sim, n_max, first, chunk, find_end)

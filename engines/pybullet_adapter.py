@@ -90,9 +90,9 @@ Recording (``impactbench.engines.common.Recorder``): sample k is the state at th
 and the
 normal force ``getContactPoints()[9]`` (impulse/dt) Bullet applied over that step. The ball
 run stops once it moves away, out of the overlap, with zero force; the rigid–flexible run when
-``impactbench.reference.laws.no_further_contact`` holds, on collapse (body 2's energy above the
-softening
-potential's peak → ``structure_collapsed``), or at the time cap (``max_time``).
+``impactbench.reference.laws.no_further_contact`` holds (after a collapse — body 2's energy
+above the softening potential's peak → ``structure_collapsed`` — once body 2 has escaped past
+the peak), or at the time cap (``max_time``).
 """
 
 from __future__ import annotations
@@ -541,10 +541,10 @@ def _run_flex(p: Any, s: RigidFlexible, mode: str, settings: RunSettings, dt: fl
             x = x1 - x2
             v = u1 - u2
             f2 = structure.force(x2)
-            if softening and 0.5 * m2 * u2 * u2 + structure.potential(x2) > collapse:
-                status = (Status.STRUCTURE_COLLAPSED,
+            if softening and status is None and \
+                    0.5 * m2 * u2 * u2 + structure.potential(x2) > collapse:
+                status = (Status.STRUCTURE_COLLAPSED,  # flagged; the run goes on
                           "body 2's energy exceeds the softening potential's peak")
-                break
             motor(body, 1, torque, force=-f2, physicsClientId=cid)
             if injected:
                 target = law.force(x)
@@ -561,7 +561,7 @@ def _run_flex(p: Any, s: RigidFlexible, mode: str, settings: RunSettings, dt: fl
             rec.append(i * dt, x, v, force, u1, u2, x2)
             if force > 0.0:
                 touched = True
-            elif touched and u1 <= 0.0 and no_further_contact(x1, u1, x2, u2, m2, structure):
+            elif touched and no_further_contact(x1, u1, x2, u2, m2, structure):
                 break
             if not (math.isfinite(x) and math.isfinite(x2)) or x > overlap_limit:
                 tunneled = x > overlap_limit

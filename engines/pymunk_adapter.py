@@ -98,11 +98,12 @@ measured from first touch: x1 = x_body1 + h, x2 = x_body2 − h (h the circles' 
 
 The run stops when ``impactbench.reference.laws.no_further_contact`` holds (with the local law's
 permanent
-set), on collapse of the softening structure (body 2's energy ½·m2·v2² + Π(x2) rising above
-``collapse_energy`` = k2²/(4β) in a contact, the reference's rule: status
-``structure_collapsed``), or at the time cap (``settings.max_time_s`` or
-``scenario.max_time_s``; status ``max_time``). The ball stops a few steps after it lets go
-(moving away, no force, no overlap), or as ``tunneled`` once its centre is past the plate.
+set; after a collapse of the softening structure — body 2's energy ½·m2·v2² + Π(x2) rising
+above ``collapse_energy`` = k2²/(4β) in a contact, the reference's rule: status
+``structure_collapsed`` — once body 2 has escaped past the potential's peak), or at the time
+cap (``settings.max_time_s`` or ``scenario.max_time_s``; status ``max_time``). The ball
+stops a few steps after it lets go (moving away, no force, no overlap), or as ``tunneled``
+once its centre is past the plate.
 
 Options (``settings.options``): ``injection`` (ball, injected mode: penalty | restitution),
 ``reference_velocity_m_s`` (native ball), ``iterations`` (pymunk solver iterations, default
@@ -602,11 +603,10 @@ def run_rigid_flexible(model: RigidFlexibleModel, settings: RunSettings,
             break
         if f > 0.0:
             if softening and 0.5 * m2 * v2 * v2 + structure.potential(x2) > collapse_energy:
-                collapsed = True
-                break
-        elif v1 <= 0.0:
+                collapsed = True  # flagged; the run goes on until body 2 escapes
+        elif v1 <= 0.0 or collapsed:
             p = threshold() if threshold is not None else 0.0
-            if x1 < p and no_further_contact(x1 - p, v1, x2, v2, m2, structure):
+            if no_further_contact(x1 - p, v1, x2, v2, m2, structure):
                 done = True
                 break
     if impulsive:

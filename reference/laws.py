@@ -316,6 +316,16 @@ class StructuralLaw(ABC):
         """Energy (J) above which the structure runs away; inf if it never does."""
         return math.inf
 
+    @property
+    def collapse_displacement(self) -> float:
+        """x2 (m) of the potential's peak, beyond which F2 pushes outward; inf if none."""
+        return math.inf
+
+    @abstractmethod
+    def max_force(self, reach_m: float) -> float:
+        """Largest F2 (N) over 0 ≤ x2 ≤ reach_m (m). Out of contact the gap's acceleration
+        is F2/m2, so this bounds how fast a free gap can close (the free-flight step)."""
+
     @abstractmethod
     def reach(self, energy_j: float) -> float:
         """Largest |x2| (m) body 2 can reach with this mechanical energy (inf on collapse)."""
@@ -333,6 +343,9 @@ class LinearStructure(StructuralLaw):
 
     def potential(self, x2: float) -> float:
         return 0.5 * self.k2 * x2 * x2
+
+    def max_force(self, reach_m: float) -> float:
+        return self.k2 * reach_m
 
     def reach(self, energy_j: float) -> float:
         return math.sqrt(2.0 * max(energy_j, 0.0) / self.k2)
@@ -370,19 +383,49 @@ class SofteningStructure(StructuralLaw):
     @property
     def collapse_displacement(self) -> float:
         """|x2| (m) at the potential's peak, beyond which the force pushes outward."""
-        return math.sqrt(self.k2 / self.beta)
+        return math.sqrt(self.k2 / self.beta) if self.beta > 0.0 else math.inf
+
+    def max_force(self, reach_m: float) -> float:
+        """F2 rises up to x2 = √(k2/(3β)) (its peak, (2/3)·k2·√(k2/(3β))), then falls."""
+        x = reach_m if self.beta == 0.0 else min(reach_m, math.sqrt(self.k2 / (3.0 * self.beta)))
+        return self.force(x) if math.isfinite(x) else math.inf
 
 
 def no_further_contact(x1: float, v1: float, x2: float, v2: float, m2: float,
                        structure: StructuralLaw) -> bool:
     """True when body 1 can never touch body 2 again (positions from first touch, m; m/s).
 
-    Body 2's mechanical energy E2 = ½·m2·v2² + Π(x2) bounds its reach |x2| ≤ reach(E2); body 1
-    moves freely at constant v1 between contacts. Contact needs x1 − x2 > 0 (after yielding,
-    more), so once v1 ≤ 0 and x1 < −reach(E2) no further contact is possible.
+    Valid out of contact (Δx below the contact threshold), where body 1 moves freely at
+    constant v1 and body 2 is a conservative oscillator. Two rules, either suffices:
+
+    1. *Bounded* (body 2 in its well): body 2's mechanical energy E2 = ½·m2·v2² + Π(x2) bounds
+       its reach |x2| ≤ reach(E2). Contact needs x1 − x2 > 0 (after yielding, more), so once
+       v1 ≤ 0 and x1 < −reach(E2) no further contact is possible.
+    2. *Escaped* (a collapsed softening structure, :func:`escaped`): body 2 is past the
+       potential's peak, x2 > x_c = √(k2/β), and moves away at least as fast as body 1,
+       v2 ≥ max(v1, 0).
+
+    ``x1`` is body 1's position minus the local law's contact threshold (the permanent set).
     """
+    if escaped(v1, x2, v2, structure):
+        return True
     reach = structure.reach(0.5 * m2 * v2 * v2 + structure.potential(x2))
     return v1 <= 0.0 and x1 < -reach
+
+
+def escaped(v1: float, x2: float, v2: float, structure: StructuralLaw) -> bool:
+    """True when a collapsed body 2 has escaped body 1 for good (m, m/s; out of contact).
+
+    Derivation: past the potential's peak, x2 > x_c, the structural force pushes outward,
+    F2(x2) < 0, so out of contact ẍ2 = −F2/m2 > 0 — once v2 ≥ 0 it stays so, x2 only grows
+    and stays past x_c (a contact would push body 2 outward too). Body 1 moves freely
+    (ẍ1 = 0), so the gap rate Δẋ = v1 − v2 falls strictly: d(Δẋ)/dt = F2/m2 < 0. From
+    v1 ≤ v2, Δx only decreases and never returns to the contact threshold. (Body 2 reaches
+    infinity in finite time; this rule ends the run before.) Laws that never soften
+    (x_c = ∞) never escape.
+    """
+    xc = structure.collapse_displacement
+    return x2 > xc and v2 >= max(v1, 0.0)
 
 
 LOCAL_LAWS: dict[str, type[LocalLaw]] = {

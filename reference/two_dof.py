@@ -11,16 +11,27 @@ their switches (:class:`impactbench.reference.laws.Piece`,
 piece the motion is smooth and is integrated with scipy's DOP853 at tight tolerances; every
 switch (contact start and end, yield, velocity reversal on the backbone, rejoining the
 backbone, failure) is an event located by root finding on the dense output (scipy's brentq,
-to a few ulps of t — far below 1e-10 s), never stepped over. Multiple impacts follow.
+to a few ulps of t — far below 1e-10 s), never stepped over:
+
+- in contact, Δx's extrema are located too; a Δx threshold crossed and recrossed within one
+  step (a graze) shows as a crossing between two extrema (:func:`_missed_switch`);
+- in free flight the gap g = Δx − threshold has g̈ = F2(x2)/m2 ≤ A, the structure's largest
+  force within body 2's reach over m2, so it cannot reach zero for a time fixed by g, ġ and A
+  (:func:`gap_step`); a march over the dense output in such steps finds every contact
+  start, however short the separation before it (:func:`_first_start`).
+
+Multiple impacts follow.
 
 The run ends
 - ``ok``: when no further contact is possible — body 1 moves away (v1 ≤ 0) and is beyond the
   reach of body 2, whose energy E2 = ½·m2·v2² + Π(x2) bounds |x2|
   (:func:`impactbench.reference.laws.no_further_contact`, with the permanent set of the contact);
-- ``structure_collapsed``: when E2 rises through the peak of the softening potential
-  k2²/(4β). dE2/dt = F1·v2 ≥ 0 while v2 > 0 and E2 can only rise while v2 > 0, so from that
-  instant ½·m2·v2² ≥ E2 − Π_max > 0 forever: x2 runs away. Detected, never integrated to
-  overflow;
+- ``structure_collapsed``: the run passed the instant E2 rose through the peak of the softening
+  potential k2²/(4β) (an event). dE2/dt = F1·v2 and v2 > 0 from then on (½·m2·v2² ≥
+  E2 − Π_max > 0), so body 2 runs away; the run goes on — body 1 may still push or catch it —
+  until body 2 is past the potential's peak x_c = √(k2/β) and outruns body 1 (v2 ≥ max(v1, 0)),
+  after which no contact is possible (:func:`impactbench.reference.laws.escaped`). The metrics
+  then describe the whole contact, as the paper's ode45 runs did;
 - ``max_time``: at the scenario's ``max_time_s``.
 
 :func:`simulate` returns the time history (an :class:`~impactbench.reference.record.ImpactRecord`
@@ -32,13 +43,14 @@ partition; :func:`sweep` runs a parameter sweep over all law combinations in par
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 from impactbench.reference import metrics
-from impactbench.reference.laws import LocalLaw, Piece, StructuralLaw
+from impactbench.reference.laws import LocalLaw, Piece, StructuralLaw, no_further_contact
 from impactbench.reference.record import ImpactRecord, Status
 from impactbench.reference.scenarios import RigidFlexible
 from scipy import integrate, optimize
@@ -53,6 +65,9 @@ FREE_SAMPLES_PER_RAD = 20.0
 MAX_EVENTS = 100_000
 MAX_STEP_RAD = 0.05
 """Largest integration step, in radians of the fastest mode of the piece."""
+GAP_FLOOR_RAD = 1e-6
+"""Shortest step of the free-flight gap march (:func:`_first_start`), in radians of the
+fastest contact mode: a contact shorter than that may go unseen."""
 
 METRIC_KEYS: tuple[str, ...] = (
     "peak_force_n", "pulse_width_s", "contact_time_s", "impulse_ns", "impacts",
@@ -89,13 +104,97 @@ class _Run:
     message: str = ""
 
 
-def _omega_max(piece: Piece, sc: RigidFlexible) -> float:
-    """Upper bound of the fastest angular frequency (rad/s) in this piece."""
-    return math.sqrt(piece.stiffness / sc.m1_kg + (piece.stiffness + sc.k2_n_per_m) / sc.m2_kg)
+def _omega_max(piece: Piece, sc: RigidFlexible, x2: float = 0.0) -> float:
+    """Upper bound of the fastest angular frequency (rad/s) in this piece, at x2 (m).
+
+    A softening structure's tangent stiffness |k2 − 3β·x2²| exceeds k2 past
+    x2 = √(2k2/(3β)) (a collapsed run).
+    """
+    k2 = sc.k2_n_per_m
+    if sc.structure == "softening":
+        k2 = max(k2, abs(k2 - 3.0 * sc.beta_n_per_m3 * x2 * x2))
+    return math.sqrt(piece.stiffness / sc.m1_kg + (piece.stiffness + k2) / sc.m2_kg)
 
 
 def _energy_2(structure: StructuralLaw, m2: float, x2: float, v2: float) -> float:
     return 0.5 * m2 * v2 * v2 + structure.potential(x2)
+
+
+def gap_step(gap: float, rate: float, accel: float) -> float:
+    """Time (s) before a free gap can reach zero: the positive root of g + ġ·s + A·s²/2.
+
+    ``gap`` g = Δx − threshold ≤ 0 (m; a positive value counts as 0), ``rate`` ġ (m/s),
+    ``accel`` A ≥ sup g̈ (m/s²). Out of contact g̈ = F2(x2)/m2, bounded by the structure's
+    largest force within body 2's reach (:meth:`StructuralLaw.max_force`), so the gap
+    cannot touch zero within this time: a free-flight step no longer than this cannot hide
+    a contact that starts and ends inside it (a separation of 0.8 ms, say, inside a 1.7 ms
+    step).
+    """
+    g = -min(gap, 0.0)
+    if accel <= 0.0:
+        return g / rate if rate > 0.0 else math.inf
+    root = math.sqrt(rate * rate + 2.0 * accel * g)
+    return (root - rate) / accel if rate <= 0.0 else 2.0 * g / (rate + root)
+
+
+def _first_start(dense: Any, ta: float, tb: float, threshold: float, accel: float,
+                 floor_s: float) -> float | None:
+    """Earliest time in (ta, tb) where a free gap rises through 0, or None.
+
+    Marches over the dense output with steps certified by :func:`gap_step` (never shorter
+    than ``floor_s``): a contact cannot start between two points of the march, however
+    short it is, unless it lasts less than ``floor_s``. Catches what sign changes between
+    the integrator's steps cannot (a contact started and ended within one step).
+    """
+    def gap(t: float) -> float:
+        s = dense(t)
+        return float(s[0] - s[1]) - threshold
+
+    t = ta
+    s = dense(t)
+    g, rate = float(s[0] - s[1]) - threshold, float(s[2] - s[3])
+    for _ in range(MAX_EVENTS):
+        tn = t + max(gap_step(g, rate, accel), floor_s)
+        if tn >= tb:
+            return None
+        s = dense(tn)
+        gn = float(s[0] - s[1]) - threshold
+        if gn >= 0.0:
+            if g >= 0.0:
+                return tn
+            return float(optimize.brentq(gap, t, tn, xtol=1e-15, rtol=1e-15))
+        t, g, rate = tn, gn, float(s[2] - s[3])
+    return None
+
+
+def _missed_switch(dense: Any, ta: float, tb: float, extrema: np.ndarray,
+                   piece: Piece) -> tuple[float, int] | None:
+    """Earliest crossing of a Δx threshold of ``piece`` in (ta, tb) that the integrator's
+    sign checks missed, as (time, boundary index), or None.
+
+    Δx is monotone between its extrema, so a threshold crossed and recrossed within one
+    step (a graze: Δx barely passing Δx_m to rejoin the backbone, or barely separating) shows
+    as a crossing between two consecutive extrema (or the piece's start) — found by brentq.
+    """
+    def value(b: Any, t: float) -> float:
+        s = dense(t)
+        return float(b.value(s[0] - s[1], s[2] - s[3]))
+
+    points = [ta, *(float(te) for te in extrema if ta < te < tb)]
+    for t0, t1 in itertools.pairwise(points):
+        best: tuple[float, int] | None = None
+        for i, b in enumerate(piece.boundaries):
+            if b.cv != 0.0:
+                continue
+            g0, g1 = value(b, t0), value(b, t1)
+            if (b.direction > 0 and g0 < 0.0 <= g1) or (b.direction < 0 and g0 > 0.0 >= g1):
+                tc = float(optimize.brentq(lambda t, b=b: value(b, t), t0, t1,
+                                           xtol=1e-15, rtol=1e-15))
+                if best is None or tc < best[0]:
+                    best = (tc, i)
+        if best is not None:
+            return best
+    return None
 
 
 def _integrate(run: _Run, rtol: float, atol: float) -> None:
@@ -103,8 +202,12 @@ def _integrate(run: _Run, rtol: float, atol: float) -> None:
     m1, m2 = sc.m1_kg, sc.m2_kg
     t_cap = sc.max_time_s
     e_collapse = structure.collapse_energy
+    x_c = structure.collapse_displacement
+    k_max = max(sc.k1_n_per_m, sc.kt_n_per_m, sc.k1_failed_n_per_m)
+    floor_s = GAP_FLOOR_RAD / math.sqrt(k_max / m1 + (k_max + sc.k2_n_per_m) / m2)
     y = np.array([0.0, 0.0, sc.velocity_m_s, 0.0])
     t = 0.0
+    collapsed = False
     # the first contact starts at t = 0 (Δx = 0, Δẋ = v1 > 0)
     start = next(b for b in local.piece("free").boundaries if b.kind == "start")
     local.commit("start", 0.0)
@@ -128,39 +231,67 @@ def _integrate(run: _Run, rtol: float, atol: float) -> None:
             g.terminal, g.direction = True, b.direction  # type: ignore[attr-defined]
             events.append(g)
             labels.append((b.kind, b.next_mode))
-        if piece.contact and math.isfinite(e_collapse):
+        if piece.contact and math.isfinite(e_collapse) and not collapsed:
             def g_c(_t: float, s: np.ndarray) -> float:
                 return _energy_2(structure, m2, s[1], s[3]) - e_collapse
             g_c.terminal, g_c.direction = True, 1  # type: ignore[attr-defined]
             events.append(g_c)
             labels.append(("collapse", mode))
+        n_switch = len(events)
+        if piece.contact:  # Δx's extrema (non-terminal), to find grazes (_missed_switch)
+            def g_x(_t: float, s: np.ndarray) -> float:
+                return s[2] - s[3]
+            g_x.terminal, g_x.direction = False, 0  # type: ignore[attr-defined]
+            events.append(g_x)
+            labels.append(("extremum", mode))
+        threshold = local.contact_threshold()
+        accel = 0.0
         if not piece.contact:
-            threshold = local.contact_threshold()
             if _no_further_contact(y, threshold, m2, structure):
                 run.events.append(Event(t, "done", mode, tuple(y)))
                 return
-            if y[2] < 0.0:
-                reach = structure.reach(_energy_2(structure, m2, y[1], y[3]))
-
+            reach = structure.reach(_energy_2(structure, m2, y[1], y[3]))
+            accel = structure.max_force(reach) / m2
+            if y[2] < 0.0 and math.isfinite(reach):
                 def g_d(_t: float, s: np.ndarray, reach: float = reach,
                         threshold: float = threshold) -> float:
                     return s[0] - threshold + reach
                 g_d.terminal, g_d.direction = True, -1  # type: ignore[attr-defined]
                 events.append(g_d)
                 labels.append(("done", mode))
+            elif not math.isfinite(reach):
+                # escaped (laws.escaped): past x_c and at least as fast as body 1 (v1 fixed)
+                def g_e(_t: float, s: np.ndarray, v: float = max(float(y[2]), 0.0)) -> float:
+                    return min(s[1] - x_c, s[3] - v)
+                g_e.terminal, g_e.direction = True, 1  # type: ignore[attr-defined]
+                events.append(g_e)
+                labels.append(("done", mode))
         if t >= t_cap:
             run.status, run.message = Status.MAX_TIME, f"time cap {t_cap:g} s reached"
             return
         # events are detected as sign changes between steps: a step bounded by a fraction
-        # of the fastest period cannot hide a dip and return of an event function
+        # of the fastest period cannot hide a dip and return of a law's switch in contact;
+        # in free flight the gap's own bound (_first_start) finds starts the steps hide
         sol = integrate.solve_ivp(rhs, (t, t_cap), y, method="DOP853", rtol=rtol,
                                   atol=atol_vec, events=events, dense_output=True,
-                                  max_step=MAX_STEP_RAD / _omega_max(piece, sc))
-        hit = [(te[0], i) for i, te in enumerate(sol.t_events) if te.size]
+                                  max_step=MAX_STEP_RAD / _omega_max(piece, sc, y[1]))
+        hit = [(te[0], i) for i, te in enumerate(sol.t_events)
+               if te.size and labels[i][0] != "extremum"]
         t_end = float(sol.t[-1])
         if hit:
             t_end, idx = min(hit)
             t_end = float(t_end)
+        if piece.contact:
+            missed = _missed_switch(sol.sol, t, t_end, sol.t_events[n_switch], piece)
+            if missed is not None:
+                t_end, idx = missed
+                hit = [missed]
+        else:
+            early = _first_start(sol.sol, t, t_end, threshold, accel, floor_s)
+            if early is not None:
+                t_end = early
+                idx = next(i for i, lab in enumerate(labels) if lab[0] == "start")
+                hit = [(t_end, idx)]
         y_end = sol.sol(t_end)
         run.phases.append(_sample_phase(sol.sol, t, t_end, piece, sc))
         t, y = t_end, np.asarray(y_end, dtype=float)
@@ -169,11 +300,12 @@ def _integrate(run: _Run, rtol: float, atol: float) -> None:
             return
         kind, next_mode = labels[idx]
         if kind == "collapse":
+            collapsed = True
             run.status = Status.STRUCTURE_COLLAPSED
             run.message = (f"body 2's energy passed the softening potential's peak "
                            f"k2²/(4β) = {e_collapse:.6g} J at t = {t:.6g} s")
             run.events.append(Event(t, kind, mode, tuple(y)))
-            return
+            continue
         if kind == "done":
             run.events.append(Event(t, kind, mode, tuple(y)))
             return
@@ -185,8 +317,6 @@ def _integrate(run: _Run, rtol: float, atol: float) -> None:
 
 def _no_further_contact(y: np.ndarray, threshold: float, m2: float,
                         structure: StructuralLaw) -> bool:
-    from impactbench.reference.laws import no_further_contact
-
     return no_further_contact(float(y[0]) - threshold, float(y[2]), float(y[1]), float(y[3]),
                               m2, structure)
 
@@ -194,7 +324,9 @@ def _no_further_contact(y: np.ndarray, threshold: float, m2: float,
 def _sample_phase(dense: Any, ta: float, tb: float, piece: Piece,
                   sc: RigidFlexible) -> _Phase:
     """Sample a piece densely; add every velocity reversal inside a contact (force maxima)."""
-    omega = _omega_max(piece, sc)
+    # a collapsed structure stiffens (|k2 − 3β·x2²|) as x2 runs away: bound at both ends
+    omega = max(_omega_max(piece, sc, float(dense(ta)[1])),
+                _omega_max(piece, sc, float(dense(tb)[1])))
     per_rad = CONTACT_SAMPLES_PER_RAD if piece.contact else FREE_SAMPLES_PER_RAD
     n = int(min(max(math.ceil((tb - ta) * omega * per_rad), 2), 2_000_000)) + 1
     t = np.linspace(ta, tb, n)

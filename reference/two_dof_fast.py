@@ -6,7 +6,11 @@ three built-in local laws (linear, elastoplastic, mutation) and the structural l
 F2 = k2·x2 − β·x2³ (β = 0: linear). Differences from the reference path, by design:
 
 - each piece is integrated with fixed 8th-order steps (the DOP853 tableau, 8th-order
-  solution) of h = ``STEP_RAD`` / ω_max, ω_max bounding the fastest mode of the piece;
+  solution) of h = ``STEP_RAD`` / ω_max, ω_max bounding the fastest mode of the piece at the
+  step's x2; in free flight no longer than the gap needs to possibly close
+  (:func:`impactbench.reference.two_dof.gap_step`, floor ``GAP_FLOOR_RAD``), so no contact
+  starts and ends within one step; grazes of a law's switch inside a contact are caught by
+  the cubic Hermite interpolant of the switch function;
 - every event (law switch, contact end, collapse, no further contact) is located by
   safeguarded Newton iteration on the step length, each iterate a fresh 8th-order step from
   the step's start, to |Δt| ≤ 1e-13 s;
@@ -35,6 +39,8 @@ except ImportError:  # pragma: no cover - exercised only without numba
 
 STEP_RAD = 0.1
 """Step length in radians of the fastest mode (h·ω_max)."""
+GAP_FLOOR_RAD = 1e-6
+"""Shortest free-flight step, in radians of the fastest contact mode (two_dof.GAP_FLOOR_RAD)."""
 
 LOCAL_CODES = {"linear": 0, "elastoplastic": 1, "mutation": 2}
 STATUS_NAMES = ("ok", "structure_collapsed", "max_time")
@@ -151,6 +157,24 @@ def _reach(e, k2, beta):
 
 
 @njit(cache=True)
+def _max_force(r, k2, beta):
+    """Largest F2 (N) over 0 ≤ x2 ≤ r (laws.StructuralLaw.max_force)."""
+    if beta > 0.0:
+        r = min(r, math.sqrt(k2 / (3.0 * beta)))
+    return k2 * r - beta * r ** 3
+
+
+@njit(cache=True)
+def _gap_step(gap, rate, accel):
+    """Time before a free gap can reach zero (two_dof.gap_step)."""
+    g = -min(gap, 0.0)
+    if accel <= 0.0:
+        return g / rate if rate > 0.0 else math.inf
+    root = math.sqrt(rate * rate + 2.0 * accel * g)
+    return (root - rate) / accel if rate <= 0.0 else 2.0 * g / (rate + root)
+
+
+@njit(cache=True)
 def _g(kind, row, y, m2, k2, beta, ec, reach_p, k, f0, out_dg):
     """Event function value; its time derivative into out_dg[0]."""
     if kind == 0:  # a law boundary, linear in (Δx, Δẋ)
@@ -160,9 +184,20 @@ def _g(kind, row, y, m2, k2, beta, ec, reach_p, k, f0, out_dg):
         f1 = k * dx + f0
         out_dg[0] = f1 * y[3]
         return 0.5 * m2 * y[3] ** 2 + 0.5 * k2 * y[1] ** 2 - 0.25 * beta * y[1] ** 4 - ec
-    # done: x1 − p + reach
-    out_dg[0] = y[2]
-    return y[0] + reach_p
+    if reach_p < math.inf:  # done (bounded): x1 − p + reach
+        out_dg[0] = y[2]
+        return y[0] + reach_p
+    # done (escaped, free flight): min(x2 − x_c, v2 − max(v1, 0))
+    out_dg[0] = 0.0
+    if beta <= 0.0:  # never escapes (the event is not armed)
+        return -1.0
+    a = y[1] - math.sqrt(k2 / beta)
+    b = y[3] - max(y[2], 0.0)
+    if a <= b:
+        out_dg[0] = y[3]
+        return a
+    out_dg[0] = -(k2 * y[1] - beta * y[1] ** 3) / m2
+    return b
 
 
 @njit(cache=True)
@@ -255,6 +290,10 @@ def solve_kernel(code, v0, m1, m2, k1, k2, kt, k1f, eps_s, beta, fm, tmax, step_
     tmp = np.zeros(4)
     bnd = np.zeros((2, 6))
     ec = k2 * k2 / (4.0 * beta) if beta > 0.0 else math.inf
+    xc = math.sqrt(k2 / beta) if beta > 0.0 else math.inf
+    kmax = max(k1, kt, k1f)
+    h_floor = GAP_FLOOR_RAD / math.sqrt(kmax / m1 + (kmax + k2) / m2)
+    collapsed = False
     t = 0.0
     max_dx = 0.0
     failed = False
@@ -269,20 +308,24 @@ def solve_kernel(code, v0, m1, m2, k1, k2, kt, k1f, eps_s, beta, fm, tmax, step_
     for _ in range(_MAX_EVENTS):
         k, f0, nb, p = _piece(code, mode, k1, kt, k1f, eps_s, fm, max_dx, failed, bnd)
         contact = k > 0.0
-        omega = math.sqrt(k / m1 + (k + k2) / m2)
-        h0 = step_rad / omega
         reach_p = math.inf
         use_done = False
+        done_dir = -1.0
+        accel = 0.0
         if not contact:
             e2 = 0.5 * m2 * y[3] ** 2 + 0.5 * k2 * y[1] ** 2 - 0.25 * beta * y[1] ** 4
             r = _reach(e2, k2, beta)
-            if y[2] <= 0.0 and y[0] - p < -r:
+            accel = _max_force(r, k2, beta) / m2
+            if (y[2] <= 0.0 and y[0] - p < -r) or (y[1] > xc and y[3] >= max(y[2], 0.0)):
                 status = 0
                 break
-            if y[2] < 0.0:
+            if y[2] < 0.0 and r < math.inf:
                 use_done = True
                 reach_p = r - p
-        use_collapse = contact and ec < math.inf
+            elif r == math.inf:  # escaped: x2 past x_c and v2 ≥ max(v1, 0)
+                use_done = True
+                done_dir = 1.0
+        use_collapse = contact and ec < math.inf and not collapsed
         use_peak = contact and not (code == 1 and mode >= 2)
         nev = nb + 3
         # event values at the start of the piece
@@ -299,7 +342,14 @@ def solve_kernel(code, v0, m1, m2, k1, k2, kt, k1f, eps_s, beta, fm, tmax, step_
         while True:
             s_peak = -1.0
             f_peak = 0.0
-            h = h0
+            # the step: a fraction of the fastest period (a softening structure's tangent
+            # stiffness |k2 − 3β·x2²| counts past √(2k2/(3β))); out of contact, also no
+            # longer than the gap needs to possibly close (_gap_step), so no contact can
+            # start and end within one step
+            ks = max(k2, abs(k2 - 3.0 * beta * y[1] * y[1]))
+            h = step_rad / math.sqrt(k / m1 + (k + ks) / m2)
+            if not contact:
+                h = min(h, max(_gap_step(y[0] - y[1] - p, y[2] - y[3], accel), h_floor))
             last = False
             if t + h >= tmax:
                 h = tmax - t
@@ -320,6 +370,8 @@ def solve_kernel(code, v0, m1, m2, k1, k2, kt, k1f, eps_s, beta, fm, tmax, step_
                     d = bnd[w, 3]
                 elif w == nb:
                     d = 1.0
+                elif w == nb + 1:
+                    d = done_dir
                 else:
                     d = -1.0
                 hit = (d > 0.0 and gold[w] < 0.0 and gnew[w] >= 0.0) or (
@@ -378,9 +430,9 @@ def solve_kernel(code, v0, m1, m2, k1, k2, kt, k1f, eps_s, beta, fm, tmax, step_
             fn = k * dx + f0
             if fn > peak:
                 peak = fn
-        if found == nb:
-            status = 1
-            break
+        if found == nb:  # collapse: flagged; the run goes on until body 2 escapes
+            collapsed = True
+            continue
         if found == nb + 1:
             status = 0
             break
@@ -398,6 +450,8 @@ def solve_kernel(code, v0, m1, m2, k1, k2, kt, k1f, eps_s, beta, fm, tmax, step_
         if code == 1 and kind != _TURN:
             max_dx = max(max_dx, dx)
         mode = int(bnd[found, 5])
+    if collapsed and status == 0:
+        status = 1
     in_contact = mode != 0
     if in_contact:
         contact_time += t - contact_start

@@ -30,3 +30,19 @@ def require_engine(name: str):
     module = {"drake": "pydrake", "pymunk": "pymunk", "mujoco": "mujoco",
               "pybullet": "pybullet"}[name]
     return pytest.importorskip(module, reason=f"{name} not installed: run `{PIP[name]}`")
+
+
+def assert_escaped_after_whole_contact(rec, scenario) -> None:
+    """A collapsed 2-DOF engine run ends by the reference's rule: out of contact, body 2 past
+    the softening potential's peak and outrunning body 1 (``laws.escaped``); its metrics then
+    cover the whole contact, as the reference's do (pulse width and impulse within 0.2 %)."""
+    from impactbench.reference import metrics, two_dof
+    from impactbench.reference.laws import escaped
+
+    assert rec.normal_force_n[-1] == 0.0
+    assert escaped(rec.velocity_1_m_s[-1], rec.displacement_2_m[-1], rec.velocity_2_m_s[-1],
+                   scenario.structural_law())
+    got, ref = metrics.compute(rec), two_dof.solve(scenario)
+    assert got["impacts"] == ref["impacts"]
+    for k in ("pulse_width_s", "impulse_ns"):
+        assert abs(got[k] - ref[k]) <= 2e-3 * ref[k], (k, got[k], ref[k])

@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 import pytest
-from conftest import require_engine
+from conftest import assert_escaped_after_whole_contact, require_engine
 
 mujoco = require_engine("mujoco")
 
@@ -118,6 +118,7 @@ def test_softening_collapse_is_reported(mj: MujocoAdapter) -> None:
         rec = mj.run(scenario, mode)
         assert rec.status is Status.STRUCTURE_COLLAPSED, (mode, rec.status, rec.message)
         assert np.all(np.isfinite(rec.displacement_2_m))
+        assert_escaped_after_whole_contact(rec, scenario)
 
 
 @pytest.mark.parametrize("v_ref", [1.0, 5.0])

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 import pytest
-from conftest import require_engine
+from conftest import assert_escaped_after_whole_contact, require_engine
 
 require_engine("pybullet")
 
@@ -213,6 +213,7 @@ def test_softening_collapse_is_reported(adapter):
     rec = adapter.run(s, "injected")
     assert rec.status is Status.STRUCTURE_COLLAPSED
     assert all(math.isfinite(x) for x in rec.displacement_2_m)
+    assert_escaped_after_whole_contact(rec, s)
 
 
 def test_native_linear_rigid_flexible(adapter):

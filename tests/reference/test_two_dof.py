@@ -10,7 +10,7 @@ import pytest
 from impactbench.reference import metrics, two_dof
 from impactbench.reference.record import Status
 from impactbench.reference.scenarios import RigidFlexible
-from scipy import linalg, optimize
+from scipy import integrate, linalg, optimize
 
 COMBOS = two_dof.ALL_COMBOS
 KEYS = two_dof.METRIC_KEYS
@@ -237,16 +237,38 @@ def test_converged_when_tolerances_tightened_100x(local, structure):
 
 # --- end rules and bad input ------------------------------------------------------------------
 
-def test_collapse_is_reported_not_integrated():
-    sc = RigidFlexible(velocity_m_s=300.0, structure="softening")
+@pytest.mark.parametrize("local", ["linear", "elastoplastic", "mutation"])
+def test_collapsed_run_goes_on_until_body_2_escapes(local):
+    sc = RigidFlexible(velocity_m_s=300.0, local=local, structure="softening")
     rec = two_dof.simulate(sc)
     assert rec.status is Status.STRUCTURE_COLLAPSED
     structure = sc.structural_law()
-    x2, v2 = rec.displacement_2_m[-1], rec.velocity_2_m_s[-1]
-    e2 = 0.5 * sc.m2_kg * v2**2 + structure.potential(x2)
-    assert rel(e2, structure.collapse_energy) < 1e-9
-    assert v2 > 0 and abs(x2) < structure.collapse_displacement and np.all(np.isfinite(x2))
-    assert two_dof.solve(sc)["status"] == "structure_collapsed"
+    events = rec.meta["events"]
+    kinds = [e[1] for e in events]
+    assert kinds.count("collapse") == 1 and kinds[-1] == "done" and kinds[-2] == "end"
+    i = int(np.searchsorted(rec.time_s, events[kinds.index("collapse")][0]))
+    e2 = 0.5 * sc.m2_kg * rec.velocity_2_m_s[i] ** 2 + structure.potential(
+        rec.displacement_2_m[i])
+    assert rel(e2, structure.collapse_energy) < 1e-9  # collapse located where E2 = k2²/(4β)
+    # the end: out of contact, body 2 past the potential's peak and outrunning body 1
+    x1, x2, v1, v2 = rec.meta["final_state"]
+    assert rec.normal_force_n[-1] <= 1e-10 * np.max(rec.normal_force_n)
+    assert x2 > structure.collapse_displacement and v2 >= max(v1, 0.0)
+    # ... so the free motion from there never closes the gap (independent check: free
+    # flight integrated until x2 is 20× past the peak)
+    m2, xc = sc.m2_kg, structure.collapse_displacement
+    sol = integrate.solve_ivp(lambda _t, s: [s[1], -structure.force(s[0]) / m2], (0.0, 10.0),
+                              [x2, v2], rtol=1e-10, atol=1e-12, dense_output=True,
+                              events=lambda _t, s: s[0] - 20.0 * xc)
+    t = np.linspace(0.0, sol.t[-1], 2001)
+    assert np.all(x1 + v1 * t - sol.sol(t)[0] < x1 - x2 + 1e-12)
+    # the metrics describe the whole contact, and the fast path agrees
+    m = metrics.compute(rec)
+    assert rel(m["impulse_ns"], sc.m1_kg * (300.0 - v1)) < 1e-7
+    fast = two_dof.solve_fast(sc)
+    assert fast["status"] == "structure_collapsed" and fast["impacts"] == m["impacts"]
+    for k in ("peak_force_n", "pulse_width_s", "contact_time_s", "impulse_ns"):
+        assert rel(fast[k], m[k]) < 1e-7, k
 
 
 def test_no_collapse_below_the_potential_peak():
