@@ -40,3 +40,33 @@ def test_bad_model_input_exits_2_with_one_line(capsys, argv, message):
     assert main(["reference", "ball-on-plate", *argv]) == 2
     err = capsys.readouterr().err
     assert message in err and err.count("\n") == 1
+
+
+def test_sweep_with_a_model(tmp_path, capsys):
+    import pandas as pd
+    from impactbench.reference import zoo
+    from impactbench.reference.scenarios import BallOnPlate
+
+    out = tmp_path / "ln.csv"
+    assert main(["sweep", "ball-on-plate", "--over", "velocity", "--start", "0.5", "--stop",
+                 "2", "--step", "0.5", "--model", "lankarani-nikravesh",
+                 "--nominal-restitution", "0.7", "--out", str(out)]) == 0
+    table = pd.read_csv(out)
+    want = zoo.sweep(BallOnPlate(model="lankarani-nikravesh", nominal_restitution=0.7),
+                     [0.5, 1.0, 1.5, 2.0])
+    assert table["duration_s"].to_numpy() == pytest.approx(want["duration_s"].to_numpy(),
+                                                           rel=1e-12)
+    assert table["restitution"].nunique() == 1
+
+
+def test_scenario_file_errors_are_one_line(tmp_path, capsys):
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[ball_on_plate]\nmass_kg = -1.0\n")
+    for argv in (["reference", "ball-on-plate", "--scenario-file", str(bad)],
+                 ["report", "--scenario-file", str(bad), "--out", str(tmp_path / "r")]):
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert "ball_on_plate.mass_kg = -1.0: must be > 0" in err and err.count("\n") == 1
+    bad.write_text("[ball_on_plate]\nvelocity_m_s = 3.0\n")
+    assert main(["reference", "ball-on-plate", "--scenario-file", str(bad)]) == 2
+    assert "ball_on_plate.velocity_m_s: unknown key" in capsys.readouterr().err
