@@ -456,11 +456,41 @@ RF_OVER = {"velocity": "impact velocity v1", "k1": "contact stiffness k1",
            "k2": "structural stiffness k2", "m2": "flexible mass m2"}
 
 
+# ------------------------------------------------------------------------ contact models
+
+ZOO_NOMINAL: tuple[float, ...] = (0.2, 0.5, 0.8, 0.9, 0.95)
+
+
+def contact_models(ctx: ReportContext) -> dict[str, Any] | None:
+    """The contact-model zoo: every model's exact effective restitution at nominal e
+    (:mod:`impactbench.reference.models`; any V0, m, c, n), as a table and a figure."""
+    from impactbench.figures import zoo
+    from impactbench.reference.models import MODEL_CITATIONS
+
+    wide = zoo.table(ZOO_NOMINAL)
+    columns = [c for c in wide.columns if c != "model"]
+    rows = [[Cell(f"`{r['model']}`"), Cell(MODEL_CITATIONS[r["model"]], wrap=True),
+             *(Cell(f"{r[c]:.4f}") for c in columns)] for _, r in wide.iterrows()]
+    path = zoo.figure(ctx.fig_dir / "report_zoo_restitution.png")
+    fig = ctx.add_figure(path, "Effective against nominal restitution of every contact "
+                         "model (exact)", group="contact_models")
+    ball = next((s for s in ctx.cfg.scenarios if s.name == "ball-on-plate"), None)
+    params = dict(ball.parameters) if ball is not None else {}
+    model = params.get("model", "hunt-crossley")
+    e = params.get("nominal_restitution")
+    used = (f"This report's ball uses `{model}` with nominal e = {e:g}." if e is not None
+            else f"This report's ball uses `{model}` with its damping b given directly.")
+    return {"table": Table(["model", "source", *columns], rows, text_columns=2,
+                           prose_columns=0), "figure": fig, "used": used}
+
+
 def paper_caption(stem: str) -> str | None:
     """The caption of one of ``impactbench figures``' PNGs, from its file name."""
     if stem in HC_FIGURES:
         num = re.search(r"fig(\d+)", stem).group(1)
         return f"Borovin et al. Fig. {num}: {HC_FIGURES[stem]} (ball on plate, reference)"
+    if stem == "zoo_restitution":
+        return "Contact models: effective against nominal restitution (reference, exact)"
     m = re.fullmatch(r"rf_fig(\d+)_(history|peak_force|pulse_width|impulse)_(\w+)", stem)
     if m and m.group(3) in RF_OVER:
         return (f"Zhou & Xiao Fig. {int(m.group(1))}: {RF_WHAT[m.group(2)]} against "
@@ -506,6 +536,8 @@ SECTIONS: list[Section] = [
     Section("scenario", TITLES["rigid-flexible"], partial(scenario_section, "rigid-flexible")),
     Section("work_precision", "Work–precision", work_precision),
     Section("meaning", "What this means", meaning),
+    Section("contact_models", "Contact models: nominal against effective restitution",
+            contact_models),
     Section("failed_runs", "Failed runs", failed_runs),
     Section("parameters", "Physical parameters", parameters),
     Section("figure_index", "Index of figures", figure_index),
