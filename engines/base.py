@@ -63,26 +63,21 @@ from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
+# the names and the plug-in registry live in a standard-library-only module (a light CLI);
+# they are re-exported here
+from impactbench.engines.registry import (  # noqa: F401
+    DISABLE_ENV,
+    ENGINES,
+    ENGINES_ENV,
+    MODES,
+    PIP,
+    _registry,
+    engine_names,
+)
 from impactbench.reference.record import ImpactRecord, Status
 from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
 
 Scenario = BallOnPlate | RigidFlexible
-
-MODES: tuple[str, ...] = ("native", "injected", "tuned", "default", "custom")
-
-ENGINES: dict[str, str] = {
-    "mujoco": "impactbench.engines.mujoco_adapter:MujocoAdapter",
-    "pybullet": "impactbench.engines.pybullet_adapter:PybulletAdapter",
-    "pymunk": "impactbench.engines.pymunk_adapter:PymunkAdapter",
-    "drake": "impactbench.engines.drake_adapter:DrakeAdapter",
-}
-
-PIP: dict[str, str] = {
-    "mujoco": "pip install mujoco",
-    "pybullet": "pip install pybullet",
-    "pymunk": "pip install pymunk",
-    "drake": "pip install drake",
-}
 
 
 class EngineUnavailable(RuntimeError):
@@ -200,27 +195,6 @@ class Adapter(ABC):
             **{k: v for k, v in settings.options.items() if k not in rec.meta},
         )
         return rec
-
-
-ENGINES_ENV = "IMPACTBENCH_ENGINES"
-"""Extra adapters, ``name=module:Class`` separated by commas (plug in your own engine)."""
-DISABLE_ENV = "IMPACTBENCH_DISABLE_ENGINES"
-"""Engines to treat as not installed, comma separated (e.g. to skip a broken install)."""
-
-
-def _registry() -> dict[str, str]:
-    out = dict(ENGINES)
-    for item in filter(None, (x.strip() for x in os.environ.get(ENGINES_ENV, "").split(","))):
-        name, sep, target = item.partition("=")
-        if not sep or ":" not in target:
-            raise ValueError(f"{ENGINES_ENV} entry {item!r}: must be name=module:Class")
-        out[name.strip()] = target.strip()
-    return out
-
-
-def engine_names() -> tuple[str, ...]:
-    """Registered engine names, including plug-ins from ``IMPACTBENCH_ENGINES``."""
-    return tuple(_registry())
 
 
 def _disabled() -> set[str]:

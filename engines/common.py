@@ -22,7 +22,11 @@ zoo's Kelvin–Voigt models); they are re-exported here.
 
 from __future__ import annotations
 
+import contextlib
 import math
+import os
+import sys
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -142,3 +146,30 @@ def native_ball_spring_damper(scenario, reference_velocity_m_s: float | None = N
     v_ref = reference_velocity_m_s or NATIVE_REFERENCE_VELOCITY_M_S
     ref = hunt_crossley.solve(scenario.replace(velocity_m_s=v_ref))
     return spring_damper_matching(scenario.mass_kg, ref["restitution"], ref["duration_s"])
+
+
+@contextlib.contextmanager
+def silenced_fds() -> Iterator[None]:
+    """Send the process's file descriptors 1 and 2 to /dev/null for the duration.
+
+    For engines whose C extension prints a banner when imported (pybullet: its build time,
+    with printf): Python-level redirection cannot catch a C printf, so the descriptors
+    themselves are swapped, and C's stdio buffer is flushed before they are restored.
+    Python exceptions (an ImportError) are unaffected."""
+    import ctypes
+
+    sys.stdout.flush()
+    sys.stderr.flush()
+    saved = [os.dup(1), os.dup(2)]
+    null = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(null, 1)
+        os.dup2(null, 2)
+        yield
+    finally:
+        with contextlib.suppress(Exception):
+            ctypes.CDLL(None).fflush(None)
+        os.dup2(saved[0], 1)
+        os.dup2(saved[1], 2)
+        for fd in (*saved, null):
+            os.close(fd)

@@ -103,7 +103,12 @@ import time
 from typing import Any
 
 from impactbench.engines.base import Adapter, EngineUnavailable, RunSettings, Scenario
-from impactbench.engines.common import NATIVE_REFERENCE_VELOCITY_M_S, Recorder, classify
+from impactbench.engines.common import (
+    NATIVE_REFERENCE_VELOCITY_M_S,
+    Recorder,
+    classify,
+    silenced_fds,
+)
 from impactbench.reference import validation as check
 from impactbench.reference.models import spring_damper
 from impactbench.reference.record import ImpactRecord, Status
@@ -144,7 +149,8 @@ few steps, not a physical duration; the cap only bounds a ball that never lets g
 
 def _import_engine() -> Any:
     try:
-        import pybullet
+        with silenced_fds():  # pybullet prints its build time from C on import
+            import pybullet
     except ImportError as exc:  # pragma: no cover - exercised where pybullet is absent
         raise EngineUnavailable("pybullet", str(exc)) from exc
     return pybullet

@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from impactbench.engines.base import MODES, engine_names
+from impactbench.engines.registry import MODES, engine_names
 from impactbench.reference.laws import LOCAL_LAWS, STRUCTURAL_LAWS
 from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
 

@@ -83,7 +83,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from impactbench.engines.base import ENGINES, MODES
+from impactbench.engines.registry import ENGINES, MODES
 from impactbench.reference import validation as check
 from impactbench.reference.laws import LOCAL_LAWS, STRUCTURAL_LAWS
 from impactbench.reference.scenarios import PAPER_VELOCITIES_M_S, SCENARIOS, RigidFlexible

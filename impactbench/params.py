@@ -45,7 +45,9 @@ def add_parameter_flags(parser: argparse.ArgumentParser, scenario: str, *,
     ``with_gravity`` adds the ball's ``--gravity`` (engines only: the reference is the
     paper's gravity-free collinear impact)."""
     defaults = SCENARIO_CLASSES[scenario]()
-    group = parser.add_argument_group("physical parameters (SI; defaults are the paper's)")
+    label = "ball on plate" if scenario == "ball-on-plate" else "rigid–flexible"
+    group = parser.add_argument_group(f"{label}: physical parameters (SI; defaults are the "
+                                      "paper's)")
     ball = scenario == "ball-on-plate"
     for flag, (field, help_text) in SCENARIO_FLAGS[scenario].items():
         # ball flags default to None (the scenario's default applies) so that a material
@@ -116,10 +118,11 @@ def _ball_values(args: argparse.Namespace, values: dict[str, Any]) -> dict[str, 
 
 def add_law_flags(parser: argparse.ArgumentParser, *, default: str | None = "linear") -> None:
     """Add ``--local`` and ``--structure`` (rigid–flexible law choices)."""
+    which = f"default {default}" if default else "default: every one, in turn"
     parser.add_argument("--local", choices=tuple(LOCAL_LAWS), default=default,
-                        help=f"local contact law; default {default}")
+                        help=f"local contact law; {which}")
     parser.add_argument("--structure", choices=tuple(STRUCTURAL_LAWS), default=default,
-                        help=f"structural law; default {default}")
+                        help=f"structural law; {which}")
 
 
 def scenario_from_args(scenario: str, args: argparse.Namespace,

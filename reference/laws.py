@@ -24,7 +24,6 @@ from dataclasses import dataclass, field
 from typing import ClassVar
 
 from impactbench.reference import validation as check
-from scipy import integrate
 
 
 @dataclass(frozen=True)
@@ -75,6 +74,8 @@ class HuntCrossley:
             return self.stiffness * x ** (self.exponent + 1.0) / (self.exponent + 1.0)
         if self.potential_fn is not None:
             return float(self.potential_fn(x))
+        from scipy import integrate  # here, not at import: the CLI's --help stays light
+
         return float(integrate.quad(self.elastic_force, 0.0, x, epsabs=0.0, epsrel=1e-13)[0])
 
     def force(self, x: float, rate: float) -> float:

@@ -188,6 +188,11 @@ class RigidFlexible(_Scenario):
         return SofteningStructure(self.k2_n_per_m, self.beta_n_per_m3)
 
 
+SWEEP_FIELDS: dict[str, str] = {
+    "velocity": "velocity_m_s", "k1": "k1_n_per_m", "k2": "k2_n_per_m", "m2": "m2_kg",
+}
+"""Sweepable rigid–flexible parameters (CLI name → :class:`RigidFlexible` field, SI)."""
+
 SCENARIOS: dict[str, type[BallOnPlate] | type[RigidFlexible]] = {
     "ball-on-plate": BallOnPlate,
     "rigid-flexible": RigidFlexible,

@@ -52,7 +52,7 @@ import numpy as np
 from impactbench.reference import metrics
 from impactbench.reference.laws import LocalLaw, Piece, StructuralLaw, no_further_contact
 from impactbench.reference.record import ImpactRecord, Status
-from impactbench.reference.scenarios import RigidFlexible
+from impactbench.reference.scenarios import SWEEP_FIELDS, RigidFlexible
 from scipy import integrate, optimize
 
 RTOL = 1e-11
@@ -481,10 +481,6 @@ def solve(scenario: RigidFlexible) -> dict[str, Any]:
     return solve_slow(scenario)
 
 
-SWEEP_FIELDS: dict[str, str] = {
-    "velocity": "velocity_m_s", "k1": "k1_n_per_m", "k2": "k2_n_per_m", "m2": "m2_kg",
-}
-"""Sweepable parameters (CLI name → scenario field, SI)."""
 
 ALL_COMBOS: tuple[tuple[str, str], ...] = tuple(
     (loc, st) for loc in ("linear", "elastoplastic", "mutation") for st in ("linear", "softening")

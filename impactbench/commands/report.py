@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from impactbench.engines.base import ENGINES
+from impactbench.engines.registry import ENGINES
 
 HELP = "run the comparison matrix and write the report (tables, plots, CSV/Parquet)"
 

@@ -6,8 +6,7 @@ import argparse
 from pathlib import Path
 
 from impactbench.cliutil import key_value, number, print_json, print_table, stdout_to_stderr
-from impactbench.engines.base import ENGINES, MODES, RunSettings
-from impactbench.evaluate import compare
+from impactbench.engines.registry import ENGINES, MODES
 from impactbench.params import add_law_flags, add_parameter_flags, scenario_from_args
 
 HELP = "run one scenario in one engine and compare it with the reference"
@@ -16,8 +15,11 @@ HELP = "run one scenario in one engine and compare it with the reference"
 def register(top: argparse._SubParsersAction, groups: dict) -> None:
     p = top.add_parser("run", help=HELP, description=HELP + ". Parameter flags of both "
                        "scenarios are accepted; those of the other scenario are ignored.")
-    p.add_argument("--engine", required=True, choices=tuple(ENGINES))
-    p.add_argument("--scenario", required=True, choices=("ball-on-plate", "rigid-flexible"))
+    p.add_argument("--engine", required=True, choices=tuple(ENGINES),
+                   help="the engine to run")
+    p.add_argument("--scenario", required=True, choices=("ball-on-plate", "rigid-flexible"),
+                   help="ball-on-plate: Hunt–Crossley ball on a plate; rigid-flexible: the "
+                   "2-DOF rigid body on a flexible body")
     p.add_argument("--mode", default=None, choices=MODES,
                    help="native: the engine's contact model with mapped parameters; "
                    "injected: the reference law driven through the engine; tuned: fitted "
@@ -42,6 +44,9 @@ def register(top: argparse._SubParsersAction, groups: dict) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
+    from impactbench.engines.base import RunSettings
+    from impactbench.evaluate import compare
+
     scenario = scenario_from_args(args.scenario, args)
     mode = args.mode or ("tuned" if args.tuned_file else "native")
     if args.params and mode != "custom":

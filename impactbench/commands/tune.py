@@ -19,7 +19,7 @@ import argparse
 from pathlib import Path
 
 from impactbench.cliutil import number, number_list, print_json, print_table, stdout_to_stderr
-from impactbench.engines.base import ENGINES, EngineUnavailable
+from impactbench.engines.registry import ENGINES
 from impactbench.params import add_parameter_flags, scenario_from_args
 from impactbench.reference import validation as check
 from impactbench.reference.scenarios import PAPER_VELOCITIES_M_S
@@ -36,9 +36,13 @@ def name_list(text: str) -> list[str]:
 
 
 def register(top: argparse._SubParsersAction, groups: dict) -> None:
-    from impactbench.tuning.objective import DEFAULT_TARGETS, TARGETS
-    from impactbench.tuning.optimize import DEFAULT_BUDGET_S
-    from impactbench.tuning.spaces import SOLREF_FORMS, VARIANTS
+    from impactbench.tuning.names import (
+        DEFAULT_BUDGET_S,
+        DEFAULT_TARGETS,
+        SOLREF_FORMS,
+        TARGETS,
+        VARIANTS,
+    )
 
     p = top.add_parser("tune", help=HELP, description=HELP + ". " + __doc__.split("\n\n")[1])
     p.add_argument("--engine", required=True, metavar="E", help=f"one of {', '.join(ENGINES)}")
@@ -93,6 +97,7 @@ def _paths(args: argparse.Namespace) -> tuple[Path, Path | None]:
 
 
 def main(args: argparse.Namespace) -> int:
+    from impactbench.engines.base import EngineUnavailable
     from impactbench.tuned import write_tuned
     from impactbench.tuning import output
     from impactbench.tuning.optimize import tune

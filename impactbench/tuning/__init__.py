@@ -4,12 +4,25 @@
   the engine's own form, what it cannot express);
 - :mod:`~impactbench.tuning.objective`: weighted squared relative errors over a velocity set;
 - :mod:`~impactbench.tuning.optimize`: deterministic bounded search with budgets (:func:`tune`);
-- :mod:`~impactbench.tuning.output`: residual table, plot, tuned file and honesty notes.
+- :mod:`~impactbench.tuning.output`: residual table, plot, tuned file and honesty notes;
+- :mod:`~impactbench.tuning.names`: target names, parameter sets and defaults (no imports).
 """
 
-from impactbench.tuning.objective import DEFAULT_TARGETS, TARGETS, Objective, parse_weights
-from impactbench.tuning.optimize import TuneResult, tune
-from impactbench.tuning.spaces import VARIANTS, Space, make_space
+from importlib import import_module
+from typing import Any
 
-__all__ = ["DEFAULT_TARGETS", "TARGETS", "VARIANTS", "Objective", "Space", "TuneResult",
-           "make_space", "parse_weights", "tune"]
+_EXPORTS = {
+    "DEFAULT_TARGETS": "names", "TARGETS": "names", "VARIANTS": "names",
+    "Objective": "objective", "parse_weights": "objective",
+    "TuneResult": "optimize", "tune": "optimize",
+    "Space": "spaces", "make_space": "spaces",
+}
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str) -> Any:
+    """Load the exports on first use (PEP 562): ``impactbench tune --help`` needs only
+    :mod:`~impactbench.tuning.names`, not numpy or scipy."""
+    if name in _EXPORTS:
+        return getattr(import_module(f"impactbench.tuning.{_EXPORTS[name]}"), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

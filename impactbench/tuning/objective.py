@@ -24,19 +24,11 @@ from impactbench.reference import validation as check
 from impactbench.reference.metrics import BALL_METRICS, relative_error
 from impactbench.reference.record import Status
 from impactbench.reference.scenarios import BallOnPlate
+from impactbench.tuning.names import DEFAULT_TARGETS, TARGETS
 from impactbench.tuning.spaces import Space
 
 FAILED_RESIDUAL = 10.0
 
-TARGETS: dict[str, str] = {
-    "restitution": "restitution",
-    "duration": "duration_s",
-    "peak_force": "peak_force_n",
-    "max_penetration": "max_penetration_m",
-    "energy_loss": "energy_loss_fraction",
-}
-"""CLI target names → metric keys (``impactbench.reference.metrics.BALL_METRICS``)."""
-DEFAULT_TARGETS: tuple[str, ...] = ("restitution", "duration", "peak_force")
 
 
 class OutOfBudget(Exception):

@@ -29,18 +29,16 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from scipy import optimize
-from scipy.stats import qmc
 
 from impactbench.engines.base import get_adapter
 from impactbench.reference import validation as check
 from impactbench.reference.metrics import BALL_METRICS
 from impactbench.reference.scenarios import BallOnPlate
+from impactbench.tuning.names import DEFAULT_BUDGET_S
 from impactbench.tuning.objective import Evaluation, Objective, OutOfBudget, parse_weights
 from impactbench.tuning.spaces import Space, make_space
 
 SEED = 20240607
-DEFAULT_BUDGET_S = 120.0
 
 
 @dataclass
@@ -118,6 +116,8 @@ def search(obj: Objective, *, scan_points: int | None = None, polish_starts: int
     starts = [_to_unit(space, np.asarray(space.start))]
     try:
         if scan_points > 0:
+            from scipy.stats import qmc  # scipy.stats costs ~0.5 s: only when tuning
+
             sampler = qmc.Sobol(dim, scramble=True, seed=SEED)
             pts = sampler.random(scan_points)
             scored = []
@@ -128,6 +128,8 @@ def search(obj: Objective, *, scan_points: int | None = None, polish_starts: int
             stages.append(f"Sobol scan: {scan_points} points, best J = {scored[0][0]:.6g}")
         for i, u0 in enumerate(starts):
             n0 = obj.evaluations
+            from scipy import optimize
+
             res = optimize.least_squares(
                 lambda u: obj.residuals(_from_unit(space, u)), u0, bounds=(0.0, 1.0),
                 method="trf", diff_step=diff_step, x_scale=1.0, xtol=1e-8, ftol=1e-10,

@@ -49,6 +49,12 @@ import numpy as np
 from impactbench.engines.base import RunSettings
 from impactbench.reference import validation as check
 from impactbench.reference.scenarios import BallOnPlate
+from impactbench.tuning.names import (
+    MUJOCO_VARIANTS,
+    PYMUNK_VARIANTS,
+    SOLREF_FORMS,
+    VARIANTS,
+)
 
 MUJOCO_DMAX = 0.95
 """solimp dmax of the tuned MuJoCo contact (MuJoCo's default); only dmin/dmax is tuned."""
@@ -134,9 +140,6 @@ def _fmt(values: list[float] | tuple[float, ...]) -> str:
 
 
 # ------------------------------------------------------------------------------- MuJoCo
-
-MUJOCO_VARIANTS = ("solref+solimp", "solref")
-SOLREF_FORMS = ("direct", "timeconst")
 
 
 def _mujoco_diag_a(scenario: BallOnPlate, timestep_s: float | None) -> float:
@@ -242,7 +245,6 @@ def pybullet_space(scenario: BallOnPlate) -> Space:
 
 # ------------------------------------------------------------------------------- pymunk
 
-PYMUNK_VARIANTS = ("elasticity", "restitution-law")
 RIGID_LIMITS = (
     "a rigid contact is a one-step impulse: it has no duration, no peak force and no "
     "penetration",
@@ -336,13 +338,6 @@ def drake_space(scenario: BallOnPlate) -> Space:
 
 
 # ------------------------------------------------------------------------------- registry
-
-VARIANTS: dict[str, tuple[str, ...]] = {
-    "mujoco": MUJOCO_VARIANTS,
-    "pybullet": ("stiffness+damping",),
-    "pymunk": PYMUNK_VARIANTS,
-    "drake": ("stiffness+dissipation",),
-}
 
 
 def make_space(engine: str, scenario: BallOnPlate, variant: str | None = None,

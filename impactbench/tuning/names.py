@@ -1,0 +1,29 @@
+"""The tuning command's names and defaults: standard library only, so ``impactbench tune
+--help`` builds without numpy, scipy or an engine. Re-exported by the modules that use them."""
+
+from __future__ import annotations
+
+TARGETS: dict[str, str] = {
+    "restitution": "restitution",
+    "duration": "duration_s",
+    "peak_force": "peak_force_n",
+    "max_penetration": "max_penetration_m",
+    "energy_loss": "energy_loss_fraction",
+}
+"""CLI target names → metric keys (``impactbench.reference.metrics.BALL_METRICS``)."""
+DEFAULT_TARGETS: tuple[str, ...] = ("restitution", "duration", "peak_force")
+
+DEFAULT_BUDGET_S = 120.0
+"""Wall-time budget of one tuning run (s)."""
+
+MUJOCO_VARIANTS = ("solref+solimp", "solref")
+PYMUNK_VARIANTS = ("elasticity", "restitution-law")
+SOLREF_FORMS = ("direct", "timeconst")
+
+VARIANTS: dict[str, tuple[str, ...]] = {
+    "mujoco": MUJOCO_VARIANTS,
+    "pybullet": ("stiffness+damping",),
+    "pymunk": PYMUNK_VARIANTS,
+    "drake": ("stiffness+dissipation",),
+}
+"""Each engine's parameter sets (the first is the default)."""
