@@ -481,7 +481,6 @@ def solve(scenario: RigidFlexible) -> dict[str, Any]:
     return solve_slow(scenario)
 
 
-
 ALL_COMBOS: tuple[tuple[str, str], ...] = tuple(
     (loc, st) for loc in ("linear", "elastoplastic", "mutation") for st in ("linear", "softening")
 )
