@@ -12,6 +12,7 @@ import math
 import textwrap
 from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 import matplotlib
 
@@ -125,8 +126,10 @@ def hysteresis(histories: Mapping[tuple[str, str], History], reference: History,
 
 
 def restitution_vs_velocity(df: pd.DataFrame, damping_s_per_m: float, how: str,
-                            path: Path) -> Path:
-    """The reference curve k(b·V0) with every engine's measured points."""
+                            path: Path, scenario: Any = None) -> Path:
+    """The reference curve k(b·V0) with every engine's measured points. With ``scenario``
+    (a BallOnPlate) of a contact model set from a nominal restitution, that model's exact
+    curve instead (:func:`impactbench.reference.zoo.sweep`)."""
     from impactbench.reference.hunt_crossley import restitution
 
     rows = df[(df.study == "matrix") & (df.scenario == "ball-on-plate")
@@ -134,11 +137,22 @@ def restitution_vs_velocity(df: pd.DataFrame, damping_s_per_m: float, how: str,
     vmax = max(float(rows.velocity_m_s.max()) if len(rows) else 5.0, 1.0) * 1.1
     v = np.linspace(0.0, vmax, 300)
     fig, ax = plt.subplots(figsize=(7, 4.2))
-    ax.plot(v, restitution(damping_s_per_m * v), color="black", lw=2, label="Hunt–Crossley k(b·V0)")
+    if scenario is not None and scenario.nominal_restitution is not None:
+        from impactbench.reference.zoo import sweep
+
+        ax.plot(v[1:], sweep(scenario, v[1:])["restitution"], color="black", lw=2,
+                label=f"{scenario.model}, nominal e = {scenario.nominal_restitution:g}")
+    else:
+        ax.plot(v, restitution(damping_s_per_m * v), color="black", lw=2,
+                label="Hunt–Crossley k(b·V0)")
     for (engine, mode), g in rows[rows.status == "ok"].groupby(["engine", "mode"]):
         ax.plot(g.velocity_m_s, g.value, MODE_MARKERS.get(mode, "o"), ls="none", ms=6,
                 mfc="none" if mode == "native" else ENGINE_COLORS.get(engine),
                 color=ENGINE_COLORS.get(engine), label=f"{engine} {mode}")
+    lo, hi = ax.get_ylim()
+    if hi - lo < 0.1:  # a flat curve (a model set from a nominal e): no 1e-6 zoom
+        mid = 0.5 * (lo + hi)
+        ax.set_ylim(max(0.0, mid - 0.05), min(1.05, mid + 0.05))
     ax.set_xlabel("impact velocity V0 (m/s)")
     ax.set_ylabel("restitution k (–)")
     _title(ax, "Restitution against impact velocity, ball on plate", how)

@@ -24,6 +24,7 @@ from impactbench import plots
 from impactbench.cliutil import progress_bar
 from impactbench.evaluate import SCENARIO_METRICS
 from impactbench.matrix import JobResult, plan, run_jobs, tidy
+from impactbench.reference.scenarios import BallOnPlate
 from impactbench.report_render import ReportContext, render_documents
 from impactbench.report_sections import HEADLINE, SECTIONS, TITLES
 
@@ -140,8 +141,11 @@ def _figures(ctx: ReportContext) -> None:
                        f"heatmap:{scenario}")
         if scenario == "ball-on-plate":
             b = cfg_parameter(cfg, scenario, "damping_s_per_m")
+            sm = next((s for s in cfg.scenarios if s.name == scenario), None)
+            model = BallOnPlate(**(sm.parameters if sm is not None else {}))
             path = plots.restitution_vs_velocity(df, b, how,
-                                                 fig_dir / "report_restitution_vs_velocity.png")
+                                                 fig_dir / "report_restitution_vs_velocity.png",
+                                                 scenario=model)
             ctx.add_figure(path, f"Restitution against V0, ball on plate; {how}",
                            f"extra:{scenario}")
     wp = [r for r in ctx.results if r.job.study == "work_precision"]
