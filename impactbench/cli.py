@@ -24,6 +24,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "impactbench.commands.calibrate",
     "impactbench.commands.figures",
     "impactbench.commands.gate",
+    "impactbench.commands.history",
     "impactbench.commands.report",
     "impactbench.commands.rigid_flexible",
     "impactbench.commands.run",
@@ -47,12 +48,22 @@ class Parser(argparse.ArgumentParser):
         raise UsageError(f"{self.prog}: {message}")
 
 
+def _version() -> str:
+    from importlib import metadata
+
+    try:
+        return metadata.version("impactbench")
+    except metadata.PackageNotFoundError:
+        return "unknown"
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = Parser(
         prog="impactbench",
         description="Cross-validate physics engines on impact against Hunt–Crossley and "
         "rigid–flexible reference solutions.",
     )
+    parser.add_argument("--version", action="version", version=f"impactbench {_version()}")
     top = parser.add_subparsers(dest="command", required=True, parser_class=Parser,
                                 metavar="COMMAND")
     groups = {}
@@ -75,7 +86,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             raise
         print(f"impactbench: error: {exc}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as exc:  # matrix.Interrupted says how much was stored
+        print(f"impactbench: {str(exc) or 'interrupted'}", file=sys.stderr)
         return 130
 
 

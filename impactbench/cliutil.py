@@ -107,9 +107,12 @@ MAX_GRID_POINTS = 100_000_000
 TABLE_FORMATS = (".csv", ".parquet")
 
 
-def grid(start: float, stop: float, step: float):
+def grid(start: float, stop: float, step: float, *, yes: bool = True, per_value: int = 1):
     """The sweep grid start, start + step, …, ≤ stop (stop included within 1e-9 of a step),
-    computed as start + i·step. Every swept quantity (velocity, stiffness, mass) is > 0."""
+    computed as start + i·step. Every swept quantity (velocity, stiffness, mass) is > 0.
+
+    ``yes = False`` refuses more than :data:`COST_LIMIT` points (``per_value`` solves per
+    grid value, e.g. law combinations) before anything is allocated."""
     import math
 
     import numpy as np
@@ -125,6 +128,7 @@ def grid(start: float, stop: float, step: float):
     if count > MAX_GRID_POINTS:
         raise ValueError(f"step = {step!r}: gives {count} points, must give <= "
                          f"{MAX_GRID_POINTS}")
+    check_cost(count * per_value, f"step = {step!r}", yes, "sweep points")
     return start + step * np.arange(count, dtype=float)
 
 
@@ -155,10 +159,83 @@ def write_table(table, path) -> None:
 
 
 def progress_bar(total: int, unit: str = "run"):
-    """A tqdm bar on a terminal, a no-op elsewhere; returns (update, close)."""
-    if not sys.stderr.isatty():
-        return (lambda n: None), (lambda: None)
-    from tqdm import tqdm
+    """Progress of ``total`` items on stderr; returns (update, close).
 
-    bar = tqdm(total=total, unit=unit, file=sys.stderr)
-    return bar.update, bar.close
+    On a terminal a tqdm bar; elsewhere (CI logs, pipes) one line at most every
+    :data:`PROGRESS_EVERY_S` seconds and a last one at the end, so a long run is never silent.
+    """
+    if sys.stderr.isatty():
+        from tqdm import tqdm
+
+        bar = tqdm(total=total, unit=unit, file=sys.stderr)
+        return bar.update, bar.close
+    import time
+
+    state = {"done": 0, "last": time.monotonic(), "start": time.monotonic(), "said": False}
+
+    def update(n: int) -> None:
+        state["done"] += n
+        now = time.monotonic()
+        if now - state["last"] >= PROGRESS_EVERY_S:
+            state["last"] = now
+            state["said"] = True
+            print(f"impactbench: {state['done']} of {total} {unit}s done "
+                  f"({now - state['start']:.0f} s)", file=sys.stderr, flush=True)
+
+    def close() -> None:
+        if state["said"]:
+            print(f"impactbench: {state['done']} of {total} {unit}s done", file=sys.stderr,
+                  flush=True)
+
+    return update, close
+
+
+PROGRESS_EVERY_S = 10.0
+COST_LIMIT = 10_000_000
+"""Runs over this many integration steps, or sweeps over this many points, need ``--yes``."""
+
+
+def check_cost(count: float, what: str, yes: bool, detail: str = "") -> None:
+    """Refuse (one line, exit 2) a job of more than :data:`COST_LIMIT` steps or points
+    unless ``--yes`` was given."""
+    if count > COST_LIMIT and not yes:
+        more = f" ({detail})" if detail else ""
+        raise ValueError(f"{what}: about {count:.3g}{more}, more than {COST_LIMIT:.0e}; "
+                         "pass --yes to run it anyway")
+
+
+def add_execution_flags(p: argparse.ArgumentParser) -> None:
+    """``--workers``, ``--scheduler``, ``--fresh``, ``--store``, ``--yes`` (report and gate)."""
+    g = p.add_argument_group("execution and results store")
+    g.add_argument("--workers", type=int, default=None, metavar="N",
+                   help="local worker processes (default: one per core)")
+    g.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="run on an existing Dask scheduler, e.g. tcp://10.0.0.5:8786 "
+                   "(default: a local cluster; also $IMPACTBENCH_SCHEDULER)")
+    g.add_argument("--fresh", action="store_true",
+                   help="ignore stored runs and run everything again (results are stored)")
+    g.add_argument("--store", type=_path, default=None, metavar="FILE",
+                   help="results store (DuckDB); default $IMPACTBENCH_STORE or "
+                   "~/.cache/impactbench/results.duckdb")
+    g.add_argument("--yes", action="store_true",
+                   help=f"run even when the estimate exceeds {COST_LIMIT:.0e} steps")
+
+
+def _path(text: str):
+    from pathlib import Path
+
+    return Path(text)
+
+
+def execution_options(args: argparse.Namespace, cfg: Any = None) -> dict[str, Any]:
+    """Keyword arguments for :func:`impactbench.matrix.run_jobs` from the flags, then the
+    config's ``[execution]`` table (scheduler, workers, store), then the defaults."""
+    from impactbench.store import Store, default_path
+
+    table = dict(getattr(cfg, "execution", {}) or {})
+    workers = args.workers if args.workers is not None else table.get("workers")
+    if workers is not None and workers < 1:
+        raise ValueError(f"workers = {workers}: must be >= 1")
+    path = args.store or (table.get("store") and _path(table["store"])) or default_path()
+    return {"workers": workers, "scheduler": args.scheduler or table.get("scheduler"),
+            "store": Store(path), "fresh": bool(args.fresh), "yes": bool(args.yes)}

@@ -9,7 +9,8 @@ damping_s_per_m,
 radius_m, gravity_m_s2), ``[ball_on_plate.timestep_s]`` engine → s; ``[rigid_flexible]``
 velocities_m_s, local and structure (lists of law names), the physical parameters of
 :class:`~impactbench.reference.scenarios.RigidFlexible`, ``[rigid_flexible.timestep_s]``;
-``[work_precision]`` velocity_m_s, timesteps_s, modes.
+``[work_precision]`` velocity_m_s, timesteps_s, modes; ``[execution]`` scheduler (a Dask
+address), workers, store (a results-store path) — how to run, not part of the config hash.
 
 A bad file raises ValueError with one line naming the key (``rigid_flexible.velocities_m_s``),
 the value and the rule. An empty velocity list drops that scenario.
@@ -63,11 +64,14 @@ class ReportConfig:
     work_precision: WorkPrecision | None
     source: str = field(default="", compare=False)
     raw: dict[str, Any] = field(default_factory=dict, compare=False)
+    execution: dict[str, Any] = field(default_factory=dict, compare=False)
+    """``[execution]``: scheduler (Dask address), workers, store (path); not in the hash."""
 
     @property
     def hash(self) -> str:
         """Short hash of the validated content (what produced the results)."""
-        blob = json.dumps(self.raw, sort_keys=True, default=str).encode()
+        content = {k: v for k, v in self.raw.items() if k != "execution"}
+        blob = json.dumps(content, sort_keys=True, default=str).encode()
         return hashlib.sha256(blob).hexdigest()[:12]
 
 
@@ -151,7 +155,8 @@ def _scenario(table_name: str, table: dict[str, Any], engines: tuple[str, ...]
 
 def parse(data: dict[str, Any], source: str = "") -> ReportConfig:
     """Validate a parsed TOML document into a :class:`ReportConfig`."""
-    _check_keys(data, {"report", "ball_on_plate", "rigid_flexible", "work_precision"}, "")
+    _check_keys(data, {"report", "ball_on_plate", "rigid_flexible", "work_precision",
+                       "execution"}, "")
     for key, value in data.items():
         if not isinstance(value, dict):
             raise _fail(key, value, "must be a table")
@@ -179,7 +184,21 @@ def parse(data: dict[str, Any], source: str = "") -> ReportConfig:
                 modes=_names("work_precision.modes", t.get("modes", ["native", "injected"]),
                              ("native", "injected")),
             )
-    return ReportConfig(title, engines, modes, scenarios, wp, source=source, raw=data)
+    return ReportConfig(title, engines, modes, scenarios, wp, source=source, raw=data,
+                        execution=_execution(data.get("execution", {})))
+
+
+def _execution(table: dict[str, Any]) -> dict[str, Any]:
+    """Validate ``[execution]``: scheduler (str address), workers (int ≥ 1), store (path)."""
+    _check_keys(table, {"scheduler", "workers", "store"}, "execution.")
+    for key in ("scheduler", "store"):
+        if key in table and not (isinstance(table[key], str) and table[key]):
+            raise _fail(f"execution.{key}", table[key], "must be a non-empty string")
+    workers = table.get("workers")
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)
+                                or workers < 1):
+        raise _fail("execution.workers", workers, "must be an integer >= 1")
+    return dict(table)
 
 
 def load(path: str | Path | None = None) -> ReportConfig:

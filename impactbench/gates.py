@@ -452,25 +452,21 @@ def _job(run: RunKey) -> Any:
 
 
 def execute(runs: Iterable[RunKey], jobs: int = 2,
-            progress: Callable[[int], None] | None = None) -> dict[RunKey, dict[str, Any]]:
+            progress: Callable[[int], None] | None = None,
+            **run_options: Any) -> dict[RunKey, dict[str, Any]]:
     """Run every run and compare it with the reference: run → ``evaluate.compare``'s object.
 
     Built on :func:`impactbench.matrix.run_jobs` (``jobs`` spawned workers; an engine that
     kills its worker process becomes a ``crashed`` run, the others are unaffected);
-    ``jobs = 0`` runs in this process (no crash isolation; for debugging).
+    ``jobs = 0`` runs in this process (no crash isolation; for debugging). ``run_options``
+    (store, fresh, scheduler, yes) go to ``run_jobs``: stored runs are not run again.
     """
     from impactbench import matrix
 
     runs = list(runs)
     by_job = {_job(run): run for run in runs}
-    if jobs <= 0:
-        results = []
-        for job in by_job:
-            results.append(matrix.execute(job))
-            if progress:
-                progress(1)
-    else:
-        results = matrix.run_jobs(list(by_job), workers=jobs, progress=progress)
+    results = matrix.run_jobs(list(by_job), workers=max(jobs, 0), progress=progress,
+                              **run_options)
     out = {by_job[r.job]: r.run for r in results}
     return {run: out[run] for run in runs}
 
@@ -525,10 +521,11 @@ def drift(err: float, base_err: float, margin: float, floor: float) -> tuple[str
 
 
 def evaluate(checks: Iterable[Check], baseline: Mapping[str, Mapping[str, Any]] | None = None,
-             jobs: int = 2, progress: Callable[[int], None] | None = None) -> list[Outcome]:
+             jobs: int = 2, progress: Callable[[int], None] | None = None,
+             **run_options: Any) -> list[Outcome]:
     """Plan, run (deduplicated, in parallel) and judge ``checks``, in their order."""
     checks = list(checks)
-    results = execute(plan(checks), jobs=jobs, progress=progress)
+    results = execute(plan(checks), jobs=jobs, progress=progress, **run_options)
     return [judge(c, results[c.run], baseline) for c in checks]
 
 

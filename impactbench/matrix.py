@@ -1,21 +1,20 @@
-"""The run matrix: plan jobs from a config, run them in worker processes, collect tidy rows.
+"""The run matrix: plan jobs from a config, run what the store lacks on Dask, collect rows.
 
-Each job is one engine run (engine × scenario point × mode × timestep). Jobs run in a pool of
-worker processes (spawned, one per core by default), so an engine that segfaults takes down
-only its worker: the pool is rebuilt, the unfinished jobs are retried one at a time in fresh
-single-worker pools, and the job that kills its worker again becomes a ``crashed`` row. The
-results do not depend on scheduling: rows are sorted by job id.
+Each job is one engine run (engine × scenario point × mode × timestep). :func:`run_jobs` first
+looks every job up in the results store (:mod:`impactbench.store`) and runs only the missing
+ones, on ``dask.distributed`` (:mod:`impactbench.cluster`): a local cluster of worker processes
+by default, or a user's scheduler. An engine that segfaults takes down only its worker; Dask
+retries its run once on a fresh worker and the run that kills a worker again becomes a
+``crashed`` row. Finished runs are stored as they arrive, so an interrupted matrix resumes.
+The results do not depend on scheduling or on the store: rows are sorted by job id.
 """
 
 from __future__ import annotations
 
 import math
-import os
+import time
 from collections.abc import Callable, Iterable
-from concurrent.futures import ProcessPoolExecutor, as_completed
-from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
-from multiprocessing import get_context
 from typing import Any
 
 import numpy as np
@@ -67,6 +66,8 @@ class JobResult:
     job: Job
     run: dict[str, Any]
     history: dict[str, np.ndarray] = field(default_factory=dict)
+    cached: bool = False
+    """True when the run came from the results store instead of an engine."""
 
 
 def _thin(rec, points: int = HISTORY_POINTS) -> dict[str, np.ndarray]:
@@ -82,13 +83,19 @@ def _thin(rec, points: int = HISTORY_POINTS) -> dict[str, np.ndarray]:
     }
 
 
-def execute(job: Job, reference: dict[str, Any] | None = None) -> JobResult:
-    """Run one job (in a worker process). Never raises for engine trouble."""
+def job_settings(job: Job):
+    """The :class:`~impactbench.engines.base.RunSettings` of a job (hashed into its store key)."""
     from impactbench.engines.base import RunSettings
     from impactbench.tuned import load_tuned
 
     tuned = load_tuned(job.engine, job.scenario) if job.mode == "tuned" else None
-    settings = RunSettings(timestep_s=job.timestep_s, tuned=tuned)
+    return RunSettings(timestep_s=job.timestep_s, tuned=tuned)
+
+
+def execute(job: Job, reference: dict[str, Any] | None = None,
+            settings: Any = None) -> JobResult:
+    """Run one job (in a worker process). Never raises for engine trouble."""
+    settings = settings if settings is not None else job_settings(job)
     run, rec = compare(job.engine, job.build_scenario(), job.mode, settings, reference)
     return JobResult(job, run, _thin(rec) if job.keep_history else {})
 
@@ -132,45 +139,126 @@ def _crashed(job: Job, why: str, reference: dict[str, Any]) -> JobResult:
     return JobResult(job, run)
 
 
+class Interrupted(KeyboardInterrupt):
+    """Ctrl-C during :func:`run_jobs`; finished runs are stored. ``str()`` is the one line."""
+
+    def __init__(self, stored: int, total: int, store: bool) -> None:
+        super().__init__(stored, total)
+        self.stored, self.total = stored, total
+        self.line = (f"interrupted; {stored} of {total} runs stored; rerun to resume" if store
+                     else f"interrupted; {stored} of {total} runs done (no store: --fresh "
+                     "or none given)")
+
+    def __str__(self) -> str:
+        return self.line
+
+
+def _result_from_store(job: Job, run: dict[str, Any], history: dict[str, np.ndarray],
+                       reference: dict[str, Any]) -> JobResult:
+    """A stored run object (JSON: NaN kept) with this process's reference put back."""
+    run = {**run, "reference": reference}
+    return JobResult(job, run, history if job.keep_history else {}, cached=True)
+
+
+FLUSH_EVERY_S = 2.0
+"""Finished runs are written to the store at least this often (and at the end)."""
+
+
+def estimated_steps_of(reference: dict[str, Any], timestep_s: float | None) -> float:
+    """Rough integration steps of one run: twice the reference contact time over the
+    timestep (adapters record from just before contact until separation). 0 with the
+    adapter's default step (those are sized for the scenario)."""
+    duration = reference.get("duration_s", reference.get("contact_time_s"))
+    if not timestep_s or not isinstance(duration, float | int) or not math.isfinite(duration):
+        return 0.0
+    return 2.0 * float(duration) / timestep_s
+
+
+def estimated_steps(job: Job, reference: dict[str, Any]) -> float:
+    """:func:`estimated_steps_of` for a job."""
+    return estimated_steps_of(reference, job.timestep_s)
+
+
 def run_jobs(jobs: list[Job], workers: int | None = None,
-             progress: Callable[[int], None] | None = None) -> list[JobResult]:
-    """Run ``jobs`` in worker processes; results sorted by job id."""
+             progress: Callable[[int], None] | None = None, *, store: Any = None,
+             fresh: bool = False, scheduler: str | None = None,
+             yes: bool = True) -> list[JobResult]:
+    """Run ``jobs``; results sorted by job id.
+
+    ``store`` (an :class:`impactbench.store.Store`) serves finished runs and keeps new ones;
+    ``fresh`` runs everything again (and stores it). ``workers`` local worker processes
+    (default one per core, at most one per missing run; 0 runs in this process without crash
+    isolation); ``scheduler`` the address of an existing Dask scheduler instead.
+    Ctrl-C raises :class:`Interrupted` after storing what finished. ``yes = False`` refuses
+    (ValueError) when the missing runs need more than ``cliutil.COST_LIMIT`` steps in all.
+    """
+    from impactbench import store as store_mod
+
     references: dict[tuple, dict[str, Any]] = {}
+    settings: dict[str, Any] = {}
+    inputs: dict[str, dict[str, Any]] = {}
+    keys: dict[str, str] = {}
     for job in jobs:
         if job.reference_key not in references:
             references[job.reference_key] = reference_metrics(job.build_scenario())
-    workers = workers or os.cpu_count() or 1
+        settings[job.id] = job_settings(job)
+        if store is not None:
+            inputs[job.id] = store_mod.run_inputs(job.engine, job.scenario,
+                                                  job.build_scenario(), job.mode,
+                                                  settings[job.id])
+            keys[job.id] = store_mod.run_key(inputs[job.id])
     results: dict[str, JobResult] = {}
-    pending = sorted(jobs, key=lambda j: (j.scenario != "rigid-flexible", j.id))
+    if store is not None and not fresh:
+        found = store.get(keys.values(), with_history=[keys[j.id] for j in jobs
+                                                       if j.keep_history])
+        for job in jobs:
+            if keys[job.id] in found:
+                results[job.id] = _result_from_store(job, *found[keys[job.id]],
+                                                     references[job.reference_key])
+        if progress and results:
+            progress(len(results))
+    pending = sorted((j for j in jobs if j.id not in results),
+                     key=lambda j: (j.scenario != "rigid-flexible", j.id))
+    if not yes:
+        from impactbench.cliutil import check_cost
 
-    def collect(batch: list[Job], n_workers: int) -> list[Job]:
-        """Run a batch in one pool; return the jobs left unfinished if the pool broke."""
-        ctx = get_context("spawn")
-        with ProcessPoolExecutor(max_workers=n_workers, mp_context=ctx) as pool:
-            futures = {pool.submit(execute, j, references[j.reference_key]): j for j in batch}
-            try:
-                for fut in as_completed(futures):
-                    job = futures[fut]
-                    try:
-                        results[job.id] = fut.result()
-                    except BrokenProcessPool:
-                        raise
-                    except Exception as exc:  # a bug in an adapter must not lose the rest
-                        why = f"{type(exc).__name__}: {exc}"
-                        results[job.id] = _crashed(job, why, references[job.reference_key])
-                    if progress:
-                        progress(1)
-            except BrokenProcessPool:
-                pass
-        return [j for j in batch if j.id not in results]
+        steps = sum(estimated_steps(j, references[j.reference_key]) for j in pending)
+        check_cost(steps, f"{len(pending)} runs", yes, "integration steps")
+    unstored: list[JobResult] = []
+    last_flush = time.monotonic()
 
-    left = collect(pending, workers) if pending else []
-    for job in left:  # isolate: each suspect alone in a fresh worker
-        if collect([job], 1):
-            results[job.id] = _crashed(job, "the engine's worker process died",
-                                       references[job.reference_key])
-            if progress:
-                progress(1)
+    def flush() -> None:
+        nonlocal last_flush
+        if store is not None and unstored:
+            store.put((keys[r.job.id], inputs[r.job.id], vars(r.job), r.run, r.history)
+                      for r in unstored)
+        unstored.clear()
+        last_flush = time.monotonic()
+
+    def finished(result: JobResult) -> None:
+        results[result.job.id] = result
+        unstored.append(result)
+        if time.monotonic() - last_flush > FLUSH_EVERY_S:
+            flush()
+        if progress:
+            progress(1)
+
+    try:
+        if pending and workers == 0:
+            for job in pending:
+                finished(execute(job, references[job.reference_key], settings[job.id]))
+        elif pending:
+            from impactbench.cluster import run_on_dask
+
+            run_on_dask(pending, [(references[j.reference_key], settings[j.id])
+                                  for j in pending],
+                        workers=workers, scheduler=scheduler, on_result=finished,
+                        on_crash=lambda job, why: finished(
+                            _crashed(job, why, references[job.reference_key])))
+    except KeyboardInterrupt:
+        flush()
+        raise Interrupted(len(results), len(jobs), store is not None) from None
+    flush()
     return [results[j.id] for j in sorted(jobs, key=lambda j: j.id)]
 
 

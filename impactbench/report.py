@@ -8,6 +8,7 @@ commit, config hash, per-run wall times) and ``figures/report_*.png``.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import platform
 import subprocess
@@ -40,13 +41,22 @@ class Report:
     wall_s: float
 
 
-def git_commit() -> str:
-    """The source commit (``+dirty`` when the work tree differs), or ``unknown``."""
+def git_commit(exclude: Path | None = None) -> str:
+    """The source commit (``+dirty`` when tracked files differ from it), or ``unknown``.
+
+    ``exclude``: a folder inside the work tree left out of the dirty check — the report's own
+    output folder, which a regeneration rewrites (it is output, not source)."""
     root = Path(__file__).resolve().parent.parent
     try:
         sha = subprocess.run(["git", "rev-parse", "HEAD"], cwd=root, capture_output=True,
                              text=True, check=True, timeout=10).stdout.strip()
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"],
+        spec = ["--", "."]
+        if exclude is not None:
+            with contextlib.suppress(ValueError):
+                rel = Path(exclude).resolve().relative_to(root)
+                if rel.parts:
+                    spec.append(f":(exclude){rel.as_posix()}")
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", *spec],
                                cwd=root, capture_output=True, text=True, timeout=10).stdout
         return sha + ("+dirty" if dirty.strip() else "")
     except (OSError, subprocess.SubprocessError):
@@ -191,18 +201,73 @@ def render(out_dir: Path, cfg: config_mod.ReportConfig, df: pd.DataFrame,
     return paths + [out_dir / f.path for f in ctx.figures]
 
 
+REPORT_FILES = ("README.md", "index.html", "results.csv", "results.parquet", "metadata.json")
+
+
+def owned_by_report(rel: Path) -> bool:
+    """Files of a report folder the report rewrites (others, e.g. the papers' figures in
+    ``figures/``, are kept)."""
+    return str(rel) in REPORT_FILES or (rel.parent == Path("figures")
+                                        and rel.name.startswith("report_"))
+
+
+def scenario_parameters(cfg: config_mod.ReportConfig) -> list[dict[str, Any]]:
+    """Every scenario of the config with all its physical parameters (SI; the config's
+    values over the defaults), velocities, laws and timesteps — what metadata.json records."""
+    from impactbench.params import SCENARIO_CLASSES
+
+    out = []
+    for sm in cfg.scenarios:
+        physics = SCENARIO_CLASSES[sm.name](**sm.parameters).to_dict()
+        for key in ("velocity_m_s", "local", "structure"):
+            physics.pop(key, None)
+        out.append({"scenario": sm.name, "velocities_m_s": list(sm.velocities_m_s),
+                    "parameters": physics, "local": list(sm.local),
+                    "structure": list(sm.structure), "timestep_s": dict(sm.timestep_s)})
+    wp = cfg.work_precision
+    if wp is not None:
+        out.append({"scenario": "work_precision", "velocities_m_s": [wp.velocity_m_s],
+                    "timesteps_s": list(wp.timesteps_s), "modes": list(wp.modes)})
+    return out
+
+
 def build(cfg: config_mod.ReportConfig, out_dir: Path, *, engines: list[str] | None = None,
-          workers: int | None = None, show_progress: bool = True) -> Report:
-    """Run the matrix of ``cfg`` and write every report file into ``out_dir``."""
+          workers: int | None = None, show_progress: bool = True, store=None,
+          fresh: bool = False, scheduler: str | None = None, yes: bool = True) -> Report:
+    """Run the matrix of ``cfg`` and write every report file into ``out_dir``.
+
+    Holds the folder's writer lock throughout; runs come from ``store`` where finished
+    (``fresh``: run all again); the files are written into a temporary folder beside
+    ``out_dir`` and swapped in only when complete, so an error or Ctrl-C leaves the previous
+    report intact.
+    """
+    from impactbench import publish
+
     t0 = time.perf_counter()
-    out_dir.mkdir(parents=True, exist_ok=True)
-    jobs = plan(cfg, engines)
-    update, close = progress_bar(len(jobs)) if show_progress else ((lambda n: None),
-                                                                    (lambda: None))
-    try:
-        results = run_jobs(jobs, workers, progress=update)
-    finally:
-        close()
+    commit = git_commit(exclude=out_dir)  # before anything is written
+    with publish.writer_lock(out_dir):
+        jobs = plan(cfg, engines)
+        if not jobs:
+            raise ValueError(f"config {cfg.source or '<inline>'}: nothing to run (no "
+                             "[ball_on_plate] or [rigid_flexible] velocities_m_s, or no "
+                             "[work_precision] timesteps_s); see impactbench/data/default.toml")
+        update, close = progress_bar(len(jobs)) if show_progress else ((lambda n: None),
+                                                                        (lambda: None))
+        try:
+            results = run_jobs(jobs, workers, progress=update, store=store, fresh=fresh,
+                               scheduler=scheduler, yes=yes)
+        finally:
+            close()
+        with publish.staged(out_dir, owned_by_report) as stage:
+            rep = _write(cfg, stage, results, engines, commit, t0)
+    rep.out_dir = out_dir
+    rep.files = [out_dir / f.relative_to(stage) for f in rep.files]
+    return rep
+
+
+def _write(cfg: config_mod.ReportConfig, out_dir: Path, results: list[JobResult],
+           engines: list[str] | None, commit: str, t0: float) -> Report:
+    """Write results.csv/.parquet, metadata.json and the rendered report into ``out_dir``."""
     df = pd.DataFrame(tidy(results))
     if not df.empty:
         df = df.sort_values(SORT_COLUMNS, kind="stable").reset_index(drop=True)
@@ -213,7 +278,7 @@ def build(cfg: config_mod.ReportConfig, out_dir: Path, *, engines: list[str] | N
     for e in (engines or cfg.engines):
         engine_versions.setdefault(e, "unavailable")
     meta = {
-        "commit": git_commit(),
+        "commit": commit,
         "config": cfg.source or "an inline config",
         "config_hash": cfg.hash,
         "python": platform.python_version(),
@@ -222,8 +287,13 @@ def build(cfg: config_mod.ReportConfig, out_dir: Path, *, engines: list[str] | N
         "libraries": _library_versions(),
         "metrics_per_scenario": {k: list(v) for k, v in SCENARIO_METRICS.items()},
         "runs": [{"id": r.job.id, "status": r.run["status"], "wall_s": r.run.get("wall_s"),
-                  "timestep_s": r.run.get("timestep_s")} for r in results],
+                  "timestep_s": r.run.get("timestep_s"), "stored": r.cached}
+                 for r in results],
         "command": " ".join(["impactbench", *sys.argv[1:]]) if sys.argv else "",
+        "scenarios": scenario_parameters(cfg),
+        "failed_runs": [{"id": r.job.id, "status": r.run["status"],
+                         "message": r.run.get("message", "")}
+                        for r in results if r.run["status"] != "ok"],
     }
     files = [out_dir / "results.csv", out_dir / "results.parquet"]
     df.to_csv(files[0], index=False)

@@ -54,6 +54,9 @@ PAPER_RADIUS_M = 0.01452
 PAPER_STIFFNESS = 1.7135e10
 """The preprint's c for that ball on a massive steel plate (N/m^1.5)."""
 PAPER_VELOCITIES_M_S: tuple[float, ...] = (0.5, 1.0, 2.0, 3.0, 4.0, 5.0)
+MIN_VELOCITY_M_S = 1e-100
+"""Smallest ball impact velocity: the closed form (x_max ∝ V0^(4/(n+1))) is exact down to
+here; far below, V0² underflows and every metric would come out 0."""
 
 
 class _Scenario:
@@ -97,6 +100,10 @@ class BallOnPlate(_Scenario):
 
     def __post_init__(self) -> None:
         check.positive("velocity_m_s", self.velocity_m_s)
+        if self.velocity_m_s < MIN_VELOCITY_M_S:
+            raise ValueError(f"velocity_m_s = {self.velocity_m_s!r}: must be >= "
+                             f"{MIN_VELOCITY_M_S:g} m/s (below it V0² underflows double "
+                             "precision and the closed form would return zeros)")
         check.positive("mass_kg", self.mass_kg)
         check.positive("stiffness", self.stiffness)
         check.positive("exponent", self.exponent)
@@ -129,6 +136,17 @@ class BallOnPlate(_Scenario):
     def is_linear(self) -> bool:
         """True for the linear Kelvin–Voigt models."""
         return self.model in LINEAR_MODELS
+
+    def penetration_problem(self, max_penetration_m: float) -> str:
+        """Why a solution with this largest indentation is outside the model ("" if none).
+
+        The force laws are small-indentation contact laws of a ball of radius R: an indentation
+        beyond R has the ball's centre below the plate surface, where no contact law holds."""
+        if max_penetration_m > self.radius_m:
+            return (f"max_penetration_m = {max_penetration_m:.4g}: beyond radius_m = "
+                    f"{self.radius_m:g} (the ball's centre below the surface); the contact law "
+                    f"does not hold at V0 = {self.velocity_m_s:g} m/s")
+        return ""
 
     def law(self) -> HuntCrossley | KelvinVoigt:
         """The contact law: a Hunt–Crossley-family law, or a Kelvin–Voigt spring–damper."""
@@ -173,6 +191,18 @@ class RigidFlexible(_Scenario):
                      "k1_failed_n_per_m", "eps_s_m", "fm_n", "max_time_s"):
             check.positive(name, getattr(self, name))
         check.non_negative("beta_n_per_m3", self.beta_n_per_m3)
+        # Energy: loading along the backbone to Δx_m = εs + d absorbs k1·εs²/2 + k1·εs·d +
+        # kt·d²/2; the elastic unloading (slope k1) returns F_m²/(2·k1). Their difference is
+        # (k1 − kt)·(εs·d + kt·d²/(2·k1)), ≥ 0 for every d only if kt ≤ k1. The mutation
+        # law's drop k1 → k1' at Δx_f releases (k1 − k1')·Δx_f²/2, ≥ 0 only if k1' ≤ k1.
+        if self.local == "elastoplastic" and self.kt_n_per_m > self.k1_n_per_m:
+            raise ValueError(f"kt_n_per_m = {self.kt_n_per_m!r}: must be <= k1_n_per_m "
+                             f"({self.k1_n_per_m!r}); a harder plastic branch than the elastic "
+                             "one makes the elastoplastic unloading create energy")
+        if self.local == "mutation" and self.k1_failed_n_per_m > self.k1_n_per_m:
+            raise ValueError(f"k1_failed_n_per_m = {self.k1_failed_n_per_m!r}: must be <= "
+                             f"k1_n_per_m ({self.k1_n_per_m!r}); a stiffer failed contact "
+                             "makes the failure create energy")
 
     def local_law(self) -> LocalLaw:
         """A fresh local law object (its memory reset)."""

@@ -46,3 +46,11 @@ def assert_escaped_after_whole_contact(rec, scenario) -> None:
     assert got["impacts"] == ref["impacts"]
     for k in ("pulse_width_s", "impulse_ns"):
         assert abs(got[k] - ref[k]) <= 2e-3 * ref[k], (k, got[k], ref[k])
+
+
+@pytest.fixture(autouse=True, scope="session")
+def _private_results_store(tmp_path_factory: pytest.TempPathFactory) -> None:
+    """Commands run by the tests use a results store of their own, never the user's cache."""
+    import os
+
+    os.environ["IMPACTBENCH_STORE"] = str(tmp_path_factory.mktemp("store") / "results.duckdb")

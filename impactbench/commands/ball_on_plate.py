@@ -9,9 +9,11 @@ c = 1.7135e10 N/m^1.5, n = 1.5, b = 0.1 s/m).
 ``--radius`` (or ``--youngs-modulus --poisson``) give mass and Hertz c of the user's ball.
 
 ``reference ball-on-plate --json`` prints one JSON object with exactly the keys
-``restitution, duration_s, peak_force_n, max_penetration_m, energy_loss_fraction`` (SI), or a
-list of such objects, in input order, when several velocities are given (repeated
-``--velocity`` or a comma list).
+``velocity_m_s`` (the input), ``restitution, duration_s, peak_force_n, max_penetration_m,
+energy_loss_fraction`` (SI), ``status`` and ``message``, or a list of such objects, in input
+order, when several velocities are given (repeated ``--velocity`` or a comma list). ``status``
+is ``unsupported`` (with the reason in ``message``) when the indentation exceeds the ball's
+radius, where no contact law holds.
 
 ``sweep ball-on-plate --over velocity --start A --stop B --step H --out FILE`` writes the grid
 A, A+H, …, ≤ B as a table (``.csv`` or ``.parquet`` by extension) with ``velocity_m_s`` and the
@@ -61,6 +63,7 @@ def register(top: argparse._SubParsersAction, groups: dict) -> None:
     s.add_argument("--step", type=number, required=True, metavar="H", help="grid step")
     s.add_argument("--out", type=Path, required=True, metavar="FILE",
                    help="output table: .csv or .parquet")
+    s.add_argument("--yes", action="store_true", help="sweep even over more than 1e7 points")
     add_parameter_flags(s, "ball-on-plate", with_gravity=False)
     s.set_defaults(func=sweep_main)
 
@@ -71,7 +74,7 @@ def reference_main(args: argparse.Namespace) -> int:
 
     velocities = args.velocities or [1.0]
     scenarios = [scenario_from_args("ball-on-plate", args, velocity_m_s=v) for v in velocities]
-    results = [solve(s) for s in scenarios]
+    results = [_with_status(s, solve(s)) for s in scenarios]
     if args.json:
         print_json(results[0] if len(results) == 1 else results)
         return 0
@@ -80,15 +83,28 @@ def reference_main(args: argparse.Namespace) -> int:
                else f"b = {s.damping_s_per_m:g} s/m")
     print(f"{s.model} ball on plate: m = {s.mass_kg:g} kg, c = {s.stiffness:g} N/m^n, "
           f"n = {s.exponent:g}, {damping}")
-    rows = [{"velocity_m_s": v, **r} for v, r in zip(velocities, results, strict=True)]
-    print_table(rows, ("velocity_m_s", *BALL_METRICS), floatfmt=".8g")
+    print_table(results, ("velocity_m_s", *BALL_METRICS, "status"), floatfmt=".8g")
+    for r in results:
+        if r["message"]:
+            print(f"{r['status']}: {r['message']}", file=sys.stderr)
     return 0
 
 
+def _with_status(scenario, metrics: dict) -> dict:
+    """The JSON object of one velocity: the input velocity, the metrics, status and message
+    (``unsupported`` when the indentation exceeds the ball's radius)."""
+    problem = scenario.penetration_problem(metrics["max_penetration_m"])
+    return {"velocity_m_s": scenario.velocity_m_s, **metrics,
+            "status": "unsupported" if problem else "ok", "message": problem}
+
+
 def sweep_main(args: argparse.Namespace) -> int:
+    from impactbench.publish import check_file_target
+
     table_format(args.out)
+    check_file_target(args.out, "out")
     tic = time.perf_counter()
-    velocities = grid(args.start, args.stop, args.step)
+    velocities = grid(args.start, args.stop, args.step, yes=args.yes)
     from impactbench.reference.zoo import sweep
 
     table = sweep(scenario_from_args("ball-on-plate", args), velocities)

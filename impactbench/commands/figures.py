@@ -27,10 +27,13 @@ def write_all(out_dir: Path) -> list[Path]:
 
     matplotlib.use("Agg", force=True)
     from impactbench.figures import FIGURE_MODULES
+    from impactbench.publish import check_dir_target
 
-    if out_dir.exists() and not out_dir.is_dir():
-        raise ValueError(f"out = '{out_dir}': must be a directory")
-    out_dir.mkdir(parents=True, exist_ok=True)
+    check_dir_target(out_dir, "out")
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ValueError(f"out = '{out_dir}': cannot create ({exc.strerror})") from None
     paths: list[Path] = []
     for name in FIGURE_MODULES:
         paths += importlib.import_module(name).write(out_dir)

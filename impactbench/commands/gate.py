@@ -38,6 +38,14 @@ def register(top: argparse._SubParsersAction, groups: dict) -> None:
                    help="only checks whose id contains TEXT (repeatable)")
     p.add_argument("--jobs", type=int, default=2, metavar="N",
                    help="worker processes (default 2; 0 runs in this process)")
+    g = p.add_argument_group("execution and results store")
+    g.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="run on an existing Dask scheduler (default: a local cluster)")
+    g.add_argument("--fresh", action="store_true",
+                   help="ignore stored runs and run every check again")
+    g.add_argument("--store", type=Path, default=None, metavar="FILE",
+                   help="results store (DuckDB); default $IMPACTBENCH_STORE or "
+                   "~/.cache/impactbench/results.duckdb")
     p.set_defaults(func=main)
 
 
@@ -47,8 +55,18 @@ def default_baseline(config: Path) -> Path:
 
 
 def main(args: argparse.Namespace) -> int:
+    from impactbench.publish import check_file_target
+    from impactbench.store import Store, default_path
+
     if args.jobs < 0:
         raise ValueError(f"--jobs = {args.jobs}: must be >= 0")
+    if args.baseline is not None and not args.baseline.is_file() and not args.update_baseline:
+        raise ValueError(f"baseline = '{args.baseline}': no such file (omit --baseline for "
+                         "the default, or add --update-baseline to create it)")
+    if args.junit is not None:
+        check_file_target(args.junit, "junit")
+    if args.update_baseline and args.baseline is not None:
+        check_file_target(args.baseline, "baseline")
     gate_file = gates.load_gates(args.config)
     checks = [c for c in gate_file.checks
               if not args.select or any(s in c.id for s in args.select)]
@@ -63,8 +81,12 @@ def main(args: argparse.Namespace) -> int:
     from impactbench.cliutil import progress_bar
 
     update, close = progress_bar(len(runs), unit="gate run")
-    outcomes = gates.evaluate(checks, baseline, jobs=args.jobs, progress=update)
-    close()
+    try:
+        outcomes = gates.evaluate(checks, baseline, jobs=args.jobs, progress=update,
+                                  store=Store(args.store or default_path()), fresh=args.fresh,
+                                  scheduler=args.scheduler)
+    finally:
+        close()
     if args.update_baseline:
         baseline = gates.updated_baseline(outcomes, baseline)
         gates.save_baseline(baseline_path, baseline)

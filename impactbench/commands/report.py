@@ -1,35 +1,43 @@
-"""``impactbench report``: the default comparison report (the README's first command)."""
+"""``impactbench report``: the default comparison report (the README's first command).
+
+Finished runs come from the results store (see :mod:`impactbench.store`), so a rerun with an
+unchanged config costs only the rendering and an interrupted report resumes; ``--fresh`` runs
+everything again. Missing runs execute on Dask (:mod:`impactbench.cluster`). The folder is
+written atomically under a writer lock (:mod:`impactbench.publish`).
+"""
 
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
 
-from impactbench.engines.registry import ENGINES
+from impactbench.cliutil import add_execution_flags, execution_options
 
 HELP = "run the comparison matrix and write the report (tables, plots, CSV/Parquet)"
 
 
 def register(top: argparse._SubParsersAction, groups: dict) -> None:
     p = top.add_parser("report", help=HELP, description=HELP + ". The default matrix is the "
-                       "packaged config (impactbench/data/default.toml).")
+                       "packaged config (impactbench/data/default.toml). Finished runs are "
+                       "read from the results store; only missing ones run.")
     p.add_argument("--config", type=Path, default=None, metavar="FILE",
                    help="TOML config replacing the default matrix")
     p.add_argument("--out", type=Path, default=Path("reports"), metavar="DIR",
                    help="output folder (default reports/)")
     p.add_argument("--engines", default=None, metavar="LIST",
                    help="comma list restricting the config's engines, e.g. mujoco,drake")
-    p.add_argument("--workers", type=int, default=None, metavar="N",
-                   help="worker processes (default: one per core)")
     p.add_argument("--scenario-file", type=Path, default=None, metavar="FILE",
                    help="TOML [ball_on_plate] scenario fields (e.g. from impactbench "
                    "calibrate) replacing the config's ball parameters")
+    add_execution_flags(p)
     p.set_defaults(func=main)
 
 
 def main(args: argparse.Namespace) -> int:
-    from impactbench import config, report
+    from impactbench import config, publish, report
+    from impactbench.engines.registry import engine_names
 
+    publish.check_dir_target(args.out, "out")
     cfg = config.load(args.config)
     if args.scenario_file is not None:
         from impactbench.scenario_file import load_scenario_file
@@ -42,14 +50,13 @@ def main(args: argparse.Namespace) -> int:
     if args.engines:
         engines = [e.strip() for e in args.engines.split(",") if e.strip()]
         for e in engines:
-            if e not in ENGINES:
-                raise ValueError(f"--engines: {e!r} is not one of {', '.join(ENGINES)}")
-    if args.workers is not None and args.workers < 1:
-        raise ValueError(f"--workers = {args.workers}: must be >= 1")
-    rep = report.build(cfg, args.out, engines=engines, workers=args.workers)
+            if e not in engine_names():
+                raise ValueError(f"--engines: {e!r} is not one of {', '.join(engine_names())}")
+    opts = execution_options(args, cfg)
+    rep = report.build(cfg, args.out, engines=engines, **opts)
     counts = rep.results.drop_duplicates(
         ["study", "scenario", "local", "structure", "velocity_m_s", "engine", "mode",
          "timestep_s"]).status.value_counts().to_dict() if len(rep.results) else {}
     print(f"report written to {args.out}/ ({len(rep.files)} files) in {rep.wall_s:.1f} s; "
-          "runs: " + ", ".join(f"{n} {s}" for s, n in sorted(counts.items())))
+          "runs: " + (", ".join(f"{n} {s}" for s, n in sorted(counts.items())) or "none"))
     return 0

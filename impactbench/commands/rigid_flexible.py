@@ -57,6 +57,7 @@ def register(top: argparse._SubParsersAction, groups: dict) -> None:
                    help="worker processes; default: all cores")
     s.add_argument("--out", type=Path, required=True, metavar="FILE",
                    help="output table: .csv or .parquet")
+    s.add_argument("--yes", action="store_true", help="sweep even over more than 1e7 points")
     s.set_defaults(func=sweep_main)
 
 
@@ -75,13 +76,21 @@ def reference_main(args: argparse.Namespace) -> int:
 
 
 def sweep_main(args: argparse.Namespace) -> int:
+    from impactbench.publish import check_file_target
     from impactbench.reference import two_dof
 
-    values = grid(args.start, args.stop, args.step)
+    table_format(args.out)
+    check_file_target(args.out, "out")
+    combos_n = (1 if args.local else len(LOCAL_LAWS)) * (1 if args.structure
+                                                          else len(STRUCTURAL_LAWS))
+    values = grid(args.start, args.stop, args.step, yes=args.yes, per_value=combos_n)
     field = SWEEP_FIELDS[args.over]
+    # the flags' scenario (not the first grid value): a k1 sweep keeps kt and k1' at their
+    # fractions of this k1, so a valid base stays valid (kt ≤ k1, k1' ≤ k1) at every point
     base = scenario_from_args("rigid-flexible", args, local=args.local or "linear",
-                              structure=args.structure or "linear",
-                              **{field: float(values[0])})
+                              structure=args.structure or "linear")
+    for lo in ((args.local,) if args.local else tuple(LOCAL_LAWS)):
+        base.replace(local=lo)  # validates the energy rules of every swept law
     locals_ = (args.local,) if args.local else tuple(LOCAL_LAWS)
     structures = (args.structure,) if args.structure else tuple(STRUCTURAL_LAWS)
     combos = [(lo, st) for lo in locals_ for st in structures]

@@ -3,9 +3,17 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
-from impactbench.cliutil import key_value, number, print_json, print_table, stdout_to_stderr
+from impactbench.cliutil import (
+    check_cost,
+    key_value,
+    number,
+    print_json,
+    print_table,
+    stdout_to_stderr,
+)
 from impactbench.engines.registry import ENGINES, MODES
 from impactbench.params import add_law_flags, add_parameter_flags, scenario_from_args
 
@@ -40,6 +48,11 @@ def register(top: argparse._SubParsersAction, groups: dict) -> None:
     add_parameter_flags(p, "ball-on-plate")
     add_parameter_flags(p, "rigid-flexible")
     p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.add_argument("--allow-status", default="", metavar="LIST",
+                   help="comma list of non-ok statuses that still exit 0, e.g. "
+                   "max_time,unsupported (default: any status but ok exits 1)")
+    p.add_argument("--yes", action="store_true",
+                   help="run even when the estimate exceeds 1e7 integration steps")
     p.set_defaults(func=main)
 
 
@@ -63,11 +76,23 @@ def main(args: argparse.Namespace) -> int:
         tuned, provenance = load_tuned_settings(args.engine, args.scenario, args.timestep_s,
                                                 args.tuned_file)
         settings = RunSettings(timestep_s=args.timestep_s, tuned=tuned, tuned_for=provenance)
+    allowed = _allowed_statuses(args.allow_status)
+    from impactbench.evaluate import reference_metrics
+    from impactbench.matrix import estimated_steps_of
+
+    reference = reference_metrics(scenario)
+    check_cost(estimated_steps_of(reference, args.timestep_s), f"timestep = {args.timestep_s!r}",
+               args.yes, "integration steps")
     with stdout_to_stderr():
-        out, _ = compare(args.engine, scenario, mode, settings)
+        out, _ = compare(args.engine, scenario, mode, settings, reference)
+    code = 0 if out["status"] == "ok" or out["status"] in allowed else 1
+    if code:
+        print(f"impactbench: run status {out['status']}"
+              + (f" ({out['message']})" if out["message"] else "")
+              + "; exit 1 (--allow-status to accept it)", file=sys.stderr)
     if args.json:
         print_json(out)
-        return 0
+        return code
     print(f"{out['engine']} {out['engine_version']}  mode {out['mode']}  "
           f"timestep {out['timestep_s']} s  status {out['status']}"
           + (f" ({out['message']})" if out["message"] else "")
@@ -76,7 +101,19 @@ def main(args: argparse.Namespace) -> int:
              "rel_error": out["rel_error"][k] if out["resolved"][k] else "not resolved"}
             for k in out["rel_error"]]
     print_table(rows)
-    return 0
+    return code
+
+
+def _allowed_statuses(text: str) -> set[str]:
+    """--allow-status: a comma list of Status names (one-line error for an unknown one)."""
+    from impactbench.reference.record import Status
+
+    names = {s.strip() for s in text.split(",") if s.strip()}
+    valid = [str(s) for s in Status]
+    for name in sorted(names):
+        if name not in valid:
+            raise ValueError(f"allow-status = {name!r}: must be one of {', '.join(valid)}")
+    return names
 
 
 def _check_param_keys(engine: str, params: list[tuple[str, object]]) -> None:

@@ -112,6 +112,12 @@ def main(args: argparse.Namespace) -> int:
     if args.timestep_s is not None:
         check.positive("timestep", args.timestep_s)
     scenario = scenario_from_args("ball-on-plate", args)
+    from impactbench.publish import check_file_target
+
+    tuned_file, plot_file = _paths(args)
+    check_file_target(tuned_file, "out")  # before minutes of tuning, not after
+    if plot_file is not None:
+        check_file_target(plot_file, "plot")
     try:
         _load_quietly(args.engine)
         result = tune(args.engine, scenario, args.velocities_m_s, args.targets, args.weights,
@@ -121,7 +127,6 @@ def main(args: argparse.Namespace) -> int:
     except EngineUnavailable as exc:
         print(f"impactbench: error: {exc}")
         return 1
-    tuned_file, plot_file = _paths(args)
     model = scenario.model + (f" (nominal e = {scenario.nominal_restitution:g})"
                               if scenario.nominal_restitution is not None else "")
     header = (f"impactbench tune: {result.space.engine} ({result.space.variant}) fitted to "

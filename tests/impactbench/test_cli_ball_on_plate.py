@@ -22,11 +22,15 @@ def run(capsys, *argv: str) -> tuple[int, str, str]:
     return code, out, err
 
 
-def test_json_one_velocity_has_exactly_the_five_keys(capsys):
+JSON_KEYS = ["velocity_m_s", *BALL_METRICS, "status", "message"]
+
+
+def test_json_one_velocity_has_the_input_five_metrics_and_status(capsys):
     code, out, _ = run(capsys, "reference", "ball-on-plate", "--velocity", "5", "--json")
     assert code == 0
     obj = json.loads(out)
-    assert list(obj) == list(BALL_METRICS)
+    assert list(obj) == JSON_KEYS
+    assert obj["velocity_m_s"] == 5.0 and obj["status"] == "ok" and obj["message"] == ""
     want = hc.solve(BallOnPlate(velocity_m_s=5.0))
     for key in BALL_METRICS:
         assert obj[key] == pytest.approx(want[key], rel=1e-15)
@@ -39,6 +43,8 @@ def test_json_several_velocities_in_order(capsys):
                          "--velocity", "0.5", "--velocity", "3", "--json")
     rows = json.loads(comma)
     assert rows == json.loads(repeated)
+    assert [(r["velocity_m_s"], r["status"]) for r in rows] == [(2.0, "ok"), (0.5, "ok"),
+                                                                (3.0, "ok")]
     assert [r["max_penetration_m"] for r in rows] == [
         hc.solve(BallOnPlate(velocity_m_s=v))["max_penetration_m"] for v in (2.0, 0.5, 3.0)]
 
@@ -117,4 +123,4 @@ def test_console_script_exit_code():
     good = subprocess.run([sys.executable, "-m", "impactbench.cli", "reference",
                            "ball-on-plate", "--velocity", "1", "--json"], capture_output=True,
                           text=True)
-    assert good.returncode == 0 and list(json.loads(good.stdout)) == list(BALL_METRICS)
+    assert good.returncode == 0 and list(json.loads(good.stdout)) == JSON_KEYS

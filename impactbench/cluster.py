@@ -1,0 +1,110 @@
+"""Execution on ``dask.distributed``: a local cluster of worker processes, or a user's scheduler.
+
+The local cluster binds to loopback only, has no dashboard and silenced logs, one thread per
+worker process (engines are not thread-safe), no memory limit (the nanny must not kill a Drake
+worker for its size) and ``allowed-failures = 1``: a run whose worker dies (segfault, abort)
+is retried once on a fresh worker; if it kills that one too, Dask gives up on it
+(``KilledWorker``) and the caller records it as ``crashed``. ``worker-saturation = 1`` keeps
+one run per worker in flight, so a dying worker takes no innocent queued run with it.
+
+Workers ignore SIGINT: Ctrl-C reaches only this process, which stores what finished, cancels
+the rest and closes the cluster without worker tracebacks.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import os
+import signal
+from collections.abc import Callable, Iterator, Sequence
+from typing import Any
+
+SCHEDULER_ENV = "IMPACTBENCH_SCHEDULER"
+"""Address of an existing Dask scheduler (like ``--scheduler``)."""
+
+DASK_CONFIG = {
+    "distributed.scheduler.allowed-failures": 1,
+    "distributed.scheduler.worker-saturation": 1.0,
+    "distributed.worker.daemon": False,
+    "distributed.admin.system-monitor.gil.enabled": False,
+    "distributed.logging.distributed": "critical",
+}
+
+
+def _ignore_sigint() -> None:
+    """Run on every worker process (also one restarted after a crash)."""
+    import threading
+
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+@contextlib.contextmanager
+def client(workers: int | None = None, scheduler: str | None = None) -> Iterator[Any]:
+    """A Dask client: on ``scheduler`` when given (or ``$IMPACTBENCH_SCHEDULER``), else on
+    a fresh local cluster of ``workers`` processes (default: one per core)."""
+    import dask
+    from distributed import Client, LocalCluster
+
+    scheduler = scheduler or os.environ.get(SCHEDULER_ENV) or None
+    with dask.config.set(DASK_CONFIG):
+        if scheduler:
+            try:
+                c = Client(scheduler, timeout="10s")
+            except OSError as exc:
+                raise ValueError(f"scheduler = {scheduler!r}: cannot connect "
+                                 f"({str(exc).splitlines()[0]})") from None
+            try:
+                yield c
+            finally:
+                c.close()
+            return
+        n = workers or os.cpu_count() or 1
+        # spawned workers inherit an ignored SIGINT; restarted ones get it from _ignore_sigint
+        previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+        try:
+            cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                                   host="127.0.0.1", dashboard_address=None,
+                                   silence_logs=logging.CRITICAL, memory_limit=0)
+            c = Client(cluster)
+            c.register_worker_callbacks(_ignore_sigint)
+        finally:
+            signal.signal(signal.SIGINT, previous)
+        try:
+            yield c
+        finally:
+            with contextlib.suppress(Exception):
+                c.close(timeout=5)
+            with contextlib.suppress(Exception):
+                cluster.close(timeout=5)
+
+
+def run_on_dask(jobs: Sequence[Any], args: Sequence[tuple], *, workers: int | None,
+                scheduler: str | None, on_result: Callable[[Any], None],
+                on_crash: Callable[[Any, str], None]) -> None:
+    """Run ``execute(job, *args)`` of :mod:`impactbench.matrix` for every job; report each
+    result (or crash) as it finishes. A KeyboardInterrupt cancels what is left."""
+    from distributed import as_completed
+    from distributed.scheduler import KilledWorker
+
+    from impactbench.matrix import execute
+
+    n = min(workers or os.cpu_count() or 1, len(jobs))
+    with client(n, scheduler) as c:
+        futures = {}
+        for job, extra in zip(jobs, args, strict=True):
+            futures[c.submit(execute, job, *extra, pure=False, key=f"run-{job.id}")] = job
+        try:
+            for fut in as_completed(futures):
+                job = futures[fut]
+                try:
+                    on_result(fut.result())
+                except KilledWorker:
+                    on_crash(job, "the engine's worker process died (twice)")
+                except Exception as exc:  # a bug in an adapter must not lose the rest
+                    on_crash(job, f"{type(exc).__name__}: {exc}")
+        except KeyboardInterrupt:
+            with contextlib.suppress(Exception):
+                c.cancel(list(futures))
+            raise

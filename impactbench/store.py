@@ -1,0 +1,356 @@
+"""The results store: finished engine runs kept in one DuckDB file, so nothing is run twice.
+
+One row per run and metric (table ``results``, for queries and ``impactbench history``), the
+run's whole comparison object as JSON (table ``runs``, what a rerun reads back) and the thinned
+force history of runs that feed plots (table ``histories``). A run is keyed by
+:func:`run_key`, a SHA-256 of everything that determines it: the scenario's physical
+parameters (SI), the mode, the run settings (timestep, tuned parameters, custom engine
+parameters, options), the engine and its installed version, and impactbench's version with a
+hash of its source (so an edited adapter or metric never serves a stale result). ``report``
+and ``gate`` look runs up here and run only what is missing; an interrupted report resumes
+from what it stored. (Reference-solver sweeps are not stored: the closed form and the
+compiled 2-DOF kernel recompute a point faster than a lookup.)
+
+Default location: ``$IMPACTBENCH_STORE``, else ``$XDG_CACHE_HOME/impactbench/results.duckdb``
+(``~/.cache/impactbench/results.duckdb``): a per-user cache shared by every report folder, never
+inside a committed report. ``crashed`` runs are not stored (a dying worker may be transient:
+they rerun next time); every other status is.
+
+DuckDB lets one process hold the file at a time, so the store opens it per lookup or write
+and retries for a few seconds when another impactbench process has it open.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import time
+from collections.abc import Iterable, Mapping
+from dataclasses import asdict
+from functools import cache
+from pathlib import Path
+from typing import Any
+
+STORE_ENV = "IMPACTBENCH_STORE"
+LOCK_WAIT_S = 30.0
+"""How long to wait for another process to release the store file."""
+
+_ENGINE_DISTRIBUTIONS = {"mujoco": ("mujoco", "mujoco"), "pybullet": ("pybullet", "pybullet"),
+                         "pymunk": ("pymunk", "pymunk"), "drake": ("drake", "pydrake")}
+"""engine → (distribution, top-level module)."""
+
+_SCHEMA = """
+CREATE TABLE IF NOT EXISTS results (
+    run_key VARCHAR NOT NULL,
+    metric VARCHAR NOT NULL,
+    value DOUBLE,
+    reference DOUBLE,
+    rel_error DOUBLE,
+    not_comparable VARCHAR,
+    status VARCHAR NOT NULL,
+    message VARCHAR,
+    engine VARCHAR NOT NULL,
+    engine_version VARCHAR,
+    mode VARCHAR NOT NULL,
+    scenario VARCHAR NOT NULL,
+    local VARCHAR,
+    structure VARCHAR,
+    velocity_m_s DOUBLE,
+    timestep_s DOUBLE,
+    wall_s DOUBLE,
+    impactbench_version VARCHAR NOT NULL,
+    inputs VARCHAR NOT NULL,
+    stored_at DOUBLE NOT NULL,
+    PRIMARY KEY (run_key, metric)
+);
+CREATE TABLE IF NOT EXISTS runs (
+    run_key VARCHAR PRIMARY KEY,
+    run VARCHAR NOT NULL
+);
+CREATE TABLE IF NOT EXISTS histories (
+    run_key VARCHAR PRIMARY KEY,
+    time_s DOUBLE[],
+    normal_force_n DOUBLE[],
+    penetration_m DOUBLE[]
+);
+"""
+HISTORY_KEYS = ("time_s", "normal_force_n", "penetration_m")
+
+
+def default_path() -> Path:
+    """``$IMPACTBENCH_STORE``, else the per-user cache ``…/impactbench/results.duckdb``."""
+    if os.environ.get(STORE_ENV):
+        return Path(os.environ[STORE_ENV]).expanduser()
+    cache_home = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(cache_home) / "impactbench" / "results.duckdb"
+
+
+@cache
+def impactbench_version() -> str:
+    """``<release>+<source hash>``: the package version and a hash of every Python source
+    file of impactbench (suite, reference solvers, adapters). Any code change is a new
+    version, so the store never serves a result an edited adapter would not give."""
+    from importlib import metadata
+
+    import impactbench
+    import impactbench.engines
+    import impactbench.reference
+
+    try:
+        release = metadata.version("impactbench")
+    except metadata.PackageNotFoundError:
+        release = "0+unknown"
+    digest = hashlib.sha256()
+    for package in (impactbench, impactbench.reference, impactbench.engines):
+        root = Path(package.__file__).parent
+        for path in sorted(root.rglob("*.py")):
+            digest.update(str(path.relative_to(root)).encode())
+            digest.update(path.read_bytes())
+    return f"{release}+{digest.hexdigest()[:10]}"
+
+
+@cache
+def engine_version(engine: str) -> str:
+    """The installed version of ``engine`` without starting it (package metadata); a plug-in
+    adapter's own ``version()``; ``not installed`` when its package is missing."""
+
+    from impactbench.engines.base import DISABLE_ENV, EngineUnavailable, get_adapter
+
+    disabled = {x.strip() for x in os.environ.get(DISABLE_ENV, "").split(",")}
+    if engine in disabled:
+        return "disabled"
+    if engine_is_builtin(engine):
+        version = _installed_version(*_ENGINE_DISTRIBUTIONS[engine])
+        if version is not None:
+            return version
+    try:
+        from impactbench.cliutil import stdout_to_stderr
+
+        with stdout_to_stderr():
+            return get_adapter(engine).version()
+    except (EngineUnavailable, ImportError):
+        return "not installed"
+
+
+def _installed_version(dist: str, module: str) -> str | None:
+    """The distribution's version when ``module`` would be imported from that distribution;
+    None when unsure (e.g. another module of that name shadows it on ``sys.path``)."""
+    import importlib.util
+    from importlib import metadata
+
+    try:
+        version = metadata.version(dist)
+        spec = importlib.util.find_spec(module)
+        root = Path(metadata.distribution(dist).locate_file("")).resolve()
+    except (metadata.PackageNotFoundError, ImportError, ValueError):
+        return None
+    if spec is None or not spec.origin:
+        return None
+    return version if Path(spec.origin).resolve().is_relative_to(root) else None
+
+
+def engine_is_builtin(engine: str) -> bool:
+    """True when ``engine`` is one of the packaged adapters (not replaced by a plug-in)."""
+    from impactbench.engines.base import ENGINES, _registry
+
+    return ENGINES.get(engine) is not None and _registry().get(engine) == ENGINES[engine]
+
+
+def _canonical(value: Any) -> Any:
+    """JSON-stable form: floats by repr (exact), NaN/inf as strings, mappings sorted."""
+    if isinstance(value, float):
+        return repr(value)
+    if isinstance(value, Mapping):
+        return {str(k): _canonical(v) for k, v in sorted(value.items(), key=lambda kv: str(kv[0]))}
+    if isinstance(value, (list, tuple)):
+        return [_canonical(v) for v in value]
+    if hasattr(value, "item"):
+        return _canonical(value.item())
+    return value
+
+
+def run_inputs(engine: str, scenario_name: str, scenario: Any, mode: str,
+               settings: Any) -> dict[str, Any]:
+    """Everything that determines one run, as a JSON-able dict (hashed by :func:`run_key`).
+
+    ``settings`` is the :class:`~impactbench.engines.base.RunSettings` the run gets: its every
+    field (timestep_s, max_time_s, tuned, params, options, and whatever is added later) is in.
+    """
+    return _canonical({
+        "engine": engine,
+        "engine_version": engine_version(engine),
+        "impactbench_version": impactbench_version(),
+        "scenario": scenario_name,
+        "physics": scenario.to_dict(),
+        "mode": mode,
+        "settings": asdict(settings),
+    })
+
+
+def run_key(inputs: Mapping[str, Any]) -> str:
+    """SHA-256 (32 hex digits) of the canonical JSON of :func:`run_inputs`."""
+    blob = json.dumps(inputs, sort_keys=True, separators=(",", ":")).encode()
+    return hashlib.sha256(blob).hexdigest()[:32]
+
+
+def _float(value: Any) -> float | None:
+    if value is None:
+        return None
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        return None
+
+
+def _plain(value: Any) -> Any:
+    """JSON fallback for numpy scalars and other odd values in a run object."""
+    if hasattr(value, "item"):
+        return value.item()
+    return str(value)
+
+
+class Store:
+    """A DuckDB results file. ``get`` and ``put`` open it briefly (one process at a time)."""
+
+    def __init__(self, path: str | Path) -> None:
+        self.path = Path(path)
+
+    def _connect(self, read_only: bool = False):
+        import duckdb
+
+        if read_only and not self.path.exists():
+            return None
+        try:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise ValueError(f"store = '{self.path}': cannot create its folder "
+                             f"({exc.strerror})") from None
+        deadline = time.monotonic() + LOCK_WAIT_S
+        while True:
+            try:
+                con = duckdb.connect(str(self.path), read_only=read_only)
+                break
+            except duckdb.IOException as exc:
+                if "lock" not in str(exc).lower() or time.monotonic() > deadline:
+                    raise ValueError(f"store = '{self.path}': cannot open ({exc})".splitlines()
+                                     [0]) from None
+                time.sleep(0.1)
+            except duckdb.Error as exc:
+                raise ValueError(f"store = '{self.path}': not a results store "
+                                 f"({str(exc).splitlines()[0]})") from None
+        if not read_only:
+            con.execute(_SCHEMA)
+        return con
+
+    def get(self, keys: Iterable[str], *, with_history: Iterable[str] = ()
+            ) -> dict[str, tuple[dict[str, Any], dict[str, Any]]]:
+        """Stored runs among ``keys``: key → (run fields, history). A key in
+        ``with_history`` counts as stored only when its history is stored too."""
+        import numpy as np
+
+        keys = list(dict.fromkeys(keys))
+        need_history = set(with_history)
+        if not keys:
+            return {}
+        con = self._connect(read_only=True)
+        if con is None:
+            return {}
+        try:
+            tables = {r[0] for r in con.execute("SELECT table_name FROM information_schema"
+                                                ".tables").fetchall()}
+            if "runs" not in tables:
+                return {}
+            con.execute("CREATE TEMP TABLE wanted (run_key VARCHAR)")
+            con.executemany("INSERT INTO wanted VALUES (?)", [(k,) for k in keys])
+            rows = con.execute("SELECT r.run_key, run FROM runs r JOIN wanted USING (run_key)"
+                               ).fetchall()
+            hist_rows = con.execute(
+                "SELECT h.run_key, time_s, normal_force_n, penetration_m FROM histories h "
+                "JOIN wanted USING (run_key)").fetchall() if need_history else []
+        finally:
+            con.close()
+        histories = {key: {name: np.asarray(arr, dtype=float)
+                           for name, arr in zip(HISTORY_KEYS, arrays, strict=True)}
+                     for key, *arrays in hist_rows}
+        out = {}
+        for key, run in rows:
+            if key in need_history and key not in histories:
+                continue
+            out[key] = (json.loads(run), histories.get(key, {}))
+        return out
+
+    def put(self, entries: Iterable[tuple[str, Mapping[str, Any], Mapping[str, Any],
+                                          Mapping[str, Any], Mapping[str, Any]]]) -> int:
+        """Store runs: (key, inputs, job fields, run object, history). ``crashed`` runs are
+        skipped. Returns the number of runs written."""
+        import pyarrow as pa
+
+        rows: list[dict[str, Any]] = []
+        runs: list[dict[str, Any]] = []
+        hist: list[dict[str, Any]] = []
+        now = time.time()
+        for key, inputs, job, run, history in entries:
+            if run["status"] == "crashed":
+                continue
+            skip = run.get("not_comparable", {})
+            runs.append({"run_key": key, "run": json.dumps(
+                {k: v for k, v in run.items() if k != "reference"}, default=_plain)})
+            for metric, rel in run["rel_error"].items():
+                rows.append({
+                    "run_key": key, "metric": metric, "value": _float(run.get(metric)),
+                    "reference": _float(run.get("reference", {}).get(metric)),
+                    "rel_error": _float(rel), "not_comparable": skip.get(metric),
+                    "status": run["status"], "message": run.get("message", ""),
+                    "engine": job["engine"], "engine_version": run.get("engine_version", ""),
+                    "mode": job["mode"], "scenario": job["scenario"],
+                    "local": job.get("local", ""), "structure": job.get("structure", ""),
+                    "velocity_m_s": job["velocity_m_s"],
+                    "timestep_s": _float(run.get("timestep_s")),
+                    "wall_s": _float(run.get("wall_s")),
+                    "impactbench_version": inputs["impactbench_version"],
+                    "inputs": json.dumps(inputs, sort_keys=True), "stored_at": now,
+                })
+            if history:
+                hist.append({"run_key": key, **{k: [float(x) for x in history[k]]
+                                                for k in HISTORY_KEYS}})
+        if not rows:
+            return 0
+        results_table = pa.Table.from_pylist(rows)  # noqa: F841  (read by DuckDB by name)
+        con = self._connect()
+        try:
+            con.execute("BEGIN")
+            con.execute("INSERT OR REPLACE INTO results BY NAME SELECT * FROM results_table")
+            runs_table = pa.Table.from_pylist(runs)  # noqa: F841
+            con.execute("INSERT OR REPLACE INTO runs BY NAME SELECT * FROM runs_table")
+            if hist:
+                histories_table = pa.Table.from_pylist(  # noqa: F841
+                    hist, schema=pa.schema([("run_key", pa.string())]
+                                           + [(k, pa.list_(pa.float64())) for k in HISTORY_KEYS]))
+                con.execute("INSERT OR REPLACE INTO histories BY NAME "
+                            "SELECT * FROM histories_table")
+            con.execute("COMMIT")
+        finally:
+            con.close()
+        return len({r["run_key"] for r in rows})
+
+    def frame(self, engine: str | None = None):
+        """Every stored row (one per run and metric) as a DataFrame, optionally one engine's."""
+        import pandas as pd
+
+        con = self._connect(read_only=True)
+        if con is None:
+            return pd.DataFrame()
+        try:
+            tables = {r[0] for r in con.execute("SELECT table_name FROM information_schema"
+                                                ".tables").fetchall()}
+            if "results" not in tables:
+                return pd.DataFrame()
+            query = "SELECT * EXCLUDE (inputs) FROM results"
+            params: list[Any] = []
+            if engine:
+                query += " WHERE engine = ?"
+                params.append(engine)
+            return con.execute(query, params).df()
+        finally:
+            con.close()

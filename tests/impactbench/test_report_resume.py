@@ -1,0 +1,113 @@
+"""A report is all or nothing: Ctrl-C keeps the previous report and resumes from the store;
+a second writer is refused. Real engines, a real `impactbench report` subprocess."""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from conftest import require_engine
+
+from impactbench import publish
+from impactbench.store import Store
+
+SMALL = """
+[report]
+engines = ["mujoco"]
+modes = ["injected"]
+[ball_on_plate]
+velocities_m_s = [1.0]
+"""
+# the same plus slow runs (steps of a few ns): plenty of time to interrupt it mid-matrix
+SLOW = SMALL + """
+[work_precision]
+velocity_m_s = 1.0
+timesteps_s = [4e-9, 3e-9, 2e-9, 1.5e-9]
+modes = ["injected"]
+"""
+
+
+def report(config: Path, out: Path, env: dict[str, str], **kw) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, "-m", "impactbench.cli", "report", "--config",
+                             str(config), "--out", str(out), "--workers", "2"], env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, **kw)
+
+
+def stored_runs(path: Path) -> int:
+    try:
+        frame = Store(path).frame()
+    except ValueError:  # the writer holds the file right now
+        return 0
+    return 0 if frame.empty else frame.run_key.nunique()
+
+
+def test_ctrl_c_keeps_the_previous_report_and_the_rerun_resumes(tmp_path: Path) -> None:
+    require_engine("mujoco")
+    env = {**os.environ, "IMPACTBENCH_STORE": str(tmp_path / "store.duckdb")}
+    small, slow, out = tmp_path / "small.toml", tmp_path / "slow.toml", tmp_path / "rep"
+    small.write_text(SMALL)
+    slow.write_text(SLOW)
+    first = report(small, out, env)
+    assert first.wait(300) == 0, first.communicate()[1]
+    before = {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    assert Path("README.md") in before and stored_runs(tmp_path / "store.duckdb") == 1
+
+    second = report(slow, out, env, start_new_session=True)
+    deadline = time.monotonic() + 240
+    while stored_runs(tmp_path / "store.duckdb") < 2 and time.monotonic() < deadline:
+        assert second.poll() is None, second.communicate()[1]
+        time.sleep(0.2)
+    os.killpg(second.pid, signal.SIGINT)  # what Ctrl-C does: the whole process group
+    _, err = second.communicate(timeout=120)
+    assert second.returncode == 130, err
+    assert "Traceback" not in err and "KeyboardInterrupt" not in err, err
+    line = re.search(r"interrupted; (\d+) of (\d+) runs stored; rerun to resume", err)
+    assert line, err
+    stored, total = map(int, line.groups())
+    assert 2 <= stored < total == 5
+    after = {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    assert after == before  # the previous report, byte for byte
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["rep", "slow.toml", "small.toml",
+                                                          "store.duckdb"]
+
+    third = report(slow, out, env)
+    assert third.wait(600) == 0, third.communicate()[1]
+    meta = json.loads((out / "metadata.json").read_text())
+    assert sum(r["stored"] for r in meta["runs"]) >= stored
+    assert len(meta["runs"]) == total
+
+
+def test_a_second_writer_is_refused(tmp_path: Path) -> None:
+    config = tmp_path / "small.toml"
+    config.write_text(SMALL)
+    out = tmp_path / "rep"
+    env = {**os.environ, "IMPACTBENCH_STORE": str(tmp_path / "store.duckdb")}
+    with publish.writer_lock(out):
+        done = report(config, out, env)
+        _, err = done.communicate(timeout=120)
+    assert done.returncode == 2
+    assert err.count("\n") == 1 and "another impactbench is writing it" in err
+    assert not out.exists()
+
+
+def test_a_failed_write_leaves_the_folder_untouched(tmp_path: Path) -> None:
+    out = tmp_path / "rep"
+    (out / "figures").mkdir(parents=True)
+    (out / "README.md").write_text("old")
+    (out / "figures" / "hc_paper.png").write_text("kept")
+    with pytest.raises(RuntimeError), publish.staged(out) as stage:
+        (stage / "README.md").write_text("new")
+        raise RuntimeError("renderer failed")
+    assert (out / "README.md").read_text() == "old"
+    with publish.staged(out, lambda rel: rel.name == "README.md") as stage:
+        (stage / "README.md").write_text("new")
+    assert (out / "README.md").read_text() == "new"
+    assert (out / "figures" / "hc_paper.png").read_text() == "kept"  # not the writer's: kept
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["rep"]

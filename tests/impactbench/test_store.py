@@ -1,0 +1,93 @@
+"""The results store: what is stored is served back unchanged, and the key sees every input."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pandas as pd
+import pytest
+from conftest import require_engine
+from impactbench.engines.base import RunSettings
+from impactbench.reference.scenarios import BallOnPlate
+
+from impactbench import store as store_mod
+from impactbench.matrix import Job, run_jobs, tidy
+
+JOBS = [Job("matrix", "pymunk", "ball-on-plate", "injected", 1.0, 1e-5, keep_history=True),
+        Job("matrix", "pymunk", "rigid-flexible", "injected", 2.0, 1e-4, (), "linear", "linear",
+            keep_history=True),
+        Job("work_precision", "pymunk", "ball-on-plate", "native", 1.0, 1e-5)]
+
+
+@pytest.fixture(scope="module")
+def stored(tmp_path_factory: pytest.TempPathFactory):
+    require_engine("pymunk")
+    st = store_mod.Store(tmp_path_factory.mktemp("store") / "r.duckdb")
+    first = run_jobs(JOBS, workers=0, store=st)
+    return st, first, run_jobs(JOBS, workers=0, store=st)
+
+
+def test_a_rerun_is_served_from_the_store_unchanged(stored) -> None:
+    _, first, again = stored
+    assert not any(r.cached for r in first) and all(r.cached for r in again)
+    pd.testing.assert_frame_equal(pd.DataFrame(tidy(first)), pd.DataFrame(tidy(again)))
+    for a, b in zip(first, again, strict=True):
+        assert a.history.keys() == b.history.keys()
+        for k in a.history:
+            assert (a.history[k] == b.history[k]).all()
+        assert a.run.keys() == b.run.keys()
+
+
+def test_one_row_per_run_and_metric(stored) -> None:
+    st, first, _ = stored
+    frame = st.frame()
+    assert len(frame) == sum(len(r.run["rel_error"]) for r in first)
+    assert frame.run_key.nunique() == len(JOBS)
+    assert set(st.frame("pymunk").engine) == {"pymunk"} and st.frame("mujoco").empty
+
+
+def test_fresh_runs_again(stored) -> None:
+    st, *_ = stored
+    assert not any(r.cached for r in run_jobs(JOBS[:1], workers=0, store=st, fresh=True))
+
+
+def test_a_history_is_required_where_plots_need_it(stored) -> None:
+    st, *_ = stored  # the work-precision run has no history stored: a plotting job reruns
+    job = Job("matrix", "pymunk", "ball-on-plate", "native", 1.0, 1e-5, keep_history=True)
+    assert not run_jobs([job], workers=0, store=st)[0].cached
+
+
+def test_the_key_sees_every_input() -> None:
+    ball = BallOnPlate(velocity_m_s=1.0)
+
+    def key(scenario=ball, mode="native", **settings) -> str:
+        return store_mod.run_key(store_mod.run_inputs("pymunk", "ball-on-plate", scenario, mode,
+                                                      RunSettings(**settings)))
+
+    base = key(timestep_s=1e-6)
+    assert base == key(timestep_s=1e-6)
+    variants = [key(timestep_s=2e-6), key(mode="injected", timestep_s=1e-6),
+                key(scenario=ball.replace(damping_s_per_m=0.2), timestep_s=1e-6),
+                key(timestep_s=1e-6, params={"elasticity": 0.5}),
+                key(timestep_s=1e-6, tuned={"elasticity": 0.5}),
+                key(timestep_s=1e-6, options={"integrator": "x"})]
+    assert len({base, *variants}) == 1 + len(variants)
+    inputs = store_mod.run_inputs("pymunk", "ball-on-plate", ball, "native", RunSettings())
+    assert inputs["impactbench_version"] == store_mod.impactbench_version()
+    assert "+" in inputs["impactbench_version"]
+
+
+def test_crashed_runs_are_not_stored(tmp_path: Path) -> None:
+    st = store_mod.Store(tmp_path / "r.duckdb")
+    run = {"status": "crashed", "message": "died", "rel_error": {"restitution": math.nan}}
+    job = {"engine": "x", "mode": "native", "scenario": "ball-on-plate", "velocity_m_s": 1.0}
+    assert st.put([("k", {"impactbench_version": "v"}, job, run, {})]) == 0
+    assert st.get(["k"]) == {}
+
+
+def test_a_file_that_is_no_store_is_one_line(tmp_path: Path) -> None:
+    bad = tmp_path / "bad.duckdb"
+    bad.write_text("not a database")
+    with pytest.raises(ValueError, match=r"^store = .*bad\.duckdb"):
+        store_mod.Store(bad).get(["k"])
