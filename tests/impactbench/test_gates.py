@@ -274,4 +274,8 @@ def test_shipped_gates_cover_native_modes_and_rigid_flexible_beyond_the_base() -
     assert len(beyond - {None}) >= 1
     assert {r.local for r in runs if r.scenario == "rigid-flexible"} == {
         "linear", "elastoplastic", "mutation"}
+    # issue 16 part 1: the light, soft body 2 with its short separations and re-contacts
+    light = {r.velocity_m_s for r in runs if r.local == "elastoplastic"
+             and dict(r.parameters) == {"m2_kg": 0.3, "k2_n_per_m": 1e3}}
+    assert light == {100.0, 300.0}
     assert all(c.id in baseline for c in parsed.checks)  # the baseline is regenerated
