@@ -14,8 +14,8 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 report: $(STAMP)
-	$(BIN)/impactbench report
 	$(BIN)/impactbench figures
+	$(BIN)/impactbench report
 
 test: $(STAMP)
 	$(BIN)/ruff check .

@@ -40,6 +40,13 @@ ROUND_OFF = 1e-10
 History = Mapping[str, np.ndarray]
 
 
+def _order(engine: str, mode: str) -> tuple:
+    """Legend order: engines as in :data:`ENGINE_COLORS`, modes as in :data:`MODE_ORDER`."""
+    engines = list(ENGINE_COLORS)
+    return (engines.index(engine) if engine in engines else 99, engine,
+            MODE_ORDER.index(mode) if mode in MODE_ORDER else 99, mode)
+
+
 def _title(ax, title: str, how: str) -> None:
     """Title plus a smaller wrapped line saying modes, timesteps and velocities."""
     sub = "\n".join(textwrap.wrap(how, 95))
@@ -82,9 +89,7 @@ def force_time(histories: Mapping[tuple[str, str], History], reference: History,
     if ref is not None:
         ax.plot(ref[0] / time_unit, ref[1], color="black", lw=2.2, alpha=0.6, label="reference")
         curves.append(ref[:2])
-    for (engine, mode), h in sorted(histories.items(),
-                                    key=lambda kv: (kv[0][0], MODE_ORDER.index(kv[0][1])
-                                                    if kv[0][1] in MODE_ORDER else 9)):
+    for (engine, mode), h in sorted(histories.items(), key=lambda kv: _order(*kv[0])):
         a = _aligned(h)
         if a is None:
             continue
@@ -110,7 +115,7 @@ def hysteresis(histories: Mapping[tuple[str, str], History], reference: History,
         m = reference["normal_force_n"] > 0
         ax.plot(reference["penetration_m"][m] * 1e6, reference["normal_force_n"][m],
                 color="black", lw=2.2, alpha=0.6, label="reference")
-    for (engine, mode), h in sorted(histories.items()):
+    for (engine, mode), h in sorted(histories.items(), key=lambda kv: _order(*kv[0])):
         if not h:
             continue
         m = h["normal_force_n"] > 0
@@ -187,9 +192,7 @@ def error_heatmap(df: pd.DataFrame, scenario: str, metric_names: tuple[str, ...]
     rows["row"] = rows.engine + " " + rows["mode"]
     order = rows.sort_values(["local", "structure", "velocity_m_s"])
     cols = list(dict.fromkeys(order.col))
-    mode_rank = {m: i for i, m in enumerate(MODE_ORDER)}
-    index = sorted(rows.row.unique(), key=lambda r: (r.split()[0], mode_rank.get(
-        r.split()[-1], 9)))
+    index = sorted(rows.row.unique(), key=lambda r: _order(*r.split(" ", 1)))
     err = np.abs(pd.to_numeric(rows.rel_error, errors="coerce").to_numpy(dtype=float))
     finite = err[np.isfinite(err) & (err > 0) & (rows.status == "ok").to_numpy()]
     lo, hi = (float(finite.min()), float(finite.max())) if finite.size else (1e-3, 1e-1)

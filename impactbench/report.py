@@ -114,7 +114,9 @@ def _figures(ctx: ReportContext) -> None:
     for r in drawable:
         groups.setdefault(r.job.reference_key, []).append(r)
     ball_loops = []
-    for key, runs in sorted(groups.items(), key=lambda kv: str(kv[0])):
+    # by scenario, law pair, then velocity (numerically)
+    for key, runs in sorted(groups.items(), key=lambda kv: (kv[0][0], kv[0][2], kv[0][3],
+                                                           kv[0][1])):
         scenario, v, local, structure, params = key
         sc = SCENARIO_CLASSES[scenario](**dict(params), velocity_m_s=v,
                                         **({"local": local, "structure": structure}

@@ -134,11 +134,12 @@ class Section:
     data: Callable[[ReportContext], dict[str, Any] | None]
 
 
-_INLINE = re.compile(r"\*\*(.+?)\*\*|`([^`]+)`|\[([^\]]+)\]\(([^)\s]+)\)")
+_INLINE = re.compile(r"\*\*(.+?)\*\*|`([^`]+)`|\[([^\]]+)\]\(([^)\s]+)\)"
+                     r"|(?<![\w*])\*([^*\s](?:[^*]*[^*\s])?)\*(?![\w*])")
 
 
 def inline_html(text: Any) -> str:
-    """Inline Markdown (**bold**, `code`, [text](url)) to escaped HTML."""
+    """Inline Markdown (**bold**, *emphasis*, `code`, [text](url)) to escaped HTML."""
     out, pos, s = [], 0, str(text)
     for m in _INLINE.finditer(s):
         out.append(html.escape(s[pos:m.start()]))
@@ -146,8 +147,10 @@ def inline_html(text: Any) -> str:
             out.append(f"<b>{inline_html(m.group(1))}</b>")
         elif m.group(2) is not None:
             out.append(f"<code>{html.escape(m.group(2))}</code>")
-        else:
+        elif m.group(3) is not None:
             out.append(f'<a href="{html.escape(m.group(4))}">{inline_html(m.group(3))}</a>')
+        else:
+            out.append(f"<em>{inline_html(m.group(5))}</em>")
         pos = m.end()
     out.append(html.escape(s[pos:]))
     return "".join(out)

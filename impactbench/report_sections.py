@@ -320,7 +320,7 @@ def interpretation(df: pd.DataFrame, engine: str) -> str:
         inj_w = max((abs(worst(inj, m)[0]) for m in names), default=math.nan)
         nat_w = max((abs(worst(nat, m)[0]) for m in names), default=math.nan)
         if len(inj):
-            parts.append(f"{label}, injected mode (the reference law stepped by {engine} at "
+            parts.append(f"{label}, injected mode (the reference law integrated by {engine} at "
                          f"{timestep_text(inj)}): worst errors "
                          f"{_worst_text(inj, names) or 'none measured'} — the time stepping "
                          f"is {_judge(inj_w)}.")
@@ -393,10 +393,17 @@ def failed_runs(ctx: ReportContext) -> dict[str, Any] | None:
             "count": len(runs)}
 
 
+def parameter_table(rows: list[list[Cell]]) -> Table:
+    return Table(["parameter", "value", "meaning"], rows, text_columns=2, prose_columns=1)
+
+
 PARAMETER_TEXT = {
     "velocity_m_s": "impact velocity (m/s)", "radius_m": "ball radius (m), engines' geometry",
     "gravity_m_s2": "gravity (m/s²), engines only", "local": "local contact law",
     "structure": "structural law", "max_time_s": "time cap of a run (s)",
+    "model": "contact model of the ball (see Contact models)",
+    "nominal_restitution": "nominal restitution e the model's damping is set from (— : the "
+                           "damping b is given directly)",
 }
 
 
@@ -416,8 +423,9 @@ def parameters(ctx: ReportContext) -> dict[str, Any] | None:
                 continue
             text = flags.get(name) or PARAMETER_TEXT.get(name, "")
             changed = " (set by the config)" if name in sm.parameters else ""
-            rows.append([Cell(f"`{name}`"), Cell(f"{value:g}" if isinstance(value, float)
-                                                  else str(value)), Cell(text + changed)])
+            shown = "—" if value is None else f"{value:g}" if isinstance(value, float) \
+                else str(value)
+            rows.append([Cell(f"`{name}`"), Cell(shown), Cell(text + changed)])
         rows.append([Cell("`velocities_m_s`"),
                      Cell(", ".join(f"{v:g}" for v in sm.velocities_m_s)),
                      Cell("impact velocities of the matrix (m/s)")])
@@ -429,7 +437,7 @@ def parameters(ctx: ReportContext) -> dict[str, Any] | None:
             rows.append([Cell(f"`timestep_s.{engine}`"), Cell(f"{dt:g}"),
                          Cell("integration step (s)")])
         out.append({"title": TITLES[sm.name],
-                    "table": Table(["parameter", "value", "meaning"], rows, prose_columns=1)})
+                    "table": parameter_table(rows)})
     wp = ctx.cfg.work_precision
     if wp is not None:
         rows = [[Cell("`velocity_m_s`"), Cell(f"{wp.velocity_m_s:g}"), Cell("ball V0 (m/s)")],
@@ -437,7 +445,7 @@ def parameters(ctx: ReportContext) -> dict[str, Any] | None:
                  Cell("integration steps (s)")],
                 [Cell("`modes`"), Cell(", ".join(wp.modes)), Cell("modes run")]]
         out.append({"title": "Work–precision",
-                    "table": Table(["parameter", "value", "meaning"], rows, prose_columns=1)})
+                    "table": parameter_table(rows)})
     return {"scenarios": out} if out else None
 
 
@@ -498,6 +506,24 @@ def paper_caption(stem: str) -> str | None:
     return None
 
 
+def tuning_caption(engine: str) -> str:
+    """What ``tune_<engine>.png`` shows, with the mode, timestep and velocities of the packaged
+    tuned file it was written with (``impactbench tune --write-default``)."""
+    from impactbench.tuned import load_tuned_file, tuned_path
+
+    text = (f"Tuning residuals, {engine}, ball on plate: relative error per velocity and "
+            "metric, closed-form start against the fit")
+    try:
+        prov = (load_tuned_file(tuned_path(engine, "ball-on-plate")) or {}).get("provenance", {})
+    except ValueError:
+        prov = {}
+    if prov:
+        v = ", ".join(f"{x:g}" for x in prov.get("velocities_m_s", []))
+        text += (f"; mode tuned ({prov.get('parameter_set', '')}), "
+                 f"dt = {prov.get('timestep_s', math.nan):g} s, V0 = {v} m/s")
+    return text
+
+
 def figure_index(ctx: ReportContext) -> dict[str, Any]:
     """Every figure of the report folder: this report's plots, the papers', the tuning plots."""
     own = [{"path": f.path, "caption": f.caption} for f in ctx.figures]
@@ -508,8 +534,7 @@ def figure_index(ctx: ReportContext) -> dict[str, Any]:
             paper.append({"path": path, "caption": caption})
         elif p.stem.startswith("tune_"):
             engine = p.stem.removeprefix("tune_")
-            tuning.append({"path": path, "caption": f"Tuning residuals, {engine}: relative "
-                           "error per velocity before and after the fit (ball on plate)"})
+            tuning.append({"path": path, "caption": tuning_caption(engine)})
     def links(figs: list[dict[str, str]]) -> list[str]:
         return [f"[{f['caption']}]({f['path']})" for f in figs]
 
