@@ -37,8 +37,9 @@ a third of a bare pymunk step):
   solver's.
 
 Ball-on-plate: a circle (radius R, mass m, infinite moment: friction is 0 and it must not spin)
-moving along −y onto a static segment at y = 0, starting 2.5 steps of free flight away;
-penetration x = R − y. Gravity ``scenario.gravity_m_s2`` acts along −y.
+moving along −y onto a static thick segment (radius 0.5 m, core at y = −0.5 m, so its top face
+is y = 0: a step as long as 1/60 s cannot carry the ball past it), starting 2.5 steps of free
+flight away; penetration x = R − y. Gravity ``scenario.gravity_m_s2`` acts along −y.
 
 - ``native``: rigid contact with circle elasticity e and plate elasticity 1, so the pair
   restitution is e = k_ref, the reference's restitution at the reference velocity v_ref
@@ -73,8 +74,7 @@ penetration x = R − y. Gravity ``scenario.gravity_m_s2`` acts along −y.
 - ``default``: pymunk out of the box: elasticity 0 on both shapes (pymunk's default; the pair
   restitution is the product), ``collision_slop`` 0.1, ``collision_bias`` (1 − 0.1)^60,
   ``iterations`` 10, ``damping`` 1 — only geometry, mass, the step, gravity and zero friction
-  are set. The plate is a thick segment (radius 0.5 m, top face y = 0) so that a step as long
-  as pymunk's customary 1/60 s cannot carry the ball's centre past it.
+  are set.
   ``meta["engine_defaults"]`` holds the values read back from the space and shapes.
 - ``custom``: ``default`` plus ``settings.params`` by pymunk's own names
   (:data:`PARAMETER_KEYS`): ``elasticity`` (pair restitution: the ball gets it, the plate 1),
@@ -206,12 +206,11 @@ class BallModel:
         body.velocity = (0.0, -scenario.velocity_m_s)
         ball = pymunk.Circle(body, radius)
         half = 10.0 * radius
+        h = THICK_PLATE_RADIUS_M
+        plate = pymunk.Segment(space.static_body, (-half, -h), (half, -h), h)
         if out_of_box is None:
-            plate = pymunk.Segment(space.static_body, (-half, 0.0), (half, 0.0), 0.0)
             ball.elasticity, plate.elasticity = elasticity, 1.0
         else:
-            h = THICK_PLATE_RADIUS_M
-            plate = pymunk.Segment(space.static_body, (-half, -h), (half, -h), h)
             self.defaults = {"elasticity": ball.elasticity,
                              "plate_elasticity": plate.elasticity,
                              "collision_slop": space.collision_slop,
@@ -224,8 +223,7 @@ class BallModel:
                 ball.elasticity, plate.elasticity = out_of_box["elasticity"], 1.0
         ball.friction = plate.friction = 0.0
         self.out_of_box = out_of_box is not None
-        # tunnelled: the centre past the surface, or through the thick plate's core line
-        self.beyond_m = radius + (THICK_PLATE_RADIUS_M if self.out_of_box else 0.0)
+        self.beyond_m = radius + THICK_PLATE_RADIUS_M  # tunnelled: past the plate's core
         space.add(body, ball, plate)
         self._position, self._velocity, self._handle = _readers(body)
         self.force_n = 0.0

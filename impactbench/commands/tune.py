@@ -18,7 +18,14 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from impactbench.cliutil import number, number_list, print_json, print_table, stdout_to_stderr
+from impactbench.cliutil import (
+    key_value,
+    number,
+    number_list,
+    print_json,
+    print_table,
+    stdout_to_stderr,
+)
 from impactbench.engines.registry import ENGINES
 from impactbench.params import add_parameter_flags, scenario_from_args
 from impactbench.reference import validation as check
@@ -79,6 +86,10 @@ def register(top: argparse._SubParsersAction, groups: dict) -> None:
     p.add_argument("--plot", type=Path, default=None, metavar="FILE",
                    help="residual plot PNG; default next to the tuned file")
     p.add_argument("--no-plot", action="store_true", help="do not draw the residual plot")
+    p.add_argument("--param", type=key_value, action="append", default=[], dest="fixed",
+                   metavar="KEY=VALUE",
+                   help="an engine setting held fixed and written with the fit (repeatable), "
+                   "e.g. Drake's discrete_contact_approximation=sap for a discrete plant")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     add_parameter_flags(p, "ball-on-plate")
     p.set_defaults(func=main)
@@ -123,7 +134,7 @@ def main(args: argparse.Namespace) -> int:
         result = tune(args.engine, scenario, args.velocities_m_s, args.targets, args.weights,
                       parameters=args.parameters, solref_form=args.solref_form,
                       timestep_s=args.timestep_s, budget_s=args.budget_s,
-                      max_evals=args.max_evals)
+                      max_evals=args.max_evals, fixed=dict(args.fixed) or None)
     except EngineUnavailable as exc:
         print(f"impactbench: error: {exc}")
         return 1
@@ -163,8 +174,9 @@ def _print_text(result, files: dict[str, str]) -> None:
     for line in result.stages:
         print(f"  {line}")
     if result.excluded:
-        print(f"note: {', '.join(result.excluded)} excluded from the objective (weight 0): "
-              f"{next(iter(result.excluded.values()))}")
+        for why in dict.fromkeys(result.excluded.values()):
+            keys = [k for k, w in result.excluded.items() if w == why]
+            print(f"note: {', '.join(keys)} excluded from the objective (weight 0): {why}")
     print("\nfitted parameters (the engine's own form):")
     print(result.space.snippet(result.parameters))
     print(f"tuned keys: {result.parameters}")

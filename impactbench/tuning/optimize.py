@@ -25,7 +25,7 @@ import contextlib
 import math
 import time
 from collections.abc import Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -36,9 +36,13 @@ from impactbench.reference.metrics import BALL_METRICS
 from impactbench.reference.scenarios import BallOnPlate
 from impactbench.tuning.names import DEFAULT_BUDGET_S
 from impactbench.tuning.objective import Evaluation, Objective, OutOfBudget, parse_weights
+from impactbench.evaluate import reference_metrics
+from impactbench.reference.metrics import MIN_CONTACT_SAMPLES, TIME_RESOLVED
 from impactbench.tuning.spaces import Space, make_space
 
 SEED = 20240607
+COARSE_SCAN_POINTS = 64
+"""Sobol scan size at a step too coarse to resolve the contact, or when the start fails."""
 
 
 @dataclass
@@ -167,8 +171,8 @@ def tune(engine: str, scenario: BallOnPlate | None = None,
          parameters: str | None = None, solref_form: str = "direct",
          timestep_s: float | None = None, budget_s: float = DEFAULT_BUDGET_S,
          max_evals: int | None = None, scan_points: int | None = None,
-         start: tuple[float, ...] | None = None, references: list[dict] | None = None
-         ) -> TuneResult:
+         start: tuple[float, ...] | None = None, references: list[dict] | None = None,
+         fixed: dict[str, Any] | None = None) -> TuneResult:
     """Fit ``engine``'s native contact parameters to the Hunt–Crossley reference.
 
     Args:
@@ -184,6 +188,14 @@ def tune(engine: str, scenario: BallOnPlate | None = None,
         scan_points: Sobol scan size (default 128 for > 2 parameters, else 0).
         start: override the closed-form start (natural units, in the space's order).
         references: precomputed reference metrics per velocity (tests use engine-made ones).
+        fixed: engine settings held fixed during the fit and written with the parameters
+            (e.g. Drake's ``discrete_contact_approximation``: a discrete plant at the step).
+
+    At a step too long to resolve the reference contact (fewer than
+    ``impactbench.reference.metrics.MIN_CONTACT_SAMPLES`` steps in its shortest duration)
+    the time-resolved targets (duration, peak force, penetration, energy loss) are excluded
+    with that reason: only restitution is fitted, after a Sobol scan of the whole box
+    (:data:`COARSE_SCAN_POINTS`; also when the start itself fails).
 
     Raises ValueError (one line) on bad input; engine trouble becomes failed runs instead.
     """
@@ -207,7 +219,19 @@ def tune(engine: str, scenario: BallOnPlate | None = None,
         from impactbench.tuning.spaces import with_start
 
         space = with_start(space, tuple(start))
+    if fixed:
+        to_tuned = space.to_tuned
+        space = replace(space, to_tuned=lambda v: {**to_tuned(v), **fixed})
     excluded = {k: space.limits[0] for k in requested if k not in space.expressible}
+    dt_run = timestep_s or adapter.default_timestep_s(scenario, space.mode)
+    if not references:
+        references = [reference_metrics(scenario.replace(velocity_m_s=v)) for v in velocities]
+    shortest = min(float(r["duration_s"]) for r in references)
+    coarse = shortest < MIN_CONTACT_SAMPLES * dt_run
+    if coarse:
+        why = (f"not resolved at dt = {dt_run:g} s: the reference contact lasts "
+               f"{shortest:.3g} s, fewer than {MIN_CONTACT_SAMPLES} steps")
+        excluded.update({k: why for k in requested if k in TIME_RESOLVED and k not in excluded})
     effective = {k: (0.0 if k in excluded else w) for k, w in requested.items()}
     if not any(w > 0 for w in effective.values()):
         raise ValueError(f"targets = {list(requested)}: {engine} can express none of them "
@@ -217,6 +241,10 @@ def tune(engine: str, scenario: BallOnPlate | None = None,
     first = obj.evaluate(np.asarray(space.start), count_budget=False)
     obj.deadline = t0 + budget_s
     obj.max_evals = max_evals
+    if scan_points is None and (coarse or any(st != "ok" for st in first.statuses)):
+        # a coarse step makes the start a one-step impulse whose restitution barely moves
+        # with the parameters (or the start fails): search the whole box first
+        scan_points = COARSE_SCAN_POINTS
     with quiet(engine):
         stop, stages = search(obj, scan_points=scan_points)
     assert obj.best is not None

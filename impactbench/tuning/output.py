@@ -95,8 +95,9 @@ def honesty_lines(result: TuneResult) -> list[str]:
         lines.append(f"this parameter set runs in {result.space.mode} mode: the adapter's "
                      f"tuned mode cannot read {sorted(result.parameters)} yet")
     if result.excluded:
-        lines.append(f"excluded from the objective (weight 0, not expressible): "
-                     f"{', '.join(result.excluded)}")
+        for why in dict.fromkeys(result.excluded.values()):
+            keys = [k for k, w in result.excluded.items() if w == why]
+            lines.append(f"excluded from the objective (weight 0): {', '.join(keys)}: {why}")
     if result.start.objective > 0:
         lines.append(f"objective J: start {result.start.objective:.6g} → tuned "
                      f"{result.tuned.objective:.6g} "

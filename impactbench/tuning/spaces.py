@@ -219,14 +219,26 @@ def mujoco_space(scenario: BallOnPlate, variant: str = "solref+solimp",
 # ------------------------------------------------------------------------------- PyBullet
 
 
-def pybullet_space(scenario: BallOnPlate) -> Space:
+def _step_floor(mass_kg: float, timestep_s: float | None) -> float:
+    """A stiffness (N/m) soft enough to be resolved at this step: ω·dt = 0.1, k = m·(0.1/dt)².
+    The lower bound of a stiffness reaches down to it at a practical step (1 ms: 1e3 N/m for
+    the paper's ball), where the paper's 1e8 N/m contact is a one-step impulse."""
+    return mass_kg * (0.1 / timestep_s) ** 2 if timestep_s else math.inf
+
+
+def pybullet_space(scenario: BallOnPlate, timestep_s: float | None = None) -> Space:
     """PyBullet: pair contactStiffness and contactDamping (physical N/m and N·s/m)."""
     from impactbench.engines.common import native_ball_spring_damper
 
     sd = native_ball_spring_damper(scenario)
     k0, d0 = sd.stiffness_n_per_m, sd.damping_ns_per_m
-    params = (Parameter("contact_stiffness", "N/m", *_decades(k0, 2.0, 2.0)),
-              Parameter("contact_damping", "N·s/m", *_decades(max(d0, 1e-9), 2.0, 2.0)))
+    k_lo, k_hi = _decades(k0, 2.0, 2.0)
+    d_lo, d_hi = _decades(max(d0, 1e-9), 2.0, 2.0)
+    floor = _step_floor(scenario.mass_kg, timestep_s)
+    if floor < k_lo:
+        k_lo, d_lo = floor, d_lo * math.sqrt(floor / k_lo)
+    params = (Parameter("contact_stiffness", "N/m", k_lo, k_hi),
+              Parameter("contact_damping", "N·s/m", d_lo, d_hi))
 
     def to_tuned(v: np.ndarray) -> dict[str, Any]:
         return {"contact_stiffness": float(v[0]), "contact_damping": float(v[1])}
@@ -306,12 +318,14 @@ def pymunk_space(scenario: BallOnPlate, variant: str = "elasticity") -> Space:
 # ------------------------------------------------------------------------------- Drake
 
 
-def drake_space(scenario: BallOnPlate) -> Space:
+def drake_space(scenario: BallOnPlate, timestep_s: float | None = None) -> Space:
     """Drake: pair point stiffness k (N/m) and Hunt–Crossley dissipation d (s/m)."""
     from impactbench.engines.drake_adapter import native_ball_point_contact
 
     k0, d0 = native_ball_point_contact(scenario)
-    params = (Parameter("point_stiffness_n_per_m", "N/m", *_decades(k0, 2.0, 2.0)),
+    k_lo, k_hi = _decades(k0, 2.0, 2.0)
+    params = (Parameter("point_stiffness_n_per_m", "N/m",
+                        min(k_lo, _step_floor(scenario.mass_kg, timestep_s)), k_hi),
               Parameter("hunt_crossley_dissipation_s_per_m", "s/m",
                         *_decades(max(d0, 1e-6), 2.0, 2.0)))
 
@@ -348,10 +362,10 @@ def make_space(engine: str, scenario: BallOnPlate, variant: str | None = None,
     if engine == "mujoco":
         return mujoco_space(scenario, variant, solref_form, timestep_s)
     if engine == "pybullet":
-        return pybullet_space(scenario)
+        return pybullet_space(scenario, timestep_s)
     if engine == "pymunk":
         return pymunk_space(scenario, variant)
-    return drake_space(scenario)
+    return drake_space(scenario, timestep_s)
 
 
 def with_start(space: Space, start: tuple[float, ...]) -> Space:
