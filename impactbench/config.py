@@ -9,8 +9,17 @@ damping_s_per_m,
 radius_m, gravity_m_s2), ``[ball_on_plate.timestep_s]`` engine → s; ``[rigid_flexible]``
 velocities_m_s, local and structure (lists of law names), the physical parameters of
 :class:`~impactbench.reference.scenarios.RigidFlexible`, ``[rigid_flexible.timestep_s]``;
-``[work_precision]`` velocity_m_s, timesteps_s, modes; ``[execution]`` scheduler (a Dask
-address), workers, store (a results-store path) — how to run, not part of the config hash.
+``[work_precision]`` velocities_m_s (two or more; ``velocity_m_s`` for one), timesteps_s, modes;
+``[engines.<name>]`` the user's own engine parameters by the engine's names (the adapter's
+``parameter_keys``, e.g. ``solref = [0.02, 1.0]``): each such engine gets a ``custom`` column;
+``[tuned]`` engine → a tuned file written by ``impactbench tune --out`` (relative paths are
+relative to the config file), used by ``tuned`` mode instead of the packaged one;
+``[practical]`` the section "at practical timesteps": velocities_m_s, modes (default, native,
+tuned, custom), ``[practical.timesteps_s]`` engine → list of its customary steps (s) and
+``[practical.variants]`` engine → list of parameter tables, each run as ``custom`` and as
+``tuned`` with the packaged file fitted with those settings (Drake's discrete approximations).
+``[execution]`` scheduler (a Dask address), workers, store (a results-store path) — how to
+run, not part of the config hash.
 
 A bad file raises ValueError with one line naming the key (``rigid_flexible.velocities_m_s``),
 the value and the rule. An empty velocity list drops that scenario.
@@ -50,9 +59,27 @@ class ScenarioMatrix:
 
 @dataclass(frozen=True)
 class WorkPrecision:
-    velocity_m_s: float
+    velocities_m_s: tuple[float, ...]
     timesteps_s: tuple[float, ...]
     modes: tuple[str, ...]
+
+    @property
+    def velocity_m_s(self) -> float:
+        return self.velocities_m_s[0]
+
+
+Params = tuple[tuple[str, Any], ...]
+"""Engine parameters as a sorted, hashable tuple of (key, value) (lists become tuples)."""
+
+
+@dataclass(frozen=True)
+class Practical:
+    """The "at practical timesteps" section: each engine at its customary steps."""
+
+    velocities_m_s: tuple[float, ...]
+    modes: tuple[str, ...]
+    timesteps_s: dict[str, tuple[float, ...]]
+    variants: dict[str, tuple[Params, ...]]
 
 
 @dataclass(frozen=True)
@@ -62,6 +89,9 @@ class ReportConfig:
     modes: tuple[str, ...]
     scenarios: tuple[ScenarioMatrix, ...]
     work_precision: WorkPrecision | None
+    engine_params: dict[str, Params] = field(default_factory=dict)
+    tuned_files: dict[str, str] = field(default_factory=dict)
+    practical: Practical | None = None
     source: str = field(default="", compare=False)
     raw: dict[str, Any] = field(default_factory=dict, compare=False)
     execution: dict[str, Any] = field(default_factory=dict, compare=False)
@@ -153,10 +183,66 @@ def _scenario(table_name: str, table: dict[str, Any], engines: tuple[str, ...]
     )
 
 
+def frozen_params(params: dict[str, Any]) -> Params:
+    """Engine parameters as a sorted tuple, lists as tuples (hashable, deterministic)."""
+    def freeze(v: Any) -> Any:
+        return tuple(freeze(x) for x in v) if isinstance(v, list | tuple) else v
+
+    return tuple(sorted((k, freeze(v)) for k, v in params.items()))
+
+
+def thawed(params: Params) -> dict[str, Any]:
+    """The inverse of :func:`frozen_params` (tuples back to lists)."""
+    def thaw(v: Any) -> Any:
+        return [thaw(x) for x in v] if isinstance(v, tuple) else v
+
+    return {k: thaw(v) for k, v in params}
+
+
+def _engine_params(key: str, engine: str, table: Any) -> Params:
+    """A table of the engine's own parameters, keys checked against the adapter's."""
+    from impactbench.engines.base import parameter_keys
+
+    if not isinstance(table, dict):
+        raise _fail(key, table, "must be a table of the engine's parameters")
+    valid = parameter_keys(engine)
+    for k in table:
+        if k not in valid:
+            raise ValueError(f"{key}.{k}: not a {engine} parameter; valid keys: "
+                             f"{', '.join(valid) or '(none)'}")
+    return frozen_params(table)
+
+
+def _practical(t: dict[str, Any]) -> Practical | None:
+    _check_keys(t, {"velocities_m_s", "modes", "timesteps_s", "variants"}, "practical.")
+    velocities = _positive_list("practical.velocities_m_s", t.get("velocities_m_s", []))
+    steps = t.get("timesteps_s", {})
+    if not isinstance(steps, dict):
+        raise _fail("practical.timesteps_s", steps, "must be a table of engine = [seconds]")
+    _check_keys(steps, set(engine_names()), "practical.timesteps_s.")
+    timesteps = {e: _positive_list(f"practical.timesteps_s.{e}", v if isinstance(v, list)
+                                   else [v]) for e, v in steps.items()}
+    variants_t = t.get("variants", {})
+    if not isinstance(variants_t, dict):
+        raise _fail("practical.variants", variants_t, "must be a table of engine = [tables]")
+    _check_keys(variants_t, set(engine_names()), "practical.variants.")
+    variants = {}
+    for e, lst in variants_t.items():
+        if not isinstance(lst, list):
+            raise _fail(f"practical.variants.{e}", lst, "must be a list of tables")
+        variants[e] = tuple(_engine_params(f"practical.variants.{e}[{i}]", e, v)
+                            for i, v in enumerate(lst))
+    if not (velocities and timesteps):
+        return None
+    modes = _names("practical.modes", t.get("modes", ["default", "native", "tuned"]),
+                   ("default", "native", "tuned", "custom", "injected"))
+    return Practical(velocities, modes, timesteps, variants)
+
+
 def parse(data: dict[str, Any], source: str = "") -> ReportConfig:
     """Validate a parsed TOML document into a :class:`ReportConfig`."""
     _check_keys(data, {"report", "ball_on_plate", "rigid_flexible", "work_precision",
-                       "execution"}, "")
+                       "engines", "tuned", "practical", "execution"}, "")
     for key, value in data.items():
         if not isinstance(value, dict):
             raise _fail(key, value, "must be a table")
@@ -174,17 +260,39 @@ def parse(data: dict[str, Any], source: str = "") -> ReportConfig:
     wp = None
     if "work_precision" in data:
         t = data["work_precision"]
-        _check_keys(t, {"velocity_m_s", "timesteps_s", "modes"}, "work_precision.")
+        _check_keys(t, {"velocity_m_s", "velocities_m_s", "timesteps_s", "modes"},
+                    "work_precision.")
         timesteps = _positive_list("work_precision.timesteps_s", t.get("timesteps_s", []))
-        if timesteps:
+        if "velocities_m_s" in t:
+            velocities = _positive_list("work_precision.velocities_m_s", t["velocities_m_s"])
+        else:
+            velocities = _positive_list("work_precision.velocity_m_s",
+                                        [t.get("velocity_m_s", 1.0)])
+        if timesteps and velocities:
             wp = WorkPrecision(
-                velocity_m_s=_positive_list("work_precision.velocity_m_s",
-                                            [t.get("velocity_m_s", 1.0)])[0],
+                velocities_m_s=velocities,
                 timesteps_s=timesteps,
                 modes=_names("work_precision.modes", t.get("modes", ["native", "injected"]),
-                             ("native", "injected")),
+                             ("native", "injected", "default", "tuned")),
             )
-    return ReportConfig(title, engines, modes, scenarios, wp, source=source, raw=data,
+    eng = data.get("engines", {})
+    _check_keys(eng, set(engine_names()), "engines.")
+    engine_params = {e: _engine_params(f"engines.{e}", e, table) for e, table in eng.items()}
+    tuned = data.get("tuned", {})
+    _check_keys(tuned, set(engine_names()), "tuned.")
+    base = Path(source).parent if source and not source.startswith("impactbench/") else Path()
+    tuned_files = {}
+    for e, path in tuned.items():
+        if not isinstance(path, str):
+            raise _fail(f"tuned.{e}", path, "must be a path to a tuned file")
+        full = (base / path) if not Path(path).is_absolute() else Path(path)
+        if not full.is_file():
+            raise _fail(f"tuned.{e}", path, "no such file (write one with impactbench tune "
+                        "--out)")
+        tuned_files[e] = str(full)
+    practical = _practical(data["practical"]) if "practical" in data else None
+    return ReportConfig(title, engines, modes, scenarios, wp, engine_params, tuned_files,
+                        practical, source=source, raw=data,
                         execution=_execution(data.get("execution", {})))
 
 

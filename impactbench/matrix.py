@@ -41,6 +41,11 @@ class Job:
     local: str = ""
     structure: str = ""
     keep_history: bool = False
+    params: tuple[tuple[str, Any], ...] = ()
+    """``custom``: the user's engine parameters; ``tuned``: the fixed settings (variant) that
+    select the packaged tuned file (e.g. Drake's discrete approximation)."""
+    tuned_file: str = ""
+    """``tuned``: a user's tuned file (config ``[tuned]``) instead of the packaged one."""
 
     @property
     def id(self) -> str:
@@ -48,7 +53,15 @@ class Job:
         dt = f"{self.timestep_s:.3e}" if self.timestep_s else "default"
         params = "".join(f"/{k}={v!r}" for k, v in self.parameters)  # ids must be unique
         return (f"{self.study}/{self.scenario}{laws}/v{self.velocity_m_s:09.4f}/"
-                f"{self.engine}/{self.mode}/dt{dt}{params}")
+                f"{self.engine}/{self.mode}{self.variant and '[' + self.variant + ']'}/dt{dt}"
+                f"{params}")
+
+    @property
+    def variant(self) -> str:
+        """The parameters as text (``solref=[0.02, 1.0]``), '' when none."""
+        from impactbench.config import thawed
+
+        return ", ".join(f"{k}={v}" for k, v in thawed(self.params).items())
 
     def build_scenario(self):
         kwargs = dict(self.parameters, velocity_m_s=self.velocity_m_s)
@@ -85,11 +98,17 @@ def _thin(rec, points: int = HISTORY_POINTS) -> dict[str, np.ndarray]:
 
 def job_settings(job: Job):
     """The :class:`~impactbench.engines.base.RunSettings` of a job (hashed into its store key)."""
+    from impactbench.config import thawed
     from impactbench.engines.base import RunSettings
-    from impactbench.tuned import load_tuned
+    from impactbench.tuned import load_tuned_settings
 
-    tuned = load_tuned(job.engine, job.scenario) if job.mode == "tuned" else None
-    return RunSettings(timestep_s=job.timestep_s, tuned=tuned)
+    settings = RunSettings(timestep_s=job.timestep_s,
+                           params=thawed(job.params) if job.mode == "custom" else None)
+    if job.mode == "tuned":
+        tuned, provenance = load_tuned_settings(job.engine, job.scenario, job.timestep_s,
+                                                job.tuned_file or None, thawed(job.params))
+        settings = RunSettings(timestep_s=job.timestep_s, tuned=tuned, tuned_for=provenance)
+    return settings
 
 
 def execute(job: Job, reference: dict[str, Any] | None = None,
@@ -111,22 +130,62 @@ def plan(config: ReportConfig, engines: Iterable[str] | None = None) -> list[Job
         laws = [(lo, st) for lo in sm.local for st in sm.structure] or [("", "")]
         for engine in engines:
             modes = [m for m in config.modes
-                     if m != "tuned" or tuned_path(engine, sm.name).is_file()]
+                     if m != "tuned" or tuned_path(engine, sm.name).is_file()
+                     or engine in config.tuned_files]
+            if engine in config.engine_params and "custom" not in modes:
+                modes.append("custom")  # the user's own settings get their column
             for mode in modes:
+                if mode == "custom" and engine not in config.engine_params:
+                    continue  # custom needs the user's parameters ([engines.<name>])
+                user = config.engine_params.get(engine, ()) if mode == "custom" else ()
                 for v in sm.velocities_m_s:
                     for lo, st in laws:
                         jobs.append(Job("matrix", engine, sm.name, mode, v,
                                         sm.timestep_s.get(engine), params, lo, st,
-                                        keep_history=True))
-    wp = config.work_precision
+                                        keep_history=True, params=user,
+                                        tuned_file=config.tuned_files.get(engine, "")
+                                        if mode == "tuned" else ""))
     ball = next((s for s in config.scenarios if s.name == "ball-on-plate"), None)
+    ball_params = tuple(sorted(ball.parameters.items())) if ball else ()
+    jobs += _practical_jobs(config, engines, ball_params)
+    wp = config.work_precision
     if wp is not None:
-        params = tuple(sorted(ball.parameters.items())) if ball else ()
         for engine in engines:
             for mode in wp.modes:
-                for dt in wp.timesteps_s:
-                    jobs.append(Job("work_precision", engine, "ball-on-plate", mode,
-                                    wp.velocity_m_s, dt, params))
+                for v in wp.velocities_m_s:
+                    for dt in wp.timesteps_s:
+                        jobs.append(Job("work_precision", engine, "ball-on-plate", mode,
+                                        v, dt, ball_params))
+    return jobs
+
+
+def _practical_jobs(config: ReportConfig, engines: tuple[str, ...],
+                    ball_params: tuple) -> list[Job]:
+    """The "at practical timesteps" study: per engine and customary step, the configured
+    modes (default, native, tuned, custom with the user's [engines] table) and, per variant,
+    custom (default plus the variant) and tuned (the file fitted with it)."""
+    pr = config.practical
+    if pr is None:
+        return []
+    jobs = []
+    for engine in engines:
+        variants = pr.variants.get(engine, ())
+        runs: list[tuple[str, tuple]] = []
+        for mode in pr.modes:
+            if mode == "custom":
+                if engine in config.engine_params:
+                    runs.append(("custom", config.engine_params[engine]))
+            elif not (mode == "tuned" and variants):
+                runs.append((mode, ()))
+        for variant in variants:
+            runs.append(("custom", variant))
+            if "tuned" in pr.modes:
+                runs.append(("tuned", variant))
+        for dt in pr.timesteps_s.get(engine, ()):
+            for mode, params in runs:
+                for v in pr.velocities_m_s:
+                    jobs.append(Job("practical", engine, "ball-on-plate", mode, v, dt,
+                                    ball_params, params=params))
     return jobs
 
 
@@ -281,6 +340,8 @@ def tidy(results: list[JobResult]) -> list[dict[str, Any]]:
                 "value": run.get(metric),
                 "reference": run["reference"].get(metric),
                 "rel_error": run["rel_error"].get(metric),
+                "resolved": bool(run.get("resolved", {}).get(metric, True)),
+                "params": j.variant,
                 "status": run["status"],
                 "message": run.get("not_comparable", {}).get(metric) or run.get("message", ""),
                 "wall_s": run.get("wall_s"),

@@ -30,6 +30,7 @@ from impactbench.report_render import ReportContext, render_documents
 from impactbench.report_sections import HEADLINE, SECTIONS, TITLES
 
 SORT_COLUMNS = ["study", "scenario", "local", "structure", "velocity_m_s", "engine", "mode",
+                "params",
                 "timestep_s", "metric"]
 
 
