@@ -19,7 +19,6 @@ Adding an engine (a checklist, in the manner of scipy's ``OdeSolver``):
    tunneled, diverged, max_time, unsupported) instead of raising.
 5. Register the class in :data:`ENGINES` as ``"module:Class"`` and add a test module in
    ``tests/engines/`` that ``importorskip``s the engine.
-
 6. ``default`` and ``custom`` (the contract every adapter follows): ``default`` builds the
    scenario the way a user of the engine would with nothing but geometry, mass, the step,
    gravity and the scenario's own settings (zero friction), leaving every contact parameter at
@@ -33,7 +32,9 @@ Adding an engine (a checklist, in the manner of scipy's ``OdeSolver``):
    pair has exactly the user's number. Both modes must run at the engine's customary steps
    (up to 1e-2 s): a contact shorter than a step is still measured (the metrics flag what is
    not resolved), and a plate thick enough that one step cannot carry the ball through it.
-   A scenario the modes do not cover returns ``unsupported``.
+   A scenario the modes do not cover returns ``unsupported``. Set ``modes`` to include
+   them, ``parameter_keys`` to the names, and add the engine to ``tests/engines/
+   test_default_custom.py`` (its customary step in ``CUSTOMARY_S``).
 
 Modes: ``native`` (the engine's own contact model, parameters mapped from the physical ones),
 ``tuned`` (native with fitted parameters from a tuned-parameter file), ``injected`` (the

@@ -31,14 +31,13 @@ from typing import Any
 import numpy as np
 
 from impactbench.engines.base import get_adapter
+from impactbench.evaluate import reference_metrics
 from impactbench.reference import validation as check
-from impactbench.reference.metrics import BALL_METRICS
+from impactbench.reference.metrics import BALL_METRICS, MIN_CONTACT_SAMPLES, TIME_RESOLVED
 from impactbench.reference.scenarios import BallOnPlate
 from impactbench.tuning.names import DEFAULT_BUDGET_S
 from impactbench.tuning.objective import Evaluation, Objective, OutOfBudget, parse_weights
-from impactbench.evaluate import reference_metrics
-from impactbench.reference.metrics import MIN_CONTACT_SAMPLES, TIME_RESOLVED
-from impactbench.tuning.spaces import Space, make_space
+from impactbench.tuning.spaces import SAP_LIMIT, Space, make_space
 
 SEED = 20240607
 COARSE_SCAN_POINTS = 64
@@ -222,6 +221,8 @@ def tune(engine: str, scenario: BallOnPlate | None = None,
     if fixed:
         to_tuned = space.to_tuned
         space = replace(space, to_tuned=lambda v: {**to_tuned(v), **fixed})
+        if engine == "drake" and fixed.get("discrete_contact_approximation") == "sap":
+            space = replace(space, limits=(*space.limits, SAP_LIMIT))
     excluded = {k: space.limits[0] for k in requested if k not in space.expressible}
     dt_run = timestep_s or adapter.default_timestep_s(scenario, space.mode)
     if not references:

@@ -1,0 +1,96 @@
+"""The "at practical timesteps" report section, the user's [engines] settings as a custom
+column, and the work–precision study with failed runs kept (real engines)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from impactbench import config, report
+from impactbench.matrix import plan
+from tests.conftest import require_engine
+
+SMALL = {
+    "report": {"engines": ["mujoco", "pymunk"], "modes": ["native"]},
+    "ball_on_plate": {"velocities_m_s": [1.0], "timestep_s": {"mujoco": 1e-5,
+                                                             "pymunk": 1e-5}},
+    "engines": {"mujoco": {"solref": [0.02, 1.0]}},
+    "work_precision": {"velocities_m_s": [1.0, 5.0], "timesteps_s": [1e-2, 1e-5],
+                       "modes": ["native"]},
+    "practical": {"velocities_m_s": [1.0, 5.0], "modes": ["default", "native", "tuned"],
+                  "timesteps_s": {"mujoco": [2e-3], "pymunk": [1.0 / 60.0]}},
+}
+
+
+@pytest.fixture(scope="module")
+def practical_report(tmp_path_factory: pytest.TempPathFactory) -> report.Report:
+    require_engine("mujoco")
+    require_engine("pymunk")
+    out = tmp_path_factory.mktemp("practical")
+    return report.build(config.parse(SMALL), out, show_progress=False, workers=2)
+
+
+def test_engines_table_gives_a_custom_column(practical_report: report.Report) -> None:
+    text = (practical_report.out_dir / "README.md").read_text()
+    assert "mujoco custom [solref=[0.02, 1.0]]" in text
+    df = practical_report.results
+    custom = df[(df.study == "matrix") & (df["mode"] == "custom")]
+    assert set(custom.status) == {"ok"} and set(custom.params) == {"solref=[0.02, 1.0]"}
+
+
+def test_practical_section_tables_and_figure(practical_report: report.Report) -> None:
+    text = (practical_report.out_dir / "README.md").read_text()
+    assert "## At practical timesteps" in text
+    for column in ("default @ 2 ms", "tuned @ 2 ms", "default @ 1/60 s", "tuned @ 1/60 s"):
+        assert column in text
+    assert (practical_report.out_dir / "figures" / "report_practical_restitution.png").is_file()
+    df = practical_report.results
+    rows = df[(df.study == "practical") & (df.metric == "restitution")]
+    tuned = rows[rows["mode"] == "tuned"]
+    # the packaged files fitted at these very steps apply (no timestep mismatch)
+    assert set(tuned.status) == {"ok"}
+    assert (tuned.rel_error.abs() < 0.2).all()
+
+
+def test_unresolved_metrics_are_flagged_not_compared(practical_report: report.Report) -> None:
+    df = pd.read_csv(practical_report.out_dir / "results.csv")
+    peak = df[(df.study == "practical") & (df.metric == "peak_force_n") & (df.status == "ok")
+              & ~df.resolved]
+    assert len(peak) > 0 and peak.rel_error.isna().all()
+    restitution = df[(df.study == "practical") & (df.metric == "restitution")]
+    assert restitution.resolved.all()
+
+
+def test_work_precision_keeps_failed_runs(practical_report: report.Report) -> None:
+    df = practical_report.results
+    wp = df[df.study == "work_precision"]
+    assert set(wp.velocity_m_s) == {1.0, 5.0} and 1e-2 in set(wp.timestep_s)
+    failed = wp[wp.status != "ok"]
+    text = (practical_report.out_dir / "README.md").read_text()
+    assert len(failed) > 0 and "## Work–precision: failed runs" in text
+
+
+def test_unknown_engine_parameter_in_config_is_one_line() -> None:
+    with pytest.raises(ValueError, match=r"engines.mujoco.solrf: not a mujoco parameter; "
+                                         r"valid keys: solref, solimp, integrator"):
+        config.parse({"engines": {"mujoco": {"solrf": [0.02, 1.0]}}})
+
+
+def test_tuned_file_in_config_must_exist(tmp_path: Path) -> None:
+    with pytest.raises(ValueError, match="tuned.mujoco"):
+        config.parse({"tuned": {"mujoco": str(tmp_path / "missing.toml")}})
+
+
+def test_default_config_has_the_practical_section() -> None:
+    cfg = config.load()
+    assert cfg.practical is not None
+    assert cfg.practical.timesteps_s["mujoco"] == (2e-3, 1e-3)
+    assert len(cfg.work_precision.velocities_m_s) >= 2
+    assert max(cfg.work_precision.timesteps_s) >= 1e-2
+    studies = {j.study for j in plan(cfg)}
+    assert studies == {"matrix", "practical", "work_precision"}
+    drake = [j for j in plan(cfg) if j.study == "practical" and j.engine == "drake"]
+    approximations = {dict(j.params).get("discrete_contact_approximation") for j in drake}
+    assert approximations >= {"tamsi", "sap", "similar", "lagged"}
