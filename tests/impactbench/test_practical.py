@@ -79,7 +79,7 @@ def test_unknown_engine_parameter_in_config_is_one_line() -> None:
 
 
 def test_tuned_file_in_config_must_exist(tmp_path: Path) -> None:
-    with pytest.raises(ValueError, match="tuned.mujoco"):
+    with pytest.raises(ValueError, match=r"tuned\.mujoco"):
         config.parse({"tuned": {"mujoco": str(tmp_path / "missing.toml")}})
 
 
