@@ -273,7 +273,7 @@ def parse(data: dict[str, Any], source: str = "") -> ReportConfig:
                 velocities_m_s=velocities,
                 timesteps_s=timesteps,
                 modes=_names("work_precision.modes", t.get("modes", ["native", "injected"]),
-                             ("native", "injected", "default", "tuned")),
+                             ("native", "injected", "default")),
             )
     eng = data.get("engines", {})
     _check_keys(eng, set(engine_names()), "engines.")

@@ -15,8 +15,8 @@ from impactbench import config, report
 from impactbench.matrix import Job, run_jobs
 
 COLUMNS = ["study", "scenario", "local", "structure", "engine", "mode", "velocity_m_s",
-           "timestep_s", "metric", "value", "reference", "rel_error", "status", "message",
-           "wall_s", "engine_version"]
+           "timestep_s", "metric", "value", "reference", "rel_error", "resolved", "params",
+           "status", "message", "wall_s", "engine_version"]
 
 
 def test_report_writes_every_file(small_report: report.Report) -> None:
