@@ -252,24 +252,51 @@ def error_heatmap(df: pd.DataFrame, scenario: str, metric_names: tuple[str, ...]
     return path
 
 
+FAILED_ERROR = 10.0
+"""Where a failed run (or an unresolved metric) is drawn on a work–precision panel: at
+|error| = 1000 %, above every measured point, marked × (failed) or ▽ (not resolved)."""
+
+
 def work_precision(df: pd.DataFrame, metric_names: tuple[str, ...], how: str,
                    path: Path) -> Path:
-    """Error against wall time over timesteps, one curve per engine × mode (log–log)."""
-    rows = df[(df.study == "work_precision") & (df.status == "ok")]
-    fig, axes = plt.subplots(1, len(metric_names), figsize=(4.2 * len(metric_names), 4.2))
-    for ax, metric in zip(np.atleast_1d(axes), metric_names, strict=True):
-        for (engine, mode), g in rows[rows.metric == metric].groupby(["engine", "mode"]):
-            g = g.sort_values("timestep_s", ascending=False)
-            err = np.abs(g.rel_error.to_numpy(dtype=float))
-            ax.loglog(g.wall_s, np.clip(err, 1e-10, None), linestyle=MODE_STYLES.get(mode, "-"),
-                      marker=MODE_MARKERS.get(mode, "o"), ms=4,
-                      color=ENGINE_COLORS.get(engine), label=f"{engine} {mode}")
-        ax.set_xlabel("wall time per run (s)")
-        ax.set_ylabel(f"|relative error| of {LABELS.get(metric, metric)}")
-        ax.grid(alpha=0.3, which="both")
-    fig.suptitle("Work–precision, ball on plate (points: timesteps, coarse to fine)\n" + how,
-                 fontsize=9)
-    np.atleast_1d(axes)[0].legend(fontsize=7)
+    """Error against wall time over timesteps, one curve per engine × mode (log–log), one row
+    of panels per impact velocity. Failed runs are drawn as × at |error| = 1000 % (listed in
+    the report's failed runs), unresolved metrics as ▽ there: nothing is dropped."""
+    rows = df[df.study == "work_precision"]
+    velocities = sorted(rows.velocity_m_s.unique()) or [math.nan]
+    fig, axes = plt.subplots(len(velocities), len(metric_names),
+                             figsize=(4.2 * len(metric_names), 3.8 * len(velocities)),
+                             squeeze=False)
+    resolved = rows.resolved.astype(bool) if "resolved" in rows else rows.status == rows.status
+    for r, v in enumerate(velocities):
+        at_v = rows[rows.velocity_m_s == v]
+        for ax, metric in zip(axes[r], metric_names, strict=True):
+            m = at_v[at_v.metric == metric]
+            for (engine, mode), g in m.groupby(["engine", "mode"]):
+                g = g.sort_values("timestep_s", ascending=False)
+                color = ENGINE_COLORS.get(engine)
+                good = (g.status == "ok") & resolved[g.index]
+                ok = g[good]
+                err = np.abs(ok.rel_error.to_numpy(dtype=float))
+                ax.loglog(ok.wall_s, np.clip(err, 1e-10, None),
+                          linestyle=MODE_STYLES.get(mode, "-"),
+                          marker=MODE_MARKERS.get(mode, "o"), ms=4, color=color,
+                          label=f"{engine} {mode}")
+                for sub, marker in ((g[g.status != "ok"], "x"),
+                                    (g[(g.status == "ok") & ~good], "v")):
+                    if len(sub):
+                        wall = sub.wall_s.to_numpy(dtype=float)
+                        wall = np.where(np.isfinite(wall) & (wall > 0), wall, 1e-4)
+                        ax.loglog(wall, np.full(wall.size, FAILED_ERROR), marker, ms=6,
+                                  mfc="none", color=color, ls="none")
+            ax.axhline(FAILED_ERROR, color="grey", lw=0.5, ls=":")
+            ax.set_xlabel("wall time per run (s)")
+            ax.set_ylabel(f"|relative error| of {LABELS.get(metric, metric)}")
+            ax.set_title(f"V0 = {v:g} m/s", fontsize=9)
+            ax.grid(alpha=0.3, which="both")
+    fig.suptitle("Work–precision, ball on plate (points: timesteps, coarse to fine; × failed, "
+                 "▽ not resolved, both drawn at 1000 %)\n" + how, fontsize=9)
+    axes[0][0].legend(fontsize=7)
     return _save(fig, path)
 
 

@@ -41,20 +41,24 @@ def column(row: pd.Series) -> str:
     return f"{row['mode']}{params} @ {_step(float(row.timestep_s))}"
 
 
-def _cell(row: pd.Series) -> str:
+def _cell(row: pd.Series):
+    """``value (±err %)`` banded, or the run's status (see report_sections.value_cell)."""
+    from impactbench.report_render import Cell, band
+    from impactbench.report_sections import format_error
+
     if row.status != "ok":
-        return str(row.status)
+        return Cell(str(row.status), "fail", str(row.message or ""))
     value, err = row.value, row.rel_error
     if not (isinstance(value, float | int) and math.isfinite(value)):
-        return "n/a"
+        return Cell("n/a", "na", str(row.message or "not comparable"))
     text = f"{value:.3g}"
     if isinstance(err, float) and math.isfinite(err):
-        text += f" ({100.0 * err:+.2g} %)"
-    return text
+        text += f" ({format_error(err)})"
+    return Cell(text, band(err))
 
 
 def tables(df: pd.DataFrame) -> list[tuple[str, pd.DataFrame]]:
-    """Per engine: restitution against velocity, one column per mode/variant/step."""
+    """Per engine: restitution cells against velocity, one column per mode/variant/step."""
     rows = _rows(df)
     out = []
     for engine, g in rows.groupby("engine", sort=True):
@@ -112,7 +116,7 @@ def intro(df: pd.DataFrame) -> str:
         "and are marked `resolved = false` in `results.csv`, never compared.")
 
 
-def plot(df: pd.DataFrame, damping_s_per_m: float, path: Path) -> Path:
+def plot(df: pd.DataFrame, damping_s_per_m: float, how: str, path: Path) -> Path:
     """Restitution against V0 per engine (one panel each) at its customary steps, beside the
     Hunt–Crossley reference k(b·V0); failed runs drawn as × at the bottom of the panel."""
     import matplotlib.pyplot as plt
@@ -148,5 +152,37 @@ def plot(df: pd.DataFrame, damping_s_per_m: float, path: Path) -> Path:
         ax.grid(alpha=0.3)
         ax.legend(fontsize=5.5)
     axes[0][0].set_ylabel("restitution k (–)")
-    fig.suptitle("Restitution at practical timesteps (× : run failed, status in the legend)")
+    fig.suptitle("Restitution at practical timesteps (×: run failed, status in the legend)\n"
+                 + how, fontsize=9)
     return _save(fig, path)
+
+
+def section(ctx) -> dict[str, object] | None:
+    """The data of ``templates/sections/practical.j2`` (None without the practical study)."""
+    from impactbench.report_render import Cell, Table, band
+    from impactbench.report_sections import format_error
+
+    df = ctx.df
+    if df.empty or not (df.study == "practical").any():
+        return None
+    engines = []
+    for title, table in tables(df):
+        columns = ["V0 (m/s)", *[str(c) for c in table.columns[1:]]]
+        rows = [[f"{r['velocity_m_s']:g}", *[c if isinstance(c, Cell) else Cell(str(c))
+                                             for c in list(r)[1:]]]
+                for _, r in table.iterrows()]
+        engines.append({"title": title, "table": Table(columns, rows)})
+
+    def pct(x: float, signed: bool = True) -> Cell:
+        if not math.isfinite(x):
+            return Cell("failed", "fail")
+        return Cell(format_error(x) if signed else f"{100.0 * x:.2g} %", band(x))
+
+    summary_rows = [[Cell(r["engine"]), Cell(r["step"]), Cell(r["mode"]),
+                     Cell(str(r["params"]) or "—"), pct(r["error_at_1_m_s"]),
+                     pct(r["error_at_5_m_s"]), pct(r["max_abs_error"], signed=False),
+                     Cell(str(r["failed"]))] for r in summary(df)]
+    columns = ["engine", "step", "mode", "settings", "error at 1 m/s", "error at 5 m/s",
+               "max |error|", "failed runs"]
+    return {"intro": intro(df), "figures": ctx.figures_in("practical"), "engines": engines,
+            "summary": Table(columns, summary_rows, text_columns=4)}

@@ -21,7 +21,7 @@ from typing import Any
 import pandas as pd
 
 from impactbench import config as config_mod
-from impactbench import plots
+from impactbench import plots, practical
 from impactbench.cliutil import progress_bar
 from impactbench.evaluate import SCENARIO_METRICS
 from impactbench.matrix import JobResult, plan, run_jobs, tidy
@@ -163,11 +163,18 @@ def _figures(ctx: ReportContext) -> None:
                            f"extra:{scenario}")
     wp = [r for r in ctx.results if r.job.study == "work_precision"]
     if wp:
-        v = wp[0].job.velocity_m_s
-        how = f"V0 = {v:g} m/s; {_modes_text(wp)}; {_dt_text(wp)}"
+        vs = ", ".join(f"{v:g}" for v in sorted({r.job.velocity_m_s for r in wp}))
+        how = f"V0 = {vs} m/s; {_modes_text(wp)}; {_dt_text(wp)}"
         path = plots.work_precision(df, HEADLINE["ball-on-plate"], how,
                                     fig_dir / "report_work_precision.png")
         ctx.add_figure(path, f"Work–precision, ball on plate; {how}", "work_precision")
+    pr = [r for r in ctx.results if r.job.study == "practical"]
+    if pr:
+        b = cfg_parameter(cfg, "ball-on-plate", "damping_s_per_m")
+        how = f"{_modes_text(pr)}; {_dt_text(pr)}"
+        path = practical.plot(df, b, how, fig_dir / "report_practical_restitution.png")
+        ctx.add_figure(path, f"Restitution at practical timesteps, ball on plate; {how}",
+                       "practical")
 
 
 def cfg_parameter(cfg: config_mod.ReportConfig, scenario: str, name: str) -> Any:

@@ -81,6 +81,9 @@ def value_cell(row: Any) -> Cell:
     value, err = row.value, row.rel_error
     if not (isinstance(value, int | float) and math.isfinite(value)):
         return Cell("n/a", "na", str(row.message or "not comparable"))
+    if not getattr(row, "resolved", True):
+        return Cell(f"{value:.5g} (not resolved)", "na",
+                    "the step is about as long as the contact: measured, not compared")
     if row.metric == "impacts":
         ok = isinstance(err, float) and err == 0
         return Cell(f"{value:g}" + ("" if ok else " ✗"), "good" if ok else "poor")
@@ -226,8 +229,10 @@ def scenario_tables(ctx: ReportContext, scenario: str) -> list[dict[str, Any]]:
                          *[Cell(f"{v:.5g}" if isinstance(v, int | float) else str(v))
                            for v in ref]])
             runs = {(r.mode, r.metric): r for r in p.itertuples()}
+            settings = {r.mode: getattr(r, "params", "") for r in p.itertuples()}
             for mode in [x for x in MODES if x in set(p["mode"])]:
-                rows.append([*[""] * len(labels), Cell(mode),
+                label = f"{mode} [{settings[mode]}]" if settings.get(mode) else mode
+                rows.append([*[""] * len(labels), Cell(label),
                              *[value_cell(runs[mode, x]) if (mode, x) in runs
                                else Cell("—", "na") for x in metrics]])
         out.append({"title": f"{engine} {version}".strip(),
@@ -440,7 +445,8 @@ def parameters(ctx: ReportContext) -> dict[str, Any] | None:
                     "table": parameter_table(rows)})
     wp = ctx.cfg.work_precision
     if wp is not None:
-        rows = [[Cell("`velocity_m_s`"), Cell(f"{wp.velocity_m_s:g}"), Cell("ball V0 (m/s)")],
+        rows = [[Cell("`velocities_m_s`"),
+                 Cell(", ".join(f"{v:g}" for v in wp.velocities_m_s)), Cell("ball V0 (m/s)")],
                 [Cell("`timesteps_s`"), Cell(", ".join(f"{t:g}" for t in wp.timesteps_s)),
                  Cell("integration steps (s)")],
                 [Cell("`modes`"), Cell(", ".join(wp.modes)), Cell("modes run")]]
@@ -554,11 +560,18 @@ def files(ctx: ReportContext) -> dict[str, Any]:
     }
 
 
+def practical_section(ctx: ReportContext) -> dict[str, Any] | None:
+    from impactbench.practical import section
+
+    return section(ctx)
+
+
 SECTIONS: list[Section] = [
     Section("scoreboard", "Scoreboard", scoreboard),
     Section("how_to_read", "How to read it", how_to_read),
     Section("scenario", TITLES["ball-on-plate"], partial(scenario_section, "ball-on-plate")),
     Section("scenario", TITLES["rigid-flexible"], partial(scenario_section, "rigid-flexible")),
+    Section("practical", "At practical timesteps", practical_section),
     Section("work_precision", "Work–precision", work_precision),
     Section("meaning", "What this means", meaning),
     Section("contact_models", "Contact models: nominal against effective restitution",

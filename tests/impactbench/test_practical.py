@@ -34,7 +34,7 @@ def practical_report(tmp_path_factory: pytest.TempPathFactory) -> report.Report:
 
 def test_engines_table_gives_a_custom_column(practical_report: report.Report) -> None:
     text = (practical_report.out_dir / "README.md").read_text()
-    assert "mujoco custom [solref=[0.02, 1.0]]" in text
+    assert "custom [solref=[0.02, 1.0]]" in text
     df = practical_report.results
     custom = df[(df.study == "matrix") & (df["mode"] == "custom")]
     assert set(custom.status) == {"ok"} and set(custom.params) == {"solref=[0.02, 1.0]"}
@@ -69,7 +69,7 @@ def test_work_precision_keeps_failed_runs(practical_report: report.Report) -> No
     assert set(wp.velocity_m_s) == {1.0, 5.0} and 1e-2 in set(wp.timestep_s)
     failed = wp[wp.status != "ok"]
     text = (practical_report.out_dir / "README.md").read_text()
-    assert len(failed) > 0 and "## Work–precision: failed runs" in text
+    assert len(failed) > 0 and "ball-on-plate (work_precision)" in text
 
 
 def test_unknown_engine_parameter_in_config_is_one_line() -> None:
