@@ -13,7 +13,8 @@ import pytest
 
 from impactbench import cli
 
-HEAVY = ("numpy", "scipy", "pandas", "matplotlib", "numba", "pyarrow", "tqdm", "tabulate",
+HEAVY = ("numpy", "scipy", "pandas", "matplotlib", "numba", "pyarrow", "duckdb", "dask",
+         "distributed", "tqdm", "tabulate",
          "jinja2", "mujoco", "pybullet", "pymunk", "pydrake")
 """Libraries a help page must not import (numpy alone costs more than the target allows)."""
 
@@ -40,6 +41,7 @@ for path in list(paths(cli.build_parser())):
     assert "usage: impactbench" in out.getvalue(), path
     done.append(" ".join(path))
 heavy = sorted({m.split(".")[0] for m in sys.modules} & set(sys.argv[1].split(",")))
+heavy += [m for m in ("importlib.metadata",) if m in sys.modules]
 engines = sorted(m for m in sys.modules if m.startswith("impactbench.engines.")
                  and m.endswith("_adapter"))
 print(json.dumps({"helps": done, "heavy": heavy, "adapters": engines}))
@@ -76,3 +78,12 @@ def test_every_flag_is_explained_and_no_heading_repeats(path: tuple[str, ...]) -
     headings = [line for line in parser.format_help().splitlines()
                 if line and not line.startswith(" ") and line.endswith(":")]
     assert len(headings) == len(set(headings)), headings
+
+
+def test_version_is_looked_up_only_when_asked(capsys: pytest.CaptureFixture[str]) -> None:
+    from importlib import metadata
+
+    with pytest.raises(SystemExit) as exc:
+        cli.main(["--version"])
+    assert exc.value.code == 0
+    assert capsys.readouterr().out == f"impactbench {metadata.version('impactbench')}\n"
