@@ -61,9 +61,10 @@ Out of the box (ball; ``default`` and ``custom`` modes)
     ``discrete_contact_solver`` is Drake's older name, tamsi or sap), ``contact_model``,
     ``penetration_allowance`` and ``stiction_tolerance``. ``tuned`` with a
     ``discrete_contact_approximation`` key runs this discrete plant with the tuned point
-    stiffness and dissipation (Drake's customary 1 ms step). The discrete plant's contact results
-    port is sampled: after a step it holds the force applied over that step, so sample k pairs
-    the state before step k with that force, as the other engines' records do.
+    stiffness and dissipation (``relaxation_time_s`` for SAP; Drake's customary 1 ms step).
+    The discrete plant's contact results port is sampled: after a step it holds the force
+    applied over that step, so sample k pairs the state before step k with that force, as the
+    other engines' records do.
 
 Rigid–flexible (MODELS.md §2)
     Two bodies on prismatic joints along world x, positions measured from first touch: body 1
@@ -308,9 +309,11 @@ def _discrete_parameters(mode: str, settings: RunSettings) -> dict[str, Any] | N
     tuned = settings.tuned or {}
     if mode == "tuned" and "discrete_contact_approximation" in tuned:
         k, diss = _tuned_point_contact(tuned, 0.0)
-        return custom_parameters({"point_stiffness": k, "hunt_crossley_dissipation": diss,
-                                  "discrete_contact_approximation":
-                                      tuned["discrete_contact_approximation"]})
+        params = {"point_stiffness": k, "hunt_crossley_dissipation": diss,
+                  "discrete_contact_approximation": tuned["discrete_contact_approximation"]}
+        if "relaxation_time_s" in tuned:  # SAP-family: linear Kelvin–Voigt dissipation
+            params["relaxation_time"] = tuned["relaxation_time_s"]
+        return custom_parameters(params)
     return None
 
 

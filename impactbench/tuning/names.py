@@ -24,6 +24,6 @@ VARIANTS: dict[str, tuple[str, ...]] = {
     "mujoco": MUJOCO_VARIANTS,
     "pybullet": ("stiffness+damping",),
     "pymunk": PYMUNK_VARIANTS,
-    "drake": ("stiffness+dissipation",),
+    "drake": ("stiffness+dissipation", "stiffness+relaxation"),
 }
 """Each engine's parameter sets (the first is the default)."""

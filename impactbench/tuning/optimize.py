@@ -221,7 +221,8 @@ def tune(engine: str, scenario: BallOnPlate | None = None,
     if fixed:
         to_tuned = space.to_tuned
         space = replace(space, to_tuned=lambda v: {**to_tuned(v), **fixed})
-        if engine == "drake" and fixed.get("discrete_contact_approximation") == "sap":
+        if engine == "drake" and fixed.get("discrete_contact_approximation") == "sap" \
+                and space.variant == "stiffness+dissipation":
             space = replace(space, limits=(*space.limits, SAP_LIMIT))
     excluded = {k: space.limits[0] for k in requested if k not in space.expressible}
     dt_run = timestep_s or adapter.default_timestep_s(scenario, space.mode)

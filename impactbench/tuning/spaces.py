@@ -228,8 +228,8 @@ def _step_floor(mass_kg: float, timestep_s: float | None) -> float:
 
 
 SAP_LIMIT = ("Drake's SAP approximation ignores the Hunt–Crossley dissipation (it dissipates "
-             "through a linear Kelvin–Voigt relaxation_time, not tuned here), so only the "
-             "stiffness acts")
+             "through a linear Kelvin–Voigt relaxation_time: tune it with --parameters "
+             "stiffness+relaxation), so only the stiffness acts")
 
 
 def pybullet_space(scenario: BallOnPlate, timestep_s: float | None = None) -> Space:
@@ -324,6 +324,38 @@ def pymunk_space(scenario: BallOnPlate, variant: str = "elasticity") -> Space:
 # ------------------------------------------------------------------------------- Drake
 
 
+RELAXATION_LIMITS = (
+    "SAP's linear Kelvin–Voigt contact f = k·(x + τ·ẋ) (relaxation_time τ) is a linear "
+    "spring–damper: its restitution and duration do not depend on the impact velocity",)
+
+
+def drake_relaxation_space(scenario: BallOnPlate, timestep_s: float | None = None) -> Space:
+    """Drake's SAP-family discrete plants: pair point stiffness k (N/m) and the
+    ``relaxation_time`` τ (s) of their linear dissipation (they ignore Hunt–Crossley's d)."""
+    from impactbench.engines.drake_adapter import native_ball_point_contact
+
+    k0, _ = native_ball_point_contact(scenario)
+    k_lo, k_hi = _decades(k0, 2.0, 2.0)
+    params = (Parameter("point_stiffness_n_per_m", "N/m",
+                        min(k_lo, _step_floor(scenario.mass_kg, timestep_s)), k_hi),
+              Parameter("relaxation_time_s", "s", 1e-6, 1e-1))
+
+    def to_tuned(v: np.ndarray) -> dict[str, Any]:
+        return {"point_stiffness_n_per_m": float(v[0]), "relaxation_time_s": float(v[1])}
+
+    def snippet(t: dict[str, Any]) -> str:
+        k, tau = t["point_stiffness_n_per_m"], t["relaxation_time_s"]
+        return (f"AddContactMaterial(point_stiffness={2 * k:.10g}, friction=CoulombFriction(0, "
+                f"0), properties=props); props.AddProperty('material', 'relaxation_time', "
+                f"{tau:.10g})\n(on both geometries; pair k = {k:.10g} N/m)")
+
+    return Space("drake", "stiffness+relaxation", params,
+                 tuple(p.clip(s) for p, s in zip(params, (k0, 1e-3), strict=True)),
+                 "tuned", frozenset({"restitution", "duration_s", "peak_force_n",
+                                     "max_penetration_m", "energy_loss_fraction"}),
+                 RELAXATION_LIMITS, to_tuned, snippet, linear=True)
+
+
 def drake_space(scenario: BallOnPlate, timestep_s: float | None = None) -> Space:
     """Drake: pair point stiffness k (N/m) and Hunt–Crossley dissipation d (s/m)."""
     from impactbench.engines.drake_adapter import native_ball_point_contact
@@ -371,6 +403,8 @@ def make_space(engine: str, scenario: BallOnPlate, variant: str | None = None,
         return pybullet_space(scenario, timestep_s)
     if engine == "pymunk":
         return pymunk_space(scenario, variant)
+    if variant == "stiffness+relaxation":
+        return drake_relaxation_space(scenario, timestep_s)
     return drake_space(scenario, timestep_s)
 
 

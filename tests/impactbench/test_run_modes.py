@@ -109,3 +109,37 @@ def test_tuned_file_from_tune_out_runs_with_run_tuned(capsys, tmp_path):
     code, out, _ = run(capsys, "run", "--engine", "pymunk", "--scenario", "ball-on-plate",
                        "--tuned", str(path), "--velocity", "2", "--timestep", "1e-4", "--json")
     assert json.loads(out)["status"] == "unsupported"
+
+
+PACKAGED = [("mujoco", 2e-3, None), ("mujoco", 1e-3, None), ("pybullet", 1 / 240, None),
+            ("pymunk", 1 / 60, None), ("pymunk", 1e-3, None),
+            *[("drake", 1e-3, a) for a in ("lagged", "tamsi", "sap", "similar")]]
+
+
+@pytest.mark.parametrize(("engine", "dt", "approximation"), PACKAGED)
+def test_packaged_tuned_file_fits_its_customary_step(engine, dt, approximation):
+    """Each packaged file fitted at a practical step applies there (its provenance matches)
+    and its restitution is within its recorded worst error of the reference."""
+    require_engine(engine)
+    variant = {"discrete_contact_approximation": approximation} if approximation else None
+    tuned, prov = load_tuned_settings(engine, "ball-on-plate", dt, variant=variant)
+    assert prov["timestep_s"] == pytest.approx(dt, rel=1e-12)
+    worst = prov["max_abs_rel_error_restitution_tuned"]
+    out, _ = compare(engine, BallOnPlate(velocity_m_s=2.0), "tuned",
+                     RunSettings(timestep_s=dt, tuned=tuned, tuned_for=prov))
+    assert out["status"] == "ok", out["message"]
+    assert abs(out["rel_error"]["restitution"]) <= worst * (1 + 1e-6)
+    assert worst < 0.25
+
+
+def test_tune_at_a_coarse_step_fits_restitution_only_and_keeps_fixed_settings():
+    require_engine("drake")
+    from impactbench.tuning.optimize import tune
+
+    result = tune("drake", BallOnPlate(), (1.0, 5.0), timestep_s=1e-3,
+                  parameters="stiffness+relaxation", max_evals=4,
+                  fixed={"discrete_contact_approximation": "sap"})
+    assert "not resolved at dt = 0.001 s" in result.excluded["duration_s"]
+    assert result.objective.weights["peak_force_n"] == 0.0
+    assert result.parameters["discrete_contact_approximation"] == "sap"
+    assert "relaxation_time_s" in result.parameters
