@@ -2,7 +2,8 @@
 
 :func:`writer_lock` takes an exclusive ``flock`` on ``.<name>.lock`` beside the folder (the
 kernel releases it when the process dies, so a killed run leaves no stale lock); a second
-writer gets a one-line ValueError. :func:`staged` hands out a temporary folder beside the target,
+writer gets a one-line ValueError (the lock file stays; unlocked, it means nothing).
+:func:`staged` hands out a temporary folder beside the target,
 pre-filled (hard links) with the target's files that the writer does not own — e.g. the papers'
 figures and tuning plots that share ``reports/figures/`` with the report — and swaps it in when
 the block finishes: with ``renameat2(RENAME_EXCHANGE)`` on Linux (one atomic step), else two
@@ -81,11 +82,7 @@ def writer_lock(out_dir: Path, what: str = "out") -> Iterator[None]:
                              f"(pid {holder}); wait for it or choose another folder") from None
         os.ftruncate(fd, 0)
         os.pwrite(fd, str(os.getpid()).encode(), 0)
-        try:
-            yield
-        finally:
-            with contextlib.suppress(OSError):
-                path.unlink()
+        yield  # the file stays (unlinking it would let a waiter lock a dead inode)
     finally:
         os.close(fd)
 
@@ -104,7 +101,7 @@ def _exchange(a: Path, b: Path) -> bool:
     return rc == 0
 
 
-def _link_tree(src: Path, dst: Path, owned: Callable[[Path], bool]) -> None:
+def link_tree(src: Path, dst: Path, owned: Callable[[Path], bool]) -> None:
     """Hard-link (else copy) every file of ``src`` not ``owned`` by the writer into ``dst``."""
     for path in src.rglob("*"):
         rel = path.relative_to(src)
@@ -130,7 +127,7 @@ def staged(out_dir: Path, owned: Callable[[Path], bool] = lambda rel: True) -> I
     stage = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.new-", dir=out_dir.parent))
     try:
         if out_dir.is_dir():
-            _link_tree(out_dir, stage, owned)
+            link_tree(out_dir, stage, owned)
         yield stage
     except BaseException:
         shutil.rmtree(stage, ignore_errors=True)

@@ -269,15 +269,61 @@ def build(cfg: config_mod.ReportConfig, out_dir: Path, *, engines: list[str] | N
         finally:
             close()
         with publish.staged(out_dir, owned_by_report) as stage:
-            rep = _write(cfg, stage, results, engines, commit, t0)
+            rep = _write(cfg, stage, results, engines, commit, t0, previous=out_dir)
     rep.out_dir = out_dir
     rep.files = [out_dir / f.relative_to(stage) for f in rep.files]
     return rep
 
 
+def render_key(df: pd.DataFrame, results: list[JobResult], meta: dict[str, Any],
+               cfg: config_mod.ReportConfig, fig_dir: Path) -> str:
+    """A hash of everything the rendered files depend on: the results table and histories,
+    the metadata shown (commit, versions, parameters, failed runs; not wall times), the
+    config, impactbench's source and templates, and the other figures ``figures/`` indexes."""
+    import hashlib
+
+    from impactbench.store import impactbench_version
+
+    h = hashlib.sha256()
+    h.update(df.to_csv(index=False).encode())
+    for r in results:
+        for name in sorted(r.history):
+            h.update(f"{r.job.id}/{name}".encode())
+            h.update(r.history[name].tobytes())
+    shown = {k: v for k, v in meta.items() if k not in ("runs", "wall_s", "command")}
+    h.update(json.dumps(shown, sort_keys=True, default=str).encode())
+    h.update(f"{cfg.title}\0{impactbench_version()}".encode())
+    templates = Path(__file__).parent / "templates"
+    for path in sorted(templates.rglob("*")) if templates.is_dir() else ():
+        if path.is_file():
+            h.update(path.name.encode())
+            h.update(path.read_bytes())
+    others = sorted(p.name for p in fig_dir.glob("*") if not p.name.startswith("report_")) \
+        if fig_dir.is_dir() else []
+    h.update("\0".join(others).encode())
+    return h.hexdigest()[:16]
+
+
+def _unchanged(previous: Path | None, key: str) -> bool:
+    """True when ``previous`` holds a complete report rendered from the same inputs."""
+    if previous is None:
+        return False
+    try:
+        old = json.loads((previous / "metadata.json").read_text())
+    except (OSError, ValueError):
+        return False
+    return old.get("render_key") == key and all((previous / n).is_file()
+                                                 for n in REPORT_FILES)
+
+
 def _write(cfg: config_mod.ReportConfig, out_dir: Path, results: list[JobResult],
-           engines: list[str] | None, commit: str, t0: float) -> Report:
-    """Write results.csv/.parquet, metadata.json and the rendered report into ``out_dir``."""
+           engines: list[str] | None, commit: str, t0: float,
+           previous: Path | None = None) -> Report:
+    """Write results.csv/.parquet, metadata.json and the rendered report into ``out_dir``.
+
+    When ``previous`` (the folder being replaced) was rendered from the same inputs
+    (:func:`render_key`), its files are kept (hard links) and only metadata.json is new:
+    the rendering would give the same bytes."""
     df = pd.DataFrame(tidy(results))
     if not df.empty:
         df = df.sort_values(SORT_COLUMNS, kind="stable").reset_index(drop=True)
@@ -305,6 +351,17 @@ def _write(cfg: config_mod.ReportConfig, out_dir: Path, results: list[JobResult]
                          "message": r.run.get("message", "")}
                         for r in results if r.run["status"] != "ok"],
     }
+    meta["render_key"] = render_key(df, results, meta, cfg, out_dir / "figures")
+    if _unchanged(previous, meta["render_key"]):
+        from impactbench.publish import link_tree
+
+        link_tree(previous, out_dir, lambda rel: not owned_by_report(rel)
+                  or rel == Path("metadata.json"))
+        files = [out_dir / rel for rel in (Path(n) for n in REPORT_FILES)]
+        files += sorted((out_dir / "figures").glob("report_*"))
+        meta["wall_s"] = time.perf_counter() - t0
+        (out_dir / "metadata.json").write_text(json.dumps(meta, indent=2, default=str) + "\n")
+        return Report(out_dir, df, files, time.perf_counter() - t0)
     files = [out_dir / "results.csv", out_dir / "results.parquet"]
     df.to_csv(files[0], index=False)
     df.to_parquet(files[1], index=False)

@@ -74,8 +74,8 @@ def test_ctrl_c_keeps_the_previous_report_and_the_rerun_resumes(tmp_path: Path) 
     assert 2 <= stored < total == 5
     after = {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()}
     assert after == before  # the previous report, byte for byte
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["rep", "slow.toml", "small.toml",
-                                                          "store.duckdb"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == [".rep.lock", "rep", "slow.toml",
+                                                          "small.toml", "store.duckdb"]
 
     third = report(slow, out, env)
     assert third.wait(600) == 0, third.communicate()[1]
@@ -110,4 +110,25 @@ def test_a_failed_write_leaves_the_folder_untouched(tmp_path: Path) -> None:
         (stage / "README.md").write_text("new")
     assert (out / "README.md").read_text() == "new"
     assert (out / "figures" / "hc_paper.png").read_text() == "kept"  # not the writer's: kept
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["rep"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["rep"]  # no staging folder left
+
+
+def test_an_unchanged_rerun_keeps_the_rendered_files(tmp_path: Path) -> None:
+    require_engine("pymunk")
+    from impactbench import config, report
+
+    cfg = config.parse({"report": {"engines": ["pymunk"], "modes": ["injected"]},
+                        "ball_on_plate": {"velocities_m_s": [1.0]}})
+    st, out = Store(tmp_path / "s.duckdb"), tmp_path / "rep"
+    report.build(cfg, out, show_progress=False, store=st, workers=0)
+    readme = out / "README.md"
+    first = (readme.stat().st_ino, readme.read_bytes(), json.loads(
+        (out / "metadata.json").read_text())["render_key"])
+    again = report.build(cfg, out, show_progress=False, store=st, workers=0)
+    meta = json.loads((out / "metadata.json").read_text())
+    assert all(r["stored"] for r in meta["runs"]) and meta["render_key"] == first[2]
+    assert (readme.stat().st_ino, readme.read_bytes()) == first[:2]  # the same file, kept
+    assert {p.name for p in again.files} >= {"README.md", "index.html", "results.csv"}
+    other = config.parse({**cfg.raw, "report": {**cfg.raw["report"], "title": "another"}})
+    report.build(other, out, show_progress=False, store=st, workers=0)
+    assert "another" in readme.read_text()
