@@ -17,6 +17,7 @@ import contextlib
 import logging
 import os
 import signal
+import warnings
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
@@ -64,9 +65,11 @@ def client(workers: int | None = None, scheduler: str | None = None) -> Iterator
         # spawned workers inherit an ignored SIGINT; restarted ones get it from _ignore_sigint
         previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
         try:
-            cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                                   host="127.0.0.1", dashboard_address=None,
-                                   silence_logs=logging.CRITICAL, memory_limit=0)
+            with warnings.catch_warnings():  # its loopback HTTP port moves if 8787 is taken
+                warnings.filterwarnings("ignore", message="Port .* is already in use")
+                cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                                       host="127.0.0.1", dashboard_address=None,
+                                       silence_logs=logging.CRITICAL, memory_limit=0)
             c = Client(cluster)
             c.register_worker_callbacks(_ignore_sigint)
         finally:
