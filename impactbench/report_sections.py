@@ -288,8 +288,8 @@ NATIVE_MAPPING = {
     ("ball-on-plate", ""): "a linear spring–damper matched to the reference at 1 m/s",
     ("ball-on-plate", "pymunk"): "a rigid contact with the reference restitution at 1 m/s",
     ("rigid-flexible", ""): "a linear, undamped k1 contact, which cannot yield or fail",
-    ("rigid-flexible", "pymunk"): "a rigid, perfectly elastic contact (e = 1), which has no "
-                                  "stiffness k1 at all",
+    ("rigid-flexible", "pymunk"): "a rigid, perfectly elastic contact with e = 1, which has "
+                                  "no stiffness k1 at all",
 }
 
 

@@ -99,3 +99,17 @@ def test_a_dying_worker_becomes_a_crashed_row(monkeypatch: pytest.MonkeyPatch) -
     assert results["crasher"]["status"] == "crashed"
     assert "died" in results["crasher"]["message"]
     assert results["pymunk"]["status"] in ("ok", "unavailable")
+
+
+def test_what_this_means_names_each_engines_own_contact(small_report: report.Report) -> None:
+    """pymunk's rigid–flexible native contact is rigid (e = 1), not a linear k1 spring."""
+    text = (small_report.out_dir / "README.md").read_text()
+    paragraphs = {p.split("**")[1].split()[0]: p for p in text.splitlines()
+                  if p.startswith("**") and "**. " in p}
+    for engine in available_engines():
+        rf = paragraphs[engine].split("Rigid–flexible, injected")[-1]
+        if engine == "pymunk":
+            assert "a rigid, perfectly elastic contact with e = 1" in rf
+            assert "k1 contact" not in rf
+        else:
+            assert "a linear, undamped k1 contact" in rf
