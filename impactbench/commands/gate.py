@@ -12,8 +12,6 @@ import os
 import sys
 from pathlib import Path
 
-from impactbench import gates
-
 HELP = "check engines against the reference with the tolerances of a gate file (CI)"
 
 
@@ -55,6 +53,7 @@ def default_baseline(config: Path) -> Path:
 
 
 def main(args: argparse.Namespace) -> int:
+    from impactbench import gates  # here: `gate --help` stays light
     from impactbench.publish import check_file_target
     from impactbench.store import Store, default_path
 
