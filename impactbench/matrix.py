@@ -276,7 +276,16 @@ def run_jobs(jobs: list[Job], workers: int | None = None,
                                                      references[job.reference_key])
         if progress and results:
             progress(len(results))
-    pending = sorted((j for j in jobs if j.id not in results),
+    # one run per store key: a work-precision point that equals a matrix point runs once and
+    # serves both (the representative keeps a history when any twin needs one)
+    twins: dict[str, list[Job]] = {}
+    for job in sorted((j for j in jobs if j.id not in results), key=lambda j: j.id):
+        group = twins.setdefault(keys.get(job.id, job.id), [])
+        if job.keep_history and not (group and group[0].keep_history):
+            group.insert(0, job)
+        else:
+            group.append(job)
+    pending = sorted((g[0] for g in twins.values()),
                      key=lambda j: (j.scenario != "rigid-flexible", j.id))
     if not yes:
         from impactbench.cliutil import check_cost
@@ -297,10 +306,15 @@ def run_jobs(jobs: list[Job], workers: int | None = None,
     def finished(result: JobResult) -> None:
         results[result.job.id] = result
         unstored.append(result)
+        group = twins[keys.get(result.job.id, result.job.id)]
+        for twin in group[1:]:
+            results[twin.id] = JobResult(twin, dict(result.run),
+                                         result.history if twin.keep_history else {},
+                                         result.cached)
         if time.monotonic() - last_flush > FLUSH_EVERY_S:
             flush()
         if progress:
-            progress(1)
+            progress(len(group))
 
     try:
         if pending and workers == 0:

@@ -91,3 +91,15 @@ def test_a_file_that_is_no_store_is_one_line(tmp_path: Path) -> None:
     bad.write_text("not a database")
     with pytest.raises(ValueError, match=r"^store = .*bad\.duckdb"):
         store_mod.Store(bad).get(["k"])
+
+
+def test_twin_jobs_run_once_and_share_the_run(tmp_path: Path) -> None:
+    require_engine("pymunk")
+    st = store_mod.Store(tmp_path / "r.duckdb")
+    twins = [Job("matrix", "pymunk", "ball-on-plate", "native", 1.0, 1e-5, keep_history=True),
+             Job("work_precision", "pymunk", "ball-on-plate", "native", 1.0, 1e-5)]
+    first = {r.job.study: r for r in run_jobs(twins, workers=0, store=st)}
+    assert first["matrix"].run == first["work_precision"].run  # one run, not two
+    assert first["matrix"].history and not first["work_precision"].history
+    again = run_jobs(twins, workers=0, store=st)
+    pd.testing.assert_frame_equal(pd.DataFrame(tidy(first.values())), pd.DataFrame(tidy(again)))
