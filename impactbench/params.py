@@ -11,7 +11,7 @@ import argparse
 from typing import Any
 
 from impactbench.cliutil import number
-from impactbench.reference.laws import LOCAL_LAWS, STRUCTURAL_LAWS
+from impactbench.reference.laws import ALL_LOCAL_LAWS, STRUCTURAL_LAWS
 from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
 
 BALL_FLAGS: dict[str, tuple[str, str]] = {
@@ -119,7 +119,7 @@ def _ball_values(args: argparse.Namespace, values: dict[str, Any]) -> dict[str, 
 def add_law_flags(parser: argparse.ArgumentParser, *, default: str | None = "linear") -> None:
     """Add ``--local`` and ``--structure`` (rigid–flexible law choices)."""
     which = f"default {default}" if default else "default: every one, in turn"
-    parser.add_argument("--local", choices=tuple(LOCAL_LAWS), default=default,
+    parser.add_argument("--local", choices=tuple(ALL_LOCAL_LAWS), default=default,
                         help=f"local contact law; {which}")
     parser.add_argument("--structure", choices=tuple(STRUCTURAL_LAWS), default=default,
                         help=f"structural law; {which}")

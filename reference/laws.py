@@ -299,6 +299,25 @@ class StiffnessMutation(LocalLaw):
         return Piece(mode, self.k1_failed, 0.0, (_falling_dx(0.0, "end", "free"),))
 
 
+@dataclass
+class ContinuousMutation(Elastoplastic):
+    """A reading of the paper's illegible eq. 5 with the force continuous at failure.
+
+    F1 = k1·Δx until it reaches F_m, then F_m + k1'·(Δx − F_m/k1); unloading and reloading
+    from the largest penetration Δx_m with slope k1, as eq. 4 unloads the elastoplastic law.
+    It is :class:`Elastoplastic` with εs = F_m/k1 and kt = k1' (``kt`` holds k1'). Selectable
+    as local law ``mutation-continuous``; not one of the paper's three laws
+    (:data:`LOCAL_LAW_READINGS`).
+    """
+
+    name: ClassVar[str] = "mutation-continuous"
+
+    @classmethod
+    def from_failure(cls, k1: float, k1_failed: float, fm: float) -> ContinuousMutation:
+        """From k1 (N/m), k1' (N/m) and the failure force F_m (N)."""
+        return cls(k1, k1_failed, fm / k1)
+
+
 class StructuralLaw(ABC):
     """Structural law F2(x2) tying body 2 to the ground (stateless)."""
 
@@ -432,6 +451,9 @@ def escaped(v1: float, x2: float, v2: float, structure: StructuralLaw) -> bool:
 LOCAL_LAWS: dict[str, type[LocalLaw]] = {
     cls.name: cls for cls in (LinearLocal, Elastoplastic, StiffnessMutation)
 }
+LOCAL_LAW_READINGS: dict[str, type[LocalLaw]] = {ContinuousMutation.name: ContinuousMutation}
+"""Other readings of the paper's local laws, selectable by name but not swept by default."""
+ALL_LOCAL_LAWS: dict[str, type[LocalLaw]] = {**LOCAL_LAWS, **LOCAL_LAW_READINGS}
 STRUCTURAL_LAWS: dict[str, type[StructuralLaw]] = {
     cls.name: cls for cls in (LinearStructure, SofteningStructure)
 }

@@ -12,8 +12,9 @@ from typing import Any
 
 from impactbench.reference import validation as check
 from impactbench.reference.laws import (
-    LOCAL_LAWS,
+    ALL_LOCAL_LAWS,
     STRUCTURAL_LAWS,
+    ContinuousMutation,
     Elastoplastic,
     HuntCrossley,
     LinearLocal,
@@ -185,7 +186,7 @@ class RigidFlexible(_Scenario):
 
     def __post_init__(self) -> None:
         check.positive("velocity_m_s", self.velocity_m_s)
-        check.one_of("local", self.local, tuple(LOCAL_LAWS))
+        check.one_of("local", self.local, tuple(ALL_LOCAL_LAWS))
         check.one_of("structure", self.structure, tuple(STRUCTURAL_LAWS))
         for name in ("m1_kg", "m2_kg", "k1_n_per_m", "k2_n_per_m", "kt_n_per_m",
                      "k1_failed_n_per_m", "eps_s_m", "fm_n", "max_time_s"):
@@ -210,6 +211,9 @@ class RigidFlexible(_Scenario):
             return LinearLocal(self.k1_n_per_m)
         if self.local == "elastoplastic":
             return Elastoplastic(self.k1_n_per_m, self.kt_n_per_m, self.eps_s_m)
+        if self.local == "mutation-continuous":
+            return ContinuousMutation.from_failure(self.k1_n_per_m, self.k1_failed_n_per_m,
+                                                   self.fm_n)
         return StiffnessMutation(self.k1_n_per_m, self.k1_failed_n_per_m, self.fm_n)
 
     def structural_law(self) -> StructuralLaw:

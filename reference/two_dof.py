@@ -457,7 +457,7 @@ def solve_fast(scenario: RigidFlexible) -> dict[str, Any]:
     out.update(zip(METRIC_KEYS, (float(r[1]), float(r[2]), float(r[3]), float(r[4]),
                                  int(r[5])), strict=True))
     local = scenario.local_law()
-    if scenario.local == "elastoplastic":
+    if scenario.local in ("elastoplastic", "mutation-continuous"):
         local.max_dx = float(r[11])  # type: ignore[attr-defined]
     elif scenario.local == "mutation":
         local.failed = bool(r[12])  # type: ignore[attr-defined]

@@ -42,7 +42,9 @@ STEP_RAD = 0.1
 GAP_FLOOR_RAD = 1e-6
 """Shortest free-flight step, in radians of the fastest contact mode (two_dof.GAP_FLOOR_RAD)."""
 
-LOCAL_CODES = {"linear": 0, "elastoplastic": 1, "mutation": 2}
+LOCAL_CODES = {"linear": 0, "elastoplastic": 1, "mutation": 2, "mutation-continuous": 1}
+"""Kernel law codes; ``mutation-continuous`` is the elastoplastic kernel with εs = F_m/k1 and
+kt = k1' (:class:`impactbench.reference.laws.ContinuousMutation`)."""
 STATUS_NAMES = ("ok", "structure_collapsed", "max_time")
 
 _A = np.ascontiguousarray(_dc.A[:12, :12])
@@ -465,6 +467,9 @@ def run(scenario, step_rad: float = STEP_RAD) -> tuple:
     """The kernel's raw tuple for a RigidFlexible scenario with a built-in local law."""
     sc = scenario
     beta = sc.beta_n_per_m3 if sc.structure == "softening" else 0.0
+    kt, eps_s = sc.kt_n_per_m, sc.eps_s_m
+    if sc.local == "mutation-continuous":
+        kt, eps_s = sc.k1_failed_n_per_m, sc.fm_n / sc.k1_n_per_m
     return solve_kernel(LOCAL_CODES[sc.local], sc.velocity_m_s, sc.m1_kg, sc.m2_kg,
-                        sc.k1_n_per_m, sc.k2_n_per_m, sc.kt_n_per_m, sc.k1_failed_n_per_m,
-                        sc.eps_s_m, beta, sc.fm_n, sc.max_time_s, step_rad)
+                        sc.k1_n_per_m, sc.k2_n_per_m, kt, sc.k1_failed_n_per_m,
+                        eps_s, beta, sc.fm_n, sc.max_time_s, step_rad)

@@ -4,10 +4,12 @@
 Figures (``rf_figNN_….png``): for each swept parameter (v1, k1, k2, m2) a force-history figure
 F1(t) at the paper's three values, then peak force, pulse width and impulse against the
 parameter, for the 3 local × 2 structural laws. Sweeps use the paper's full grids and the
-reference solver (:func:`impactbench.reference.two_dof.sweep`); points whose structure collapsed are
-left
-out of the curves (and counted in the report). The paper does not state v1 for the k1, k2 and
-m2 sweeps; :data:`SWEEP_VELOCITY_M_S` = 30 m/s reproduces its stiff/heavy-body percentages
+reference solver (:func:`impactbench.reference.two_dof.sweep`). A run whose softening
+structure collapses goes on until body 2 has escaped, so its metrics describe the whole
+contact as the paper's ode45 runs did; dotted lines mark where collapse sets in. The k2 sweep
+reads the paper's range in kN/m (to 10⁹ N/m, the reading that reproduces the most numbers:
+:mod:`impactbench.figures.rf_readings`). The paper does not state v1 for the k1, k2 and m2
+sweeps; :data:`SWEEP_VELOCITY_M_S` = 30 m/s reproduces its stiff/heavy-body percentages
 (see the report).
 """
 
@@ -23,10 +25,11 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
+from impactbench.figures import rf_readings
 from impactbench.reference import two_dof
 from impactbench.reference.scenarios import RigidFlexible
 
-SWEEP_VELOCITY_M_S = 30.0
+SWEEP_VELOCITY_M_S = rf_readings.SWEEP_VELOCITY_M_S
 LOCALS = ("linear", "elastoplastic", "mutation")
 STRUCTURES = ("linear", "softening")
 COLORS = {"linear": "tab:blue", "elastoplastic": "tab:red", "mutation": "tab:green"}
@@ -53,9 +56,18 @@ def _grid(start: float, stop: float, step: float) -> np.ndarray:
     return start + step * np.arange(round((stop - start) / step) + 1)
 
 
+def grid(over: str, start: float, stop: float, step: float) -> np.ndarray:
+    """The paper's grid; k2 continues log-spaced (300 points) to 10⁶ kN/m, its range read in
+    kN/m (the default reading)."""
+    g = _grid(start, stop, step)
+    if over == "k2":
+        g = np.concatenate([g, np.geomspace(stop, rf_readings.K2_END_N_PER_M, 301)[1:]])
+    return g
+
+
 def sweeps() -> dict[str, pd.DataFrame]:
     """The four paper sweeps over all law combinations (full grids)."""
-    return {over: two_dof.sweep(_base(over), over, _grid(*g))
+    return {over: two_dof.sweep(_base(over), over, grid(over, *g))
             for _, over, _, g, *_ in SWEEPS}
 
 
@@ -90,11 +102,14 @@ def _metric_figure(path: Path, num: int, df: pd.DataFrame, field: str, metric: s
     for ax, structure in zip(axes, STRUCTURES, strict=True):
         for local in LOCALS:
             d = df[(df.local == local) & (df.structure == structure)]
-            y = np.where(d.status == "ok", d[metric], np.nan)
-            ax.plot(d[field] * xscale, y * yscale, color=COLORS[local], lw=1, label=local)
-        collapsed = df[(df.structure == structure) & (df.status != "ok")]
-        if len(collapsed):
-            ax.text(0.02, 0.95, f"{len(collapsed)} points not ok (collapse) omitted",
+            ax.plot(d[field] * xscale, d[metric] * yscale, color=COLORS[local], lw=1,
+                    label=local)
+            collapsed = d[d.status == "structure_collapsed"]
+            if len(collapsed):
+                ax.axvline(collapsed[field].iloc[0] * xscale, color=COLORS[local], ls=":",
+                           lw=0.8)
+        if (df[df.structure == structure].status == "structure_collapsed").any():
+            ax.text(0.02, 0.95, "dotted: structure collapses beyond (runs finished)",
                     transform=ax.transAxes, fontsize=7, va="top")
         ax.set_xscale("log")
         ax.set_xlabel(label)
@@ -123,7 +138,8 @@ def write(out_dir: Path, report: Path | None = None) -> list[Path]:
             p = out_dir / f"rf_fig{num + k:02d}_{metric.rsplit('_', 1)[0]}_{over}.png"
             _metric_figure(p, num + k, data[over], field, metric, ylabel, yscale, label, scale)
             paths.append(p)
-    write_report(report or out_dir.parent / "rigid_flexible.md", data, paths)
+    readings = rf_readings.all_numbers()
+    write_report(report or out_dir.parent / "rigid_flexible.md", data, paths, readings)
     return paths
 
 
@@ -144,8 +160,25 @@ def _verdict(ok: bool) -> str:
     return "**holds**" if ok else "**does not hold**"
 
 
-def write_report(path: Path, data: dict[str, pd.DataFrame], figures: list[Path]) -> None:
-    """The paper's regularities (MODELS.md §2), each stated with our numbers and a verdict."""
+def _largest_gap(a: dict[str, Any], b: dict[str, Any]) -> float:
+    """Largest difference (percentage points) between two readings' stated numbers."""
+    gaps = [abs(a[k][loc] - b[k][loc]) for k in ("reg2", "reg3") for loc in a[k]]
+    gaps += [abs(x - y) for k in ("k2", "m2") for loc in a[k]
+             for x, y in zip(a[k][loc], b[k][loc], strict=True)]
+    return max(gaps)
+
+
+def peak_time_s(sc: RigidFlexible) -> float:
+    """Time (s) of the largest F1 of one run (from the event-driven history)."""
+    rec = two_dof.simulate(sc)
+    return float(rec.time_s[int(np.argmax(rec.normal_force_n))])
+
+
+def write_report(path: Path, data: dict[str, pd.DataFrame], figures: list[Path],
+                 readings: dict[str, dict[str, Any]] | None = None) -> None:
+    """The paper's regularities (MODELS.md §2), each stated with our numbers and a verdict;
+    ``readings`` (:func:`impactbench.figures.rf_readings.numbers` per reading) adds the table
+    of readings against the paper's numbers."""
     v = data["velocity"]
     lines = ["# Rigid body hitting a constrained flexible body — the paper's regularities",
              "",
@@ -153,8 +186,13 @@ def write_report(path: Path, data: dict[str, pd.DataFrame], figures: list[Path])
              "the reference solver `impactbench.reference.two_dof` (event-driven, exact event "
              "times) on the "
              "paper's full grids: v1 0.1…1000 m/s step 0.1; k1 and k2 0.1…1000 kN/m step "
-             "0.1 kN/m; m2 0.1…1000 kg step 0.1 kg; 3 local × 2 structural laws, base "
-             "parameters elsewhere (MODELS.md §2). Figures: "
+             "0.1 kN/m, k2 continued log-spaced to 10⁶ kN/m (the paper's k2 range read in "
+             "kN/m, see Readings); m2 0.1…1000 kg step 0.1 kg; 3 local × 2 structural laws, "
+             "base parameters elsewhere (MODELS.md §2). A run whose softening structure "
+             "collapses keeps the status `structure_collapsed` but goes on until no further "
+             "contact is possible — body 2 past the potential's peak x_c = √(k2/β) and moving "
+             "away at least as fast as body 1 (`laws.escaped`) — so its metrics describe the "
+             "whole contact, as the paper's ode45 runs did. Figures: "
              + ", ".join(f"`{p.name}`" for p in figures) + ".",
              "",
              f"The paper does not state v1 for the k1, k2 and m2 sweeps; we use "
@@ -174,19 +212,19 @@ def write_report(path: Path, data: dict[str, pd.DataFrame], figures: list[Path])
                      "k2²/(4β) = 833 J).")
     lines += ["", "The paper plots softening curves over the whole range and says nothing of "
               "collapse; with β = 3 MN/m³ the structure's potential peaks at 833 J, which a "
-              "10 kg body at ≳ 13 m/s can exceed. Our curves omit collapsed points.", ""]
+              "10 kg body at ≳ 13 m/s can exceed. Body 2 then escapes and the contact ends by "
+              "itself; our curves include these points (dotted lines mark the onset).", ""]
 
     # 1. growth with v1, pulse width tends to a constant
     lines += ["## 1. Peak and impulse grow with v1; pulse width tends to a constant", "",
               "| local / structure | peak 1→10→100→1000 m/s (kN) | impulse (N·s) | pulse width "
-              "(ms) | pulse-width change over the last decade of ok points |",
+              "(ms) | pulse-width change over the last decade |",
               "|---|---|---|---|---|"]
     grow_ok, const_ok = True, True
     drops: list[str] = []
     for local in LOCALS:
         for structure in STRUCTURES:
             d = combo(v, local, structure)
-            d = d[d.status == "ok"]
             pts = [x for x in (1.0, 10.0, 100.0, 1000.0) if x <= d.velocity_m_s.max() + 1e-9]
             rows = [at(d, "velocity_m_s", x, local, structure) for x in pts]
             peak = " → ".join(f"{r.peak_force_n / 1e3:.4g}" for r in rows)
@@ -209,13 +247,16 @@ def write_report(path: Path, data: dict[str, pd.DataFrame], figures: list[Path])
                 const_ok &= change < 0.05
             lines.append(f"| {local} / {structure} | {peak} | {imp} | {pw} | "
                          f"{100 * change:.2f} % (v1 {top / 10:g}…{top:g}) |")
-    lines += ["", f"Peak and impulse never decrease with v1 on any ok point: "
-              f"{_verdict(grow_ok)}" + (" — " + "; ".join(drops) + " (just below collapse, "
-                                        "where body 2 runs far out and the second impact "
-                                        "changes)" if drops else "")
-              + ". Pulse width settles (< 5 % over the last decade) for the "
-              f"linear structure: {_verdict(const_ok)}. For the softening structure the sweep "
-              "ends at collapse, so there is no high-velocity plateau to speak of.", ""]
+    lines += ["", f"Peak and impulse never decrease with v1: {_verdict(grow_ok)}"
+              + (" — " + "; ".join(drops) + " (at the edge of collapse, where body 2 runs "
+                 "far out and the second impact changes)" if drops else "")
+              + ". Pulse width settles (< 5 % over the last decade) for the linear structure: "
+              f"{_verdict(const_ok)}. With the softening structure, past collapse the pulse "
+              "keeps narrowing slowly (the escaping body 2 leaves body 1 sooner the harder it "
+              "is hit), so 'tends to a constant' holds there only loosely. Regularity 1 "
+              "**reproduced** for peak and impulse on the linear structure and for the "
+              "pulse-width plateau; " + ("also for peak and impulse with softening." if grow_ok
+                                          else "not everywhere with softening (above)."), ""]
 
     # 2. yielding / failure: repeated impacts, wider pulses
     ll = combo(v, "linear", "linear").set_index("velocity_m_s")
@@ -242,29 +283,45 @@ def write_report(path: Path, data: dict[str, pd.DataFrame], figures: list[Path])
               f"{int(ll.impacts.max())} impacts with the base parameters (m1 = m2, k1 = k2: "
               "body 2 comes back and hits body 1 once more).", ""]
 
-    # 3. softening lowers the peak, can cut impacts and the pulse width
-    lines += ["## 3. Structural softening lowers the peak and can cut the number of impacts", ""]
-    all_lower = True
+    # 3. softening lowers the peak, brings it earlier, can cut impacts and the pulse width
+    lines += ["## 3. Structural softening lowers the peak, brings it earlier, can cut the "
+              "number of impacts and narrows the pulse (paper: by up to 70–80 %)", "",
+              "| local | peak: softening against linear structure | impacts fewer / more "
+              "(of 10000 v1) | largest pulse-width cut against linear/linear | at v1 | "
+              "peak time, linear → softening structure at v1 = 300 m/s |",
+              "|---|---|---|---|---|---|"]
+    ll = combo(v, "linear", "linear").set_index("velocity_m_s")
+    all_lower, cuts, earlier = True, {}, True
     for local in LOCALS:
         lin = combo(v, local, "linear").set_index("velocity_m_s")
         sof = combo(v, local, "softening").set_index("velocity_m_s")
-        ok = sof.status == "ok"
-        dp = (sof.peak_force_n[ok] / lin.peak_force_n[ok] - 1.0)
-        dw = (sof.pulse_width_s[ok] / lin.pulse_width_s[ok] - 1.0)
-        fewer = int((sof.impacts[ok] < lin.impacts[ok]).sum())
-        more_i = int((sof.impacts[ok] > lin.impacts[ok]).sum())
-        all_lower &= bool((dp <= 1e-12).all())
-        lines.append(f"- {local}: softening changes the peak by {100 * dp.min():+.2f} … "
-                     f"{100 * dp.max():+.2f} % (ok points); fewer impacts at {fewer}, more at "
-                     f"{more_i} velocities; pulse width {100 * dw.min():+.1f} … "
-                     f"{100 * dw.max():+.1f} %.")
-    lines += ["", f"Softening never raises the peak: {_verdict(all_lower)}. With the base "
-              "parameters the peak occurs in the first impact, before body 2 has moved far "
-              "enough for the cubic term to matter, so softening changes the peak by well under "
-              "1 % either way. On the v1 sweep softening never cuts the number of impacts and "
-              "never narrows the pulse: it widens it (up to the values above), the opposite of "
-              "the paper's 'pulse width down by up to 70–80 %'. We do not reproduce that claim "
-              "with the stated parameters.", ""]
+        dp = sof.peak_force_n / lin.peak_force_n - 1.0
+        cut = 1.0 - sof.pulse_width_s / ll.pulse_width_s
+        cuts[local] = 100.0 * float(cut.max())
+        fewer = int((sof.impacts < lin.impacts).sum())
+        more_i = int((sof.impacts > lin.impacts).sum())
+        all_lower &= bool((dp <= 1e-9).all())
+        t_lin = peak_time_s(RigidFlexible(velocity_m_s=300.0, local=local))
+        t_sof = peak_time_s(RigidFlexible(velocity_m_s=300.0, local=local,
+                                          structure="softening"))
+        earlier &= t_sof <= t_lin
+        lines.append(f"| {local} | {100 * dp.min():+.1f} … {100 * dp.max():+.2f} % | "
+                     f"{fewer} / {more_i} | {cuts[local]:.1f} % | {cut.idxmax():g} m/s | "
+                     f"{t_lin * 1e3:.3f} → {t_sof * 1e3:.3f} ms |")
+    in_range = [loc for loc, c in cuts.items() if 70.0 <= c <= 80.0]
+    lines += ["", f"Softening never raises the peak: {_verdict(all_lower)}; it lowers it most "
+              "at high v1, after collapse (the escaping body 2 yields). The peak comes "
+              f"earlier: {_verdict(earlier)} (v1 = 300 m/s). Softening cuts the number of "
+              "impacts (the linear local law's second impact disappears once body 2 escapes) "
+              "and narrows the pulse by up to "
+              + ", ".join(f"{c:.1f} % ({loc})" for loc, c in cuts.items())
+              + " against linear/linear, at the top of the v1 sweep — the paper's 'up to "
+              "70–80 %': **reproduced** for " + (", ".join(in_range) or "none")
+              + (("; " + ", ".join(f"{loc} {c:.1f} %" for loc, c in cuts.items()
+                                   if loc not in in_range) + " is just beyond")
+                 if len(in_range) < len(cuts) else "")
+              + ". Before this fix the runs stopped at the instant of collapse and the pulse "
+              "widths looked wider, not narrower.", ""]
 
     # 4. stiff / heavy body 2: the local law alone matters
     lines += ["## 4. Very stiff or very heavy body 2: only the local law matters", "",
@@ -277,7 +334,8 @@ def write_report(path: Path, data: dict[str, pd.DataFrame], figures: list[Path])
              ("m2", "mutation"): "−31.1 %, +41.2 %, −1.3 %"}
     holds4 = True
     failed4: list[str] = []
-    for over, field, value in (("k2", "k2_n_per_m", 1e6), ("m2", "m2_kg", 1000.0)):
+    for over, field, value in (("k2", "k2_n_per_m", rf_readings.K2_END_N_PER_M),
+                               ("m2", "m2_kg", 1000.0)):
         df = data[over]
         lin = at(df, field, value, "linear", "linear")
         for local in ("elastoplastic", "mutation"):
@@ -319,8 +377,69 @@ def write_report(path: Path, data: dict[str, pd.DataFrame], figures: list[Path])
                      f"100, 1000 kN/m; pulse width {lo.pulse_width_s * 1e3:.4g} → "
                      f"{a.pulse_width_s * 1e3:.4g} → {b.pulse_width_s * 1e3:.4g} ms; impulse "
                      f"{lo.impulse_ns:.4g} → {a.impulse_ns:.4g} → {b.impulse_ns:.4g} N·s.")
-    low = k1[(k1.k1_n_per_m <= 1e4) & (k1.status == "ok")]
+    low = k1[k1.k1_n_per_m <= 1e4]
     spread = low.groupby("k1_n_per_m").pulse_width_s.agg(lambda x: x.max() / x.min())
     lines += ["", f"At low k1 (≤ 10 kN/m) the pulse widths of the law combinations differ by up "
               f"to a factor {spread.max():.2f} (paper: up to 4×).", ""]
+    # conclusion 2: a heavy body 2 (> 3 m1): the structural law does not matter
+    m2 = data["m2"]
+    lines += ["## Conclusion 2: a body 2 heavier than 3·m1 — only the local law matters", "",
+              f"v1 = {SWEEP_VELOCITY_M_S:g} m/s, m2 ≥ 30 kg: largest change of each metric "
+              "when the structure softens (same local law):", ""]
+    worst = 0.0
+    for local in LOCALS:
+        lin = combo(m2, local, "linear").set_index("m2_kg")
+        sof = combo(m2, local, "softening").set_index("m2_kg")
+        heavy = lin.index >= 30.0
+        diffs = {k: float((sof[k][heavy] / lin[k][heavy] - 1.0).abs().max())
+                 for k in ("peak_force_n", "pulse_width_s", "impulse_ns")}
+        light = (sof.pulse_width_s[~heavy] / lin.pulse_width_s[~heavy] - 1.0).abs().max()
+        worst = max(worst, *diffs.values())
+        lines.append(f"- {local}: peak {100 * diffs['peak_force_n']:.2f} %, pulse width "
+                     f"{100 * diffs['pulse_width_s']:.2f} %, impulse "
+                     f"{100 * diffs['impulse_ns']:.2f} % (m2 < 30 kg: pulse width up to "
+                     f"{100 * light:.0f} %).")
+    lines += ["", f"The structural law changes no metric by more than {100 * worst:.1f} % for "
+              f"m2 ≥ 3·m1: {_verdict(worst < 0.05)} (within 5 %); a light body 2 is where the "
+              "structure matters (§3.4 (3)).", ""]
+
+    if readings:
+        eqs = [r for r in readings if r not in rf_readings.SOLVER_READINGS]
+        best = max(eqs, key=lambda r: rf_readings.score(readings[r])[0])
+        ties = [r for r in eqs if r != best and rf_readings.score(readings[r])[0]
+                == rf_readings.score(readings[best])[0]]
+        solver = "; ".join(
+            f"`{r}` reproduces {rf_readings.score(readings[r])[0]} and differs from the "
+            f"default by at most {_largest_gap(readings[r], readings['default']):.2f} "
+            "percentage points" for r in rf_readings.SOLVER_READINGS if r in readings)
+        lines += ["## Readings of the garbled equations against the paper's numbers", "",
+                  "Each row changes one item of the default reading "
+                  "(`impactbench/figures/rf_readings.py`); the numbers are those the paper "
+                  "states: regularity 2 (largest pulse-width increase by yielding / failure, "
+                  "linear structure), regularity 3 (largest pulse-width cut by softening, "
+                  "against linear/linear), regularity 4 (peak / pulse width / impulse against "
+                  f"the linear local law at the end of the k2 and m2 sweeps, v1 = "
+                  f"{SWEEP_VELOCITY_M_S:g} m/s), §3.2 (widest pulse-width ratio between the "
+                  "six law pairs at k1 ≤ 10 kN/m). A number counts as reproduced within "
+                  f"±{rf_readings.TOLERANCE_PP:g} percentage points (the ratio within ±0.5).",
+                  "", *rf_readings.table(readings), "",
+                  *(f"- `{name}`: {text}" for name, text in rf_readings.READINGS.items()), "",
+                  f"Most reproduced among the readings of the equations and ranges: `{best}` "
+                  f"(the default)" + (", tied with " + ", ".join(f"`{r}`" for r in ties)
+                                      + " (which moves only the low-k1 ratio)" if ties else "")
+                  + f". Among the solver's: {solver} — a count that moves with "
+                  "numbers at the tolerance's edge, not a better reading; the reference stays "
+                  "the exact solver. Reading the k2 range in kN/m "
+                  "makes the k2 sweep end at a wall-like body 2 whose numbers then match the "
+                  "m2 sweep's, as the paper's two sets nearly do. No reading reproduces the "
+                  "+130…140 % of regularity 2 or the 4× of §3.2 (kt, k1' absolute make the "
+                  "plastic and failed slopes stiffer than k1 at low k1 and overshoot it), and "
+                  "ode45's default tolerances barely move any number: the solver is not where "
+                  "the paper's numbers come from. The mutation law's "
+                  "−31 % peak and −1.3 % impulse both follow if about 5 % of the impact energy "
+                  "is lost at failure (e = 0.974 → impulse ×0.987, peak ×√(0.949)·√(k1'/k1) = "
+                  "0.689); our drop at F_m = 1 kN loses ½(k1 − k1')(F_m/k1)² = 2.5 J of 4500 J, "
+                  "which would need F_m ≈ 9.6 kN at 30 m/s — or v1 ≈ 3 m/s, where the "
+                  "elastoplastic law would not yield at all. The continuous-force reading "
+                  "dissipates far more (impulse −14 %) and widens the pulse half as much.", ""]
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
