@@ -23,6 +23,7 @@ zoo's Kelvin–Voigt models); they are re-exported here.
 from __future__ import annotations
 
 import contextlib
+import functools
 import math
 import os
 import sys
@@ -173,3 +174,34 @@ def silenced_fds() -> Iterator[None]:
         os.dup2(saved[1], 2)
         for fd in (*saved, null):
             os.close(fd)
+
+
+def reference_velocity(options: dict) -> float:
+    """The native conversion's reference velocity (m/s): ``options["reference_velocity_m_s"]``
+    or :data:`NATIVE_REFERENCE_VELOCITY_M_S`; a non-positive value is a ValueError."""
+    from impactbench.reference import validation as check
+
+    return check.positive("options.reference_velocity_m_s",
+                          options.get("reference_velocity_m_s", NATIVE_REFERENCE_VELOCITY_M_S))
+
+
+@functools.lru_cache(maxsize=256)
+def _hunt_crossley(scenario) -> dict[str, float]:
+    from impactbench.reference import hunt_crossley
+
+    return dict(hunt_crossley.solve(scenario))
+
+
+def native_ball_restitution(scenario, reference_velocity_m_s: float) -> float:
+    """The Hunt–Crossley restitution of ``scenario`` at the reference velocity: the constant
+    coefficient a user gives a rigid contact (cached: sweeps ask for the same one again)."""
+    return float(_hunt_crossley(scenario.replace(velocity_m_s=reference_velocity_m_s))
+                 ["restitution"])
+
+
+def native_ball_spring(scenario, reference_velocity_m_s: float) -> float:
+    """Stiffness k (N/m) of the *undamped* linear spring whose contact duration π·√(m/k)
+    equals the Hunt–Crossley reference's at the reference velocity (for an engine whose
+    compliant contact has no damping: duration matches there, restitution is 1)."""
+    duration = _hunt_crossley(scenario.replace(velocity_m_s=reference_velocity_m_s))["duration_s"]
+    return spring_damper_matching(scenario.mass_kg, 1.0, duration).stiffness_n_per_m

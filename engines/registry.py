@@ -16,6 +16,9 @@ ENGINES: dict[str, str] = {
     "pybullet": "impactbench.engines.pybullet_adapter:PybulletAdapter",
     "pymunk": "impactbench.engines.pymunk_adapter:PymunkAdapter",
     "drake": "impactbench.engines.drake_adapter:DrakeAdapter",
+    "sapien": "impactbench.engines.sapien_adapter:SapienAdapter",
+    "dart": "impactbench.engines.dart_adapter:DartAdapter",
+    "box2d": "impactbench.engines.box2d_adapter:Box2dAdapter",
 }
 
 PIP: dict[str, str] = {
@@ -23,6 +26,9 @@ PIP: dict[str, str] = {
     "pybullet": "pip install pybullet",
     "pymunk": "pip install pymunk",
     "drake": "pip install drake",
+    "sapien": "pip install sapien",
+    "dart": "pip install dartpy",
+    "box2d": "pip install box2d",
 }
 
 ENGINES_ENV = "IMPACTBENCH_ENGINES"

@@ -28,7 +28,8 @@ def require_engine(name: str):
     from impactbench.engines.base import PIP
 
     module = {"drake": "pydrake", "pymunk": "pymunk", "mujoco": "mujoco",
-              "pybullet": "pybullet"}[name]
+              "pybullet": "pybullet", "sapien": "sapien", "dart": "dartpy",
+              "box2d": "Box2D"}[name]
     return pytest.importorskip(module, reason=f"{name} not installed: run `{PIP[name]}`")
 
 

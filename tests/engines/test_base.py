@@ -42,7 +42,7 @@ def test_engine_unavailable_names_the_pip_command() -> None:
 @pytest.mark.parametrize("engine", sorted(ENGINES))
 def test_absent_engine_becomes_status_unavailable(engine: str) -> None:
     """In a fresh interpreter where the engine's package cannot be imported."""
-    module = {"drake": "pydrake"}.get(engine, engine)
+    module = {"drake": "pydrake", "dart": "dartpy", "box2d": "Box2D"}.get(engine, engine)
     code = (
         "import sys, json\n"
         f"sys.modules[{module!r}] = None  # makes `import {module}` raise ImportError\n"

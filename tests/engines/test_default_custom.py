@@ -5,11 +5,11 @@ are recorded, and the user's parameters (engine's own names) reach the engine.""
 from __future__ import annotations
 
 import pytest
+from conftest import require_engine
 from impactbench.engines.base import RunSettings, get_adapter, parameter_keys
 from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
 
 from impactbench.evaluate import compare
-from tests.conftest import require_engine
 
 CUSTOMARY_S = {"mujoco": 2e-3, "pybullet": 1.0 / 240.0, "drake": 1e-3, "pymunk": 1.0 / 60.0}
 

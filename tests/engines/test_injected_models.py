@@ -9,7 +9,7 @@ from impactbench.reference.scenarios import BallOnPlate
 
 from impactbench.evaluate import compare
 
-ENGINES = ("mujoco", "pybullet", "pymunk", "drake")
+ENGINES = ("mujoco", "pybullet", "pymunk", "drake", "sapien", "dart", "box2d")
 FLORES = BallOnPlate(velocity_m_s=2.0, model="flores", nominal_restitution=0.5)
 CLIPPED = BallOnPlate(velocity_m_s=2.0, model="kelvin-voigt-clipped", nominal_restitution=0.5,
                       exponent=1.0, stiffness=1e7)
@@ -17,9 +17,11 @@ CLIPPED = BallOnPlate(velocity_m_s=2.0, model="kelvin-voigt-clipped", nominal_re
 
 # ~3x the measured worst |rel error| of (restitution, peak force) over the two models: MuJoCo
 # and pymunk (explicit stepping) 1.2e-4, 1.1e-3; PyBullet keeps Bullet's implicit contact step
-# (injection's one meaning), which dissipates: 3.1e-3, 1.5e-3; Drake (RK3) 3.6e-4, 2.9e-4
+# (injection's one meaning), which dissipates: 3.1e-3, 1.5e-3; Drake (RK3) 3.6e-4, 2.9e-4;
+# SAPIEN, DART and Box2D step an applied force as pymunk does (semi-implicit Euler): 1.2e-4, 1.1e-3
 LIMITS = {"mujoco": (3.5e-4, 3.3e-3), "pymunk": (3.5e-4, 3.3e-3),
-          "pybullet": (9.2e-3, 4.5e-3), "drake": (1.1e-3, 8.7e-4)}
+          "pybullet": (9.2e-3, 4.5e-3), "drake": (1.1e-3, 8.7e-4),
+          "sapien": (3.5e-4, 3.3e-3), "dart": (3.5e-4, 3.3e-3), "box2d": (3.5e-4, 3.3e-3)}
 
 
 @pytest.mark.parametrize("engine", ENGINES)

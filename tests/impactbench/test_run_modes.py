@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 
 import pytest
+from conftest import require_engine
 from impactbench.engines.base import RunSettings
 from impactbench.reference.scenarios import BallOnPlate
 
@@ -13,7 +14,6 @@ from impactbench.cli import main
 from impactbench.cliutil import param_value
 from impactbench.evaluate import compare
 from impactbench.tuned import binding_mismatch, load_tuned_settings
-from tests.conftest import require_engine
 
 CUSTOMARY = [("mujoco", "2e-3"), ("pybullet", "0.004166666666666667"), ("drake", "1e-3"),
              ("pymunk", "0.016666666666666666")]

@@ -1,0 +1,343 @@
+"""Box2D 2.3 (``pip install box2d``, module ``Box2D``; 2D like pymunk), float32 throughout.
+
+Box2D facts this adapter relies on (checked with Box2D 2.3.10 from PyPI, Python 3.11):
+
+- Contacts are *rigid*: one velocity-level impulse per step with the restitution target
+  vₙ⁺ = −e·vₙ⁻, e the *maximum* of the two fixtures' restitutions (b2MixRestitution), applied
+  only when the approach speed exceeds ``b2_velocityThreshold`` = 1 m/s — a constant compiled
+  into the build, not settable: the paper's ball at exactly 1 m/s stops dead whatever e is.
+  There is no contact stiffness or damping. ``b2_linearSlop`` (5 mm) of overlap is tolerated
+  and polygons and edges carry a 10 mm skin (``b2_polygonRadius``): a ball meets an edge or
+  box 1 cm before touch. Circles have no skin, so every body here is a circle (the plate is a
+  static circle of radius 1 m below the ball; curvature does not matter to a rigid impulse).
+- The contact impulse of a step is the sum of the normal impulses a contact listener's
+  ``PostSolve`` receives (Box2D calls it after the regular solve and after a time-of-impact
+  sub-step, which is where a fast body meeting a static one is stopped at a coarse step); the
+  force sample is that sum / dt. Forces applied with
+  ``ApplyForceToCenter`` act for one step (auto-cleared); Box2D integrates v ← v + F·dt/m, then
+  x ← x + v·dt (semi-implicit Euler), so an injected force evaluated at the step's start
+  state is the same symplectic scheme as pymunk's penalty contact.
+- Solver iterations are arguments of ``World.Step``; Box2D has no default (its manual
+  recommends 8 velocity and 3 position iterations, used here).
+
+Ball on plate: penetration x = −y of the ball's centre (the plate circle's top is at y = −R),
+ẋ = −ẏ; gravity −g along y. Rigid contacts are one-step impulses: duration, peak force,
+penetration and loss are marked not comparable.
+
+- ``native``: ball restitution e = the reference's at the reference velocity (1 m/s, or
+  ``options["reference_velocity_m_s"]``), plate 0 (always: Box2D's default, neutral for the
+  max), so the pair has e; friction 0.
+  At 1 m/s the threshold swallows it: restitution 0 — Box2D cannot express a bounce at or
+  below 1 m/s (reported as it is, ``meta["not_expressible"]``).
+- ``injected``: the ball has no fixture; the reference law F(x, ẋ) (``scenario.law()``) at the
+  step's start is applied to its centre; that force is the record's.
+- ``default``: restitution 0, friction 0.2 (b2FixtureDef's), 8/3 iterations.
+- ``custom``: the defaults with ``settings.params`` on top (keys :data:`PARAMETERS`);
+  ``tuned``: native with ``settings.tuned`` on top (the same keys).
+
+Rigid–flexible: two circles on the x axis (radius 0.1 m, fixed rotation; all forces act along
+x so they stay on it); body 2 hangs on a soft ``b2DistanceJoint`` to the ground, anchored 1 m to
+its right, with frequency f = √(k2/m2)/(2π) and damping ratio 0 — Box2D's own spring of
+stiffness m2·(2πf)² = k2; the softening structure's +β·x2³ is an applied force.
+
+- ``native``: rigid contact with pair restitution 1 (as pymunk and DART: an undamped contact
+  spring returns all its energy); k1 and the local law cannot be expressed.
+- ``injected``: no fixtures; the local law F1(Δx) at the step's start (memory updated after)
+  applied as −F1 to body 1, +F1 to body 2.
+- ``default`` (restitution 0: plastic), ``custom``, ``tuned``: as for the ball.
+
+The run loop and stopping rules are :mod:`impactbench.engines.stepping`'s. Default timesteps:
+ball 1e-6 s, rigid–flexible 1e-5 s.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from impactbench.engines import stepping
+from impactbench.engines.base import Adapter, EngineUnavailable, RunSettings, Scenario
+from impactbench.engines.common import native_ball_restitution, reference_velocity
+from impactbench.reference import validation as check
+from impactbench.reference.record import ImpactRecord, Status
+from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
+
+PARAMETERS: dict[str, Any] = {
+    "restitution": check.non_negative,  # body 1's fixture; body 2's is 0, so the pair (max) is it
+    "friction": check.non_negative,  # both fixtures
+    "velocity_iterations": stepping.count,
+    "position_iterations": stepping.count,
+}
+"""Box2D's own parameter names accepted in ``custom`` and ``tuned`` mode, with their checks."""
+
+ITERATIONS = {"velocity_iterations": 8, "position_iterations": 3}
+"""The Box2D manual's recommended solver iterations (``World.Step`` has no default)."""
+
+BODY_RADIUS_M = 0.1
+"""Radius of both 2-DOF bodies (m)."""
+
+PLATE_RADIUS_M = 1.0
+"""Radius of the static circle whose top is the plate (m)."""
+
+PLATE_RESTITUTION = 0.0
+"""Body 2's (the plate's) fixture restitution: Box2D's default, and neutral for the max the
+pair takes, so the pair has exactly body 1's value."""
+
+SPRING_LENGTH_M = 1.0
+"""Rest length of body 2's distance-joint spring (m)."""
+
+
+def _import_box2d() -> Any:
+    try:
+        import Box2D
+    except ImportError as exc:
+        raise EngineUnavailable("box2d", str(exc)) from None
+    return Box2D
+
+
+def engine_defaults() -> dict[str, Any]:
+    """Box2D's fixture defaults (read from the engine) and the manual's iteration counts, plus
+    the compiled-in constants that shape its contacts (informational, not settable)."""
+    b2 = _import_box2d()
+    fixture = b2.b2FixtureDef()
+    return {
+        "restitution": float(fixture.restitution),
+        "friction": float(fixture.friction),
+        **ITERATIONS,
+    }
+
+
+def build_constants() -> dict[str, float]:
+    """Constants compiled into the Box2D build (m/s and m)."""
+    b2 = _import_box2d()
+    return {"b2_velocityThreshold": float(b2.b2_velocityThreshold),
+            "b2_linearSlop": float(b2.b2_linearSlop),
+            "b2_polygonRadius": float(b2.b2_polygonRadius)}
+
+
+class Box2dWorld:
+    """A Box2D world (no sleeping) whose bodies are circles.
+
+    Args:
+        params: the complete parameter set (every key of :data:`PARAMETERS`).
+        dt: the timestep (s).
+        gravity_y: gravity along y (m/s²).
+    """
+
+    def __init__(self, params: dict[str, Any], dt: float, gravity_y: float) -> None:
+        self.b2 = b2 = _import_box2d()
+        self.params, self.dt = params, dt
+        self.world = b2.b2World(gravity=(0.0, gravity_y), doSleep=False)
+        self.iterations = (params["velocity_iterations"], params["position_iterations"])
+
+    def circle(self, position: tuple[float, float], radius: float, mass: float,
+               restitution: float | None, static: bool = False) -> Any:
+        """A circle body; ``restitution`` ``None``: no fixture (injected forces only)."""
+        w = self.world
+        if static:
+            body = w.CreateStaticBody(position=position)
+        else:
+            body = w.CreateDynamicBody(position=position, fixedRotation=True, bullet=False)
+        if restitution is not None:
+            body.CreateCircleFixture(radius=radius, density=1.0, restitution=restitution,
+                                     friction=self.params["friction"])
+        if not static:
+            data = body.massData
+            data.mass, data.I = mass, 0.0
+            body.massData = data
+        return body
+
+    def step(self) -> None:
+        self.world.Step(self.dt, *self.iterations)
+
+    def contact_force_n(self) -> float:
+        """Σ normal impulse / dt of the last step's contacts (N), from ``PostSolve``."""
+        return self._listener.impulse / self.dt
+
+    def listen(self) -> None:
+        """Sum every contact's normal impulses in ``PostSolve``, which Box2D calls after the
+        regular solve *and* after a time-of-impact sub-step (a fast body meeting a static one
+        is stopped there, and the manifold's ``normalImpulse`` does not keep that impulse)."""
+        b2 = self.b2
+
+        class Listener(b2.b2ContactListener):
+            impulse = 0.0
+
+            def PostSolve(self, contact: Any, impulse: Any) -> None:  # Box2D names it
+                n = contact.manifold.pointCount
+                self.impulse += sum(impulse.normalImpulses[:n])
+
+        self._listener = Listener()
+        self.world.contactListener = self._listener
+
+    def advance(self) -> None:
+        """One step with the impulse sum reset first."""
+        self._listener.impulse = 0.0
+        self.world.Step(self.dt, *self.iterations)
+
+
+class BallModel:
+    """The ball above the plate circle; ``law`` set: no fixture and the law acts."""
+
+    def __init__(self, scenario: BallOnPlate, params: dict[str, Any], dt: float,
+                 law: Any = None) -> None:
+        self.w = w = Box2dWorld(params, dt, -scenario.gravity_m_s2)
+        radius = scenario.radius_m
+        self.plate_thickness_m = 2.0 * PLATE_RADIUS_M
+        w.circle((0.0, -radius - PLATE_RADIUS_M), PLATE_RADIUS_M, 0.0,
+                 PLATE_RESTITUTION, static=True)  # top at y = −R
+        self.body = w.circle((0.0, stepping.gap_m(scenario.velocity_m_s, dt)), radius,
+                             scenario.mass_kg, None if law is not None else params["restitution"])
+        self.body.linearVelocity = (0.0, -scenario.velocity_m_s)
+        self.law = law
+        self.impulsive = law is None  # Box2D contacts are rigid
+        if self.impulsive:
+            w.listen()
+
+    def state(self) -> tuple[float, float, float, float]:
+        return -self.body.position[1], -self.body.linearVelocity[1], 0.0, 0.0
+
+    def step(self) -> float:
+        """:meth:`advance`, then the force of that step: the injected law's, or the
+        engine's reported contact impulse / dt."""
+        f = self.advance()
+        return f if self.law is not None else self.w.contact_force_n()
+
+    def advance(self) -> float:
+        """Apply this step's forces (injected law, softening term) and step the engine;
+        returns the injected contact force (N; 0 without a law)."""
+        if self.law is None:
+            self.w.advance()
+            return 0.0
+        f = self.law.force(-self.body.position[1], -self.body.linearVelocity[1])
+        if f > 0.0:
+            self.body.ApplyForceToCenter((0.0, f), True)
+        self.w.step()
+        return f
+
+
+class PairModel:
+    """The 2-DOF model along x; ``law`` set: no fixtures and the local law acts."""
+
+    def __init__(self, scenario: RigidFlexible, params: dict[str, Any], dt: float,
+                 law: Any = None) -> None:
+        self.w = w = Box2dWorld(params, dt, 0.0)
+        h = self.h = BODY_RADIUS_M
+        collide = law is None
+        gap = stepping.gap_m(scenario.velocity_m_s, dt)
+        self.body1 = w.circle((-h - gap, 0.0), h, scenario.m1_kg,
+                              params["restitution"] if collide else None)
+        self.body2 = w.circle((h, 0.0), h, scenario.m2_kg,
+                              PLATE_RESTITUTION if collide else None)
+        self.body1.linearVelocity = (scenario.velocity_m_s, 0.0)
+        ground = w.world.CreateStaticBody(position=(h + SPRING_LENGTH_M, 0.0))
+        w.world.CreateDistanceJoint(
+            bodyA=ground, bodyB=self.body2, anchorA=(h + SPRING_LENGTH_M, 0.0),
+            anchorB=(h, 0.0), collideConnected=False, dampingRatio=0.0,
+            frequencyHz=math.sqrt(scenario.k2_n_per_m / scenario.m2_kg) / (2.0 * math.pi))
+        self.beta = scenario.beta_n_per_m3 if scenario.structure == "softening" else 0.0
+        self.law = law
+        self.impulsive = collide
+        if collide:
+            w.listen()
+
+    def state(self) -> tuple[float, float, float, float]:
+        h, b1, b2 = self.h, self.body1, self.body2
+        return (b1.position[0] + h, b1.linearVelocity[0], b2.position[0] - h,
+                b2.linearVelocity[0])
+
+    def step(self) -> float:
+        """:meth:`advance`, then the force of that step: the injected law's, or the
+        engine's reported contact impulse / dt."""
+        f = self.advance()
+        return f if self.law is not None else self.w.contact_force_n()
+
+    def advance(self) -> float:
+        """Apply this step's forces (injected law, softening term) and step the engine;
+        returns the injected contact force (N; 0 without a law)."""
+        x2 = self.body2.position[0] - self.h
+        f = 0.0
+        if self.law is not None:
+            dx = self.body1.position[0] + self.h - x2
+            f = self.law.force(dx)
+            self.law.update(dx)
+            if f:
+                self.body1.ApplyForceToCenter((-f, 0.0), True)
+        if f or self.beta:
+            self.body2.ApplyForceToCenter((f + self.beta * x2**3, 0.0), True)
+        if self.law is not None:
+            self.w.step()
+        else:
+            self.w.advance()
+        return f
+
+
+class Box2dAdapter(Adapter):
+    """Box2D 2.3: rigid contacts (1 m/s restitution threshold) natively; injected forces."""
+
+    name = "box2d"
+    modes = ("native", "injected", "tuned", "default", "custom")
+    parameter_keys = tuple(PARAMETERS)
+    injection = ("cannot: Box2D's contacts are rigid impulses with no compliance; the law is a "
+                 "force on the body (no fixture) integrated by Box2D's semi-implicit Euler step")
+
+    def version(self) -> str:
+        return str(_import_box2d().__version__)
+
+    def default_timestep_s(self, scenario: Scenario, mode: str) -> float:
+        return 1e-6 if isinstance(scenario, BallOnPlate) else 1e-5
+
+    def _run(self, scenario: Scenario, mode: str, settings: RunSettings) -> ImpactRecord:
+        if mode == "tuned" and settings.tuned is None:
+            return ImpactRecord.failed(
+                Status.UNSUPPORTED, "tuned mode needs settings.tuned (Box2D parameter names: "
+                f"{', '.join(PARAMETERS)}; no tuned-parameter file given)")
+        dt = float(settings.timestep_s)
+        params, meta = parameters(scenario, mode, settings)
+        meta["build_constants"] = build_constants()
+        law = None
+        if mode == "injected":
+            law = scenario.law() if isinstance(scenario, BallOnPlate) else scenario.local_law()
+        if isinstance(scenario, BallOnPlate):
+            model = BallModel(scenario, params, dt, law)
+            return stepping.run_ball(model, scenario, dt, settings.max_time_s, meta)
+        if isinstance(scenario, RigidFlexible):
+            model = PairModel(scenario, params, dt, law)
+            threshold = getattr(law, "contact_threshold", None)
+            return stepping.run_pair(model, scenario, dt, settings.max_time_s, meta, threshold)
+        raise ValueError(f"scenario = {type(scenario).__name__}: must be BallOnPlate or "
+                         f"RigidFlexible")
+
+
+def parameters(scenario: Scenario, mode: str, settings: RunSettings
+               ) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The complete Box2D parameter set for ``mode`` and the run's meta."""
+    defaults = engine_defaults()
+    ball = isinstance(scenario, BallOnPlate)
+    rigid = {"contact": "rigid", "not_comparable": stepping.rigid_artefacts(ball)}
+    if mode == "default":
+        return dict(defaults), {**rigid, "engine_defaults": defaults}
+    if mode == "custom":
+        own = stepping.engine_params("params", settings.params, PARAMETERS)
+        return {**defaults, **own}, {**rigid, "params": own, "engine_defaults": defaults}
+    native = {**defaults, "friction": 0.0}
+    if mode == "injected":
+        law = "hunt_crossley" if ball else scenario.local
+        return native, {"contact": "injected force (no fixtures)", "injected_law": law}
+    meta: dict[str, Any] = dict(rigid)
+    threshold = float(_import_box2d().b2_velocityThreshold)
+    if ball:
+        v_ref = reference_velocity(settings.options)
+        native["restitution"] = native_ball_restitution(scenario, v_ref)
+        meta["reference_velocity_m_s"] = v_ref
+        meta["not_expressible"] = ("contact stiffness and damping (Box2D contacts are rigid); "
+                                   f"any bounce at or below {threshold:g} m/s")
+    else:
+        native["restitution"] = 1.0
+        meta["not_expressible"] = "contact stiffness k1 and the local law (rigid contacts)"
+    if mode == "tuned":
+        tuned = stepping.engine_params("tuned", settings.tuned, PARAMETERS)
+        native.update(tuned)
+        meta["tuned"] = tuned
+    meta["restitution"] = native["restitution"]
+    return native, meta

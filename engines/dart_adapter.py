@@ -1,0 +1,330 @@
+"""DART 6 (``pip install dartpy``): rigid LCP contacts, joint springs, generalized forces.
+
+DART facts this adapter relies on (checked with dartpy 6.20.0, Python 3.11, headless CPU):
+
+- Contacts are *rigid*: the boxed LCP (Dantzig by default) solves one velocity-level impulse
+  per step with a restitution target vₙ⁺ = −e·vₙ⁻, e the *product* of the two shapes'
+  ``DynamicsAspect`` restitution coefficients (default 0; friction default 1). There is no
+  contact stiffness or damping to set, and ERP/CFM are not exposed to Python: the constraint
+  mixing trims the restitution by ~2e-5 (0.9 gives 0.89998) and the error reduction pushes a
+  resting body out at up to 1e-3 m/s (the default e = 0 gives 0.001). Bounce is off at low
+  approach speeds: measured at e = 0.9, none at 0.1 m/s, full at 0.15 m/s.
+- The contact impulse divided by dt is reported per contact as ``Contact.force`` (world
+  frame) in ``world.getLastCollisionResult()``; the force sample is Σ|force · axis|.
+- Generalized joint forces (``Joint.setForce``) act for one step and are cleared by
+  ``World.step``; DART integrates v ← v + a·dt, then q ← q + v·dt (semi-implicit Euler), so
+  an injected force evaluated at the step's start state is the same symplectic scheme as
+  pymunk's penalty contact. A ``PrismaticJoint`` spring (``setSpringStiffness``, rest
+  position 0) is DART's own structural spring.
+
+Ball on plate: a sphere (radius R, mass m) on a prismatic joint along z above a welded box
+whose top face z = −R is the plate, so the joint coordinate is q = −x (penetration x, approach
+rate ẋ = −q̇); gravity (0, 0, −g); the ball starts 2.5 steps of flight away. Rigid contacts are
+one-step impulses: their duration, peak force, penetration and loss are marked not comparable.
+
+- ``native``: ball restitution e = the reference's at the reference velocity (1 m/s, or
+  ``options["reference_velocity_m_s"]``), plate 1, so the pair has e; friction 0. Right at
+  v_ref only: Hunt–Crossley's restitution falls with velocity.
+- ``injected``: the ball has no collision aspect; the reference law F = c·xⁿ·(1 + b·ẋ) at the
+  step's start state is the joint force; that force is the record's.
+- ``default``: nothing set but geometry, mass, velocity and gravity: restitution 0, friction 1,
+  FCL collision, Dantzig LCP, no split impulse (``meta["engine_defaults"]``).
+- ``custom``: the defaults with ``settings.params`` on top (keys :data:`PARAMETERS`), the
+  plate's coefficient 1 so the pair has the user's ``restitution_coeff`` (default mode leaves
+  both at DART's 0); ``tuned``: native with ``settings.tuned`` on top (the same keys).
+
+Rigid–flexible: body 1 (a sphere, m1) and body 2 (a box, m2) on prismatic joints along x whose
+coordinates are the positions from first touch (x1, x2); body 2's joint spring is k2, and the
+softening structure's +β·x2³ a joint force each step.
+
+- ``native``: rigid contact with pair restitution 1 (both shapes 1): an undamped contact
+  spring stores and returns all the energy it takes, so e = 1 is the rigid model a user would
+  pick; k1 and the local law's shape cannot be expressed (one-step impulses).
+- ``injected``: no collision aspects; the local law F1(Δx) at the step's start (with its
+  memory, then ``law.update(Δx)``) as joint forces −F1 on body 1, +F1 on body 2.
+- ``default`` (restitution 0: a plastic first impact), ``custom``, ``tuned``: as for the ball.
+
+The run loop and stopping rules are :mod:`impactbench.engines.stepping`'s. Default timesteps:
+ball 1e-6 s, rigid–flexible 1e-5 s.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from impactbench.engines import stepping
+from impactbench.engines.base import Adapter, EngineUnavailable, RunSettings, Scenario
+from impactbench.engines.common import native_ball_restitution, reference_velocity
+from impactbench.reference import validation as check
+from impactbench.reference.record import ImpactRecord, Status
+from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
+
+COLLISION_DETECTORS: tuple[str, ...] = ("fcl", "dart", "bullet", "ode")
+
+
+def _detector(field: str, value: object) -> str:
+    return check.one_of(field, value, COLLISION_DETECTORS)
+
+
+PARAMETERS: dict[str, Any] = {
+    "restitution_coeff": check.non_negative,  # the pair's: body 1's shape (body 2's is 1)
+    "friction_coeff": check.non_negative,  # both shapes
+    "split_impulse": stepping.flag,
+    "collision_detector": _detector,
+}
+"""DART's own parameter names accepted in ``custom`` and ``tuned`` mode, with their checks."""
+
+BODY_HALF_SIZE_M = 0.1
+"""Radius of body 1 and half-size of body 2 in the 2-DOF model (m)."""
+
+
+def _import_dart() -> Any:
+    try:
+        import dartpy
+    except ImportError as exc:
+        raise EngineUnavailable("dart", str(exc)) from None
+    return dartpy
+
+
+def engine_defaults() -> dict[str, Any]:
+    """DART's defaults for every key of :data:`PARAMETERS`, read from the engine."""
+    dart = _import_dart()
+    skeleton = dart.dynamics.Skeleton("probe")
+    _, body = skeleton.createFreeJointAndBodyNodePair()
+    aspect = body.createShapeNode(dart.dynamics.SphereShape(1.0)).createDynamicsAspect()
+    solver = dart.simulation.World().getConstraintSolver()
+    return {
+        "restitution_coeff": float(aspect.getRestitutionCoeff()),
+        "friction_coeff": float(aspect.getFrictionCoeff()),
+        "split_impulse": bool(solver.isSplitImpulseEnabled()),
+        "collision_detector": str(solver.getCollisionDetector().getType()),
+    }
+
+
+class DartWorld:
+    """A DART world with bodies on prismatic joints along one axis.
+
+    Args:
+        params: the complete parameter set (every key of :data:`PARAMETERS`).
+        dt: the timestep (s).
+        gravity_z: gravity along z (m/s²).
+        axis: the impact axis (0 = x, 2 = z): contact forces are read along it.
+    """
+
+    def __init__(self, params: dict[str, Any], dt: float, gravity_z: float, axis: int) -> None:
+        self.dart = dart = _import_dart()
+        self.params, self.axis = params, axis
+        self.world = world = dart.simulation.World()
+        world.setGravity([0.0, 0.0, gravity_z])
+        world.setTimeStep(dt)
+        solver = world.getConstraintSolver()
+        if params["collision_detector"] != solver.getCollisionDetector().getType():
+            name = {"fcl": "FCL", "dart": "DART", "bullet": "Bullet", "ode": "Ode"}
+            solver.setCollisionDetector(
+                getattr(dart.collision, name[params["collision_detector"]] + "CollisionDetector")())
+        solver.setSplitImpulseEnabled(params["split_impulse"])
+
+    def _offset(self, position: list[float]) -> Any:
+        tf = self.dart.math.Isometry3()
+        tf.set_translation(position)
+        return tf
+
+    def slider(self, name: str, offset: list[float], mass: float, shape: Any,
+               restitution: float | None) -> tuple[Any, Any]:
+        """A body on a prismatic joint along the axis, its q = 0 at ``offset`` (m).
+
+        ``restitution`` ``None``: the shape has no collision aspect (injected forces only).
+        """
+        d = self.dart.dynamics
+        skeleton = d.Skeleton(name)
+        joint, body = skeleton.createPrismaticJointAndBodyNodePair()
+        axis = [0.0, 0.0, 0.0]
+        axis[self.axis] = 1.0
+        joint.setAxis(axis)
+        joint.setTransformFromParentBodyNode(self._offset(offset))
+        node = body.createShapeNode(shape)
+        if restitution is not None:
+            node.createCollisionAspect()
+            aspect = node.createDynamicsAspect()
+            aspect.setRestitutionCoeff(restitution)
+            aspect.setFrictionCoeff(self.params["friction_coeff"])
+        inertia = d.Inertia()
+        inertia.setMass(mass)
+        body.setInertia(inertia)
+        self.world.addSkeleton(skeleton)
+        return skeleton, joint
+
+    def wall(self, offset: list[float], half: float) -> None:
+        """A welded box centred at ``offset`` (m) with body 2's restitution."""
+        d = self.dart.dynamics
+        skeleton = d.Skeleton("plate")
+        joint, body = skeleton.createWeldJointAndBodyNodePair()
+        joint.setTransformFromParentBodyNode(self._offset(offset))
+        node = body.createShapeNode(d.BoxShape([2.0 * half] * 3))
+        node.createCollisionAspect()
+        aspect = node.createDynamicsAspect()
+        aspect.setRestitutionCoeff(self.params["plate_restitution_coeff"])
+        aspect.setFrictionCoeff(self.params["friction_coeff"])
+        self.world.addSkeleton(skeleton)
+
+    def contact_force_n(self) -> float:
+        """Σ|force · axis| over the last step's contacts (N)."""
+        result = self.world.getLastCollisionResult()
+        a = self.axis
+        return sum(abs(float(c.force[a])) for c in result.getContacts())
+
+
+class BallModel:
+    """The ball above the plate; ``law`` set: the ball has no collision and the law acts."""
+
+    def __init__(self, scenario: BallOnPlate, params: dict[str, Any], dt: float,
+                 law: Any = None) -> None:
+        self.w = w = DartWorld(params, dt, -scenario.gravity_m_s2, axis=2)
+        radius = scenario.radius_m
+        self.plate_thickness_m = 2.0
+        w.wall([0.0, 0.0, -radius - 1.0], 1.0)  # top face z = −R
+        shape = w.dart.dynamics.SphereShape(radius)
+        restitution = None if law is not None else params["restitution_coeff"]
+        self.skeleton, self.joint = w.slider("ball", [0.0, 0.0, 0.0], scenario.mass_kg, shape,
+                                             restitution)
+        self.skeleton.setPosition(0, stepping.gap_m(scenario.velocity_m_s, dt))
+        self.skeleton.setVelocity(0, -scenario.velocity_m_s)
+        self.law = law
+        self.impulsive = law is None  # DART contacts are rigid
+
+    def state(self) -> tuple[float, float, float, float]:
+        return -self.skeleton.getPosition(0), -self.skeleton.getVelocity(0), 0.0, 0.0
+
+    def step(self) -> float:
+        """:meth:`advance`, then the force of that step: the injected law's, or the
+        engine's reported contact impulse / dt."""
+        f = self.advance()
+        return f if self.law is not None else self.w.contact_force_n()
+
+    def advance(self) -> float:
+        """Apply this step's forces (injected law, softening term) and step the engine;
+        returns the injected contact force (N; 0 without a law)."""
+        f = 0.0
+        if self.law is not None:
+            f = self.law.force(-self.skeleton.getPosition(0), -self.skeleton.getVelocity(0))
+            self.joint.setForce(0, f)
+        self.w.world.step()
+        return f
+
+
+class PairModel:
+    """The 2-DOF model along x; ``law`` set: no collision and the local law acts."""
+
+    def __init__(self, scenario: RigidFlexible, params: dict[str, Any], dt: float,
+                 law: Any = None) -> None:
+        self.w = w = DartWorld(params, dt, 0.0, axis=0)
+        d, h = w.dart.dynamics, BODY_HALF_SIZE_M
+        collide = law is None
+        self.body1, self.joint1 = w.slider(
+            "body1", [-h, 0.0, 0.0], scenario.m1_kg, d.SphereShape(h),
+            params["restitution_coeff"] if collide else None)
+        self.body2, self.joint2 = w.slider(
+            "body2", [h, 0.0, 0.0], scenario.m2_kg, d.BoxShape([2.0 * h] * 3),
+            params["plate_restitution_coeff"] if collide else None)
+        self.joint2.setSpringStiffness(0, scenario.k2_n_per_m)
+        self.joint2.setRestPosition(0, 0.0)
+        self.body1.setPosition(0, -stepping.gap_m(scenario.velocity_m_s, dt))
+        self.body1.setVelocity(0, scenario.velocity_m_s)
+        self.beta = scenario.beta_n_per_m3 if scenario.structure == "softening" else 0.0
+        self.law = law
+        self.impulsive = law is None  # DART contacts are rigid
+
+    def state(self) -> tuple[float, float, float, float]:
+        b1, b2 = self.body1, self.body2
+        return b1.getPosition(0), b1.getVelocity(0), b2.getPosition(0), b2.getVelocity(0)
+
+    def step(self) -> float:
+        """:meth:`advance`, then the force of that step: the injected law's, or the
+        engine's reported contact impulse / dt."""
+        f = self.advance()
+        return f if self.law is not None else self.w.contact_force_n()
+
+    def advance(self) -> float:
+        """Apply this step's forces (injected law, softening term) and step the engine;
+        returns the injected contact force (N; 0 without a law)."""
+        x2 = self.body2.getPosition(0)
+        f = 0.0
+        if self.law is not None:
+            dx = self.body1.getPosition(0) - x2
+            f = self.law.force(dx)
+            self.law.update(dx)
+            self.joint1.setForce(0, -f)
+        if f != 0.0 or self.beta:
+            self.joint2.setForce(0, f + self.beta * x2**3)
+        self.w.world.step()
+        return f
+
+
+class DartAdapter(Adapter):
+    """DART 6: rigid LCP contacts natively; injected laws as joint forces."""
+
+    name = "dart"
+    modes = ("native", "injected", "tuned", "default", "custom")
+    parameter_keys = tuple(PARAMETERS)
+    injection = ("cannot: DART's contacts are rigid LCP impulses with no compliance; the law is "
+                 "a joint force (collision off) integrated by DART's semi-implicit Euler step")
+
+    def version(self) -> str:
+        return str(_import_dart().__version__)
+
+    def default_timestep_s(self, scenario: Scenario, mode: str) -> float:
+        return 1e-6 if isinstance(scenario, BallOnPlate) else 1e-5
+
+    def _run(self, scenario: Scenario, mode: str, settings: RunSettings) -> ImpactRecord:
+        if mode == "tuned" and settings.tuned is None:
+            return ImpactRecord.failed(
+                Status.UNSUPPORTED, "tuned mode needs settings.tuned (DART parameter names: "
+                f"{', '.join(PARAMETERS)}; no tuned-parameter file given)")
+        dt = float(settings.timestep_s)
+        params, meta = parameters(scenario, mode, settings)
+        law = None
+        if mode == "injected":
+            law = scenario.law() if isinstance(scenario, BallOnPlate) else scenario.local_law()
+        if isinstance(scenario, BallOnPlate):
+            model = BallModel(scenario, params, dt, law)
+            return stepping.run_ball(model, scenario, dt, settings.max_time_s, meta)
+        if isinstance(scenario, RigidFlexible):
+            model = PairModel(scenario, params, dt, law)
+            threshold = getattr(law, "contact_threshold", None)
+            return stepping.run_pair(model, scenario, dt, settings.max_time_s, meta, threshold)
+        raise ValueError(f"scenario = {type(scenario).__name__}: must be BallOnPlate or "
+                         f"RigidFlexible")
+
+
+def parameters(scenario: Scenario, mode: str, settings: RunSettings
+               ) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The complete DART parameter set for ``mode`` and the run's meta."""
+    defaults = engine_defaults()
+    ball = isinstance(scenario, BallOnPlate)
+    rigid = {"contact": "rigid", "not_comparable": stepping.rigid_artefacts(ball)}
+    neutral = {"plate_restitution_coeff": 1.0}  # the pair (product) has body 1's value
+    if mode == "default":
+        both = {"plate_restitution_coeff": defaults["restitution_coeff"]}
+        return {**defaults, **both}, {**rigid, "engine_defaults": defaults}
+    if mode == "custom":
+        own = stepping.engine_params("params", settings.params, PARAMETERS)
+        return {**defaults, **neutral, **own}, {**rigid, "params": own,
+                                                "engine_defaults": defaults}
+    native = {**defaults, **neutral, "friction_coeff": 0.0}
+    if mode == "injected":
+        law = "hunt_crossley" if ball else scenario.local
+        return native, {"contact": "injected joint force (no collision)", "injected_law": law}
+    meta: dict[str, Any] = dict(rigid)
+    if ball:
+        v_ref = reference_velocity(settings.options)
+        native["restitution_coeff"] = native_ball_restitution(scenario, v_ref)
+        meta["reference_velocity_m_s"] = v_ref
+    else:
+        native["restitution_coeff"] = 1.0
+    meta["not_expressible"] = "contact stiffness and damping (DART contacts are rigid)"
+    if mode == "tuned":
+        tuned = stepping.engine_params("tuned", settings.tuned, PARAMETERS)
+        native.update(tuned)
+        meta["tuned"] = tuned
+    meta["restitution"] = native["restitution_coeff"]
+    return native, meta

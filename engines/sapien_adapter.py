@@ -1,0 +1,429 @@
+"""PhysX 5 through SAPIEN 3 (``pip install sapien``), on its CPU system, headless.
+
+PhysX facts this adapter relies on (checked with SAPIEN 3.0.3 / PhysX 5.3.1, CPU, float32):
+
+- A material's ``restitution`` e ≥ 0 makes a *rigid* contact (a velocity-level target
+  vₙ⁺ = −e·vₙ⁻, the pair's value the average of the two materials), applied only when the
+  approach speed exceeds the scene's ``bounce_threshold`` — 2 m/s by default, so the paper's
+  ball at 1 m/s stops dead (e = 0) out of the box. A *negative* restitution −K makes the
+  contact *compliant*: an undamped spring of stiffness K (N/m; the pair's value is the
+  average of the two materials', so both get −K). SAPIEN exposes no contact damping, so a
+  compliant contact returns all the energy it takes (e ≈ 1); measured at K = 1e8 N/m,
+  dt = 1e-7 s: e = 0.9995, 99.13 µs, 3161 N (the undamped spring: 1, 99.35 µs, 3162 N).
+- Scene settings (``bounce_threshold``, TGS or PGS solver, PCM) are read from a process-wide
+  config when a scene is created; the adapter sets it, creates its scene and restores it.
+  Shapes carry ``contact_offset`` (10 mm by default: contacts are generated, speculatively,
+  that far before touch) and ``rest_offset``; bodies their solver iteration counts (10
+  position, 1 velocity by default) and a sleep threshold.
+- Contact output: ``scene.get_contacts()`` lists points with the ``impulse`` applied over the
+  last step; the force sample is |impulse · axis| / dt summed over points. An external force
+  (``add_force_torque``) acts for one step and is cleared; PhysX integrates it as semi-implicit
+  Euler (v ← v + F·dt/m, then x ← x + v·dt), so an injected force evaluated from the state at
+  the start of the step is the same symplectic scheme as pymunk's penalty contact (measured on
+  the paper's ball at dt = 1e-7 s, 5 m/s: restitution −1.1e-7, duration −3.5e-4, peak +6.1e-4).
+- Poses and velocities are float32: the ball is placed so that the contact happens near the
+  origin (plate top at z = −R, the ball's centre at z = −x), where float32 resolves ~1e-11 m.
+
+Ball on plate: a sphere (radius R, mass m, friction 0) above a static box whose top face is the
+plate; gravity −g along z with g = ``scenario.gravity_m_s2``; the ball starts 2.5 steps of
+flight away. Penetration x = −z_centre, approach rate ẋ = −ż.
+
+- ``native``: the compliant contact K = m·(π/T_ref)² (both materials −K), the undamped spring
+  whose duration π·√(m/K) equals the reference's at the reference velocity (1 m/s, or
+  ``options["reference_velocity_m_s"]``). Duration and peak force follow a linear spring; the
+  restitution stays ≈ 1 because PhysX has no settable contact damping — the contact model's
+  error, reported as it is. ``options["contact"] = "rigid"`` instead gives a rigid contact with
+  restitution e = the reference's at the reference velocity and ``bounce_threshold = 0`` (its
+  duration, peak force, penetration and loss are one-step artefacts, marked not comparable).
+- ``injected``: the ball has no collision shape; each step the reference law
+  F = c·xⁿ·(1 + b·ẋ) (``scenario.law()``) at the step's start state is applied with
+  ``add_force_torque``; that force is the record's.
+- ``default``: nothing set but geometry, mass, velocity and gravity: PhysX's default material
+  (friction 0.3, restitution 0.1, rigid), ``bounce_threshold`` 2 m/s, TGS, 10 mm contact offset
+  (``meta["engine_defaults"]``).
+- ``custom``: the defaults with ``settings.params`` on top (keys :data:`PARAMETERS`).
+- ``tuned``: native with ``settings.tuned`` on top (the same keys); ``unsupported`` without.
+
+Rigid–flexible: body 1 (a sphere, m1) moves along +x into body 2 (a box, m2); both bodies
+have every axis but x locked. Body 2 hangs on a D6 drive to the world along x (stiffness k2,
+damping 0: PhysX's own implicit spring); the softening structure's +β·x2³ is an applied
+force each step. Positions from first touch: x1 = sphere front − 0, x2 = box face − 0.
+
+- ``native``: the compliant contact K = k1 (both materials −k1): the linear local law exactly.
+  Elastoplastic and mutation laws cannot be expressed (no memory): their k1 is used.
+- ``injected``: no collision shapes; the local law (``scenario.local_law()``, with memory)
+  F1(Δx) at the step's start is applied as −F1 to body 1 and +F1 to body 2, then
+  ``law.update(Δx)``.
+- ``default`` / ``custom`` / ``tuned``: as for the ball (default: restitution 0.1, applied only
+  above 2 m/s).
+
+The run loop and stopping rules are :mod:`impactbench.engines.stepping`'s. Default timesteps:
+ball 1e-6 s, rigid–flexible 1e-5 s.
+"""
+
+from __future__ import annotations
+
+import warnings
+from contextlib import contextmanager
+from typing import Any
+
+from impactbench.engines import stepping
+from impactbench.engines.base import Adapter, EngineUnavailable, RunSettings, Scenario
+from impactbench.engines.common import (
+    native_ball_restitution,
+    native_ball_spring,
+    reference_velocity,
+)
+from impactbench.reference import validation as check
+from impactbench.reference.record import ImpactRecord, Status
+from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
+
+PARAMETERS: dict[str, Any] = {
+    "restitution": check.finite,  # both materials; < 0: compliant stiffness −K (N/m)
+    "static_friction": check.non_negative,
+    "dynamic_friction": check.non_negative,
+    "bounce_threshold": check.non_negative,  # m/s
+    "enable_tgs": stepping.flag,
+    "enable_pcm": stepping.flag,
+    "contact_offset": check.positive,  # m
+    "rest_offset": check.non_negative,  # m
+    "solver_position_iterations": stepping.count,
+    "solver_velocity_iterations": stepping.count,
+    "sleep_threshold": check.non_negative,
+}
+"""SAPIEN's own parameter names accepted in ``custom`` and ``tuned`` mode, with their checks."""
+
+CONTACTS: tuple[str, ...] = ("compliant", "rigid")
+"""``options["contact"]`` for the native ball."""
+
+BODY_HALF_SIZE_M = 0.1
+"""Radius of body 1 and half-size of body 2 in the 2-DOF model (m)."""
+
+
+def _import_sapien() -> tuple[Any, Any]:
+    try:
+        with warnings.catch_warnings():  # "Failed to find system libvulkan": headless is fine
+            warnings.simplefilter("ignore")
+            import sapien
+            import sapien.physx as physx
+    except ImportError as exc:
+        raise EngineUnavailable("sapien", str(exc)) from None
+    return sapien, physx
+
+
+def engine_defaults() -> dict[str, Any]:
+    """PhysX's defaults for every key of :data:`PARAMETERS`, read from the engine."""
+    _, px = _import_sapien()
+    scene, shape, body = px.PhysxSceneConfig(), px.PhysxShapeConfig(), px.PhysxBodyConfig()
+    material = px.get_default_material()
+    return {
+        "restitution": float(material.restitution),
+        "static_friction": float(material.static_friction),
+        "dynamic_friction": float(material.dynamic_friction),
+        "bounce_threshold": float(scene.bounce_threshold),
+        "enable_tgs": bool(scene.enable_tgs),
+        "enable_pcm": bool(scene.enable_pcm),
+        "contact_offset": float(shape.contact_offset),
+        "rest_offset": float(shape.rest_offset),
+        "solver_position_iterations": int(body.solver_position_iterations),
+        "solver_velocity_iterations": int(body.solver_velocity_iterations),
+        "sleep_threshold": float(body.sleep_threshold),
+    }
+
+
+@contextmanager
+def _scene_config(px: Any, params: dict[str, Any], gravity_z: float):
+    """Set the process-wide PhysX scene config for one scene's creation, then restore it."""
+    previous = px.get_scene_config()
+    cfg = px.PhysxSceneConfig()
+    cfg.gravity = [0.0, 0.0, gravity_z]
+    cfg.bounce_threshold = params["bounce_threshold"]
+    cfg.enable_tgs = params["enable_tgs"]
+    cfg.enable_pcm = params["enable_pcm"]
+    px.set_scene_config(cfg)
+    try:
+        yield
+    finally:
+        px.set_scene_config(previous)
+
+
+class PhysxWorld:
+    """A SAPIEN scene on the PhysX CPU system with bodies along one axis.
+
+    Args:
+        params: the complete parameter set (every key of :data:`PARAMETERS`).
+        dt: the timestep (s).
+        gravity_z: gravity along z (m/s²).
+        axis: the impact axis (0 = x, 2 = z): contact impulses are read along it.
+    """
+
+    def __init__(self, params: dict[str, Any], dt: float, gravity_z: float, axis: int) -> None:
+        self.sapien, self.px = sapien, px = _import_sapien()
+        self.params, self.dt, self.axis = params, dt, axis
+        with _scene_config(px, params, gravity_z):
+            self.scene = sapien.Scene([px.PhysxCpuSystem()])
+        self.scene.set_timestep(dt)
+        self.material = px.PhysxMaterial(params["static_friction"],
+                                         params["dynamic_friction"], params["restitution"])
+
+    def _shape(self, shape: Any) -> Any:
+        shape.set_contact_offset(self.params["contact_offset"])
+        shape.set_rest_offset(self.params["rest_offset"])
+        return shape
+
+    def sphere(self, radius: float) -> Any:
+        return self._shape(self.px.PhysxCollisionShapeSphere(radius, self.material))
+
+    def box(self, half: float) -> Any:
+        import numpy as np
+
+        return self._shape(self.px.PhysxCollisionShapeBox(
+            np.full(3, half, dtype=np.float32), self.material))
+
+    def add(self, position: list[float], mass: float, shape: Any | None = None,
+            static: bool = False) -> Any:
+        """A body at ``position`` (m) with ``shape`` (``None``: no collision)."""
+        px, p = self.px, self.params
+        entity = self.sapien.Entity()
+        body = px.PhysxRigidStaticComponent() if static else px.PhysxRigidDynamicComponent()
+        if shape is not None:
+            body.attach(shape)
+        entity.add_component(body)
+        entity.set_pose(self.sapien.Pose(position))
+        self.scene.add_entity(entity)
+        if not static:
+            body.set_mass(mass)
+            body.set_inertia([1.0, 1.0, 1.0])  # rotations are locked or never excited
+            body.set_solver_position_iterations(p["solver_position_iterations"])
+            body.set_solver_velocity_iterations(p["solver_velocity_iterations"])
+            body.set_sleep_threshold(p["sleep_threshold"])
+        return body
+
+    def contact_force_n(self) -> float:
+        """|Σ impulse · axis| / dt over every contact point of the last step (N)."""
+        a = self.axis
+        total = 0.0
+        for contact in self.scene.get_contacts():
+            for point in contact.points:
+                total += abs(float(point.impulse[a]))
+        return total / self.dt
+
+
+class BallModel:
+    """The ball above the plate; ``law`` set: the ball has no shape and the law is applied."""
+
+    def __init__(self, scenario: BallOnPlate, params: dict[str, Any], dt: float,
+                 law: Any = None) -> None:
+        import numpy as np
+
+        self.world = w = PhysxWorld(params, dt, -scenario.gravity_m_s2, axis=2)
+        radius = scenario.radius_m
+        self.plate_thickness_m = 2.0
+        w.add([0.0, 0.0, -radius - 1.0], 0.0, w.box(1.0), static=True)  # top face z = −R
+        shape = None if law is not None else w.sphere(radius)
+        self.body = w.add([0.0, 0.0, stepping.gap_m(scenario.velocity_m_s, dt)],
+                          scenario.mass_kg, shape)
+        self.body.set_linear_velocity([0.0, 0.0, -scenario.velocity_m_s])
+        self.law = law
+        self.impulsive = law is None and params["restitution"] >= 0.0  # rigid
+        self._force = np.zeros(3, dtype=np.float32)
+        self._torque = np.zeros(3, dtype=np.float32)
+        self._reach = params["contact_offset"]
+        self._last = self.state()
+
+    def state(self) -> tuple[float, float, float, float]:
+        self._last = out = (-float(self.body.entity_pose.p[2]),
+                            -float(self.body.linear_velocity[2]), 0.0, 0.0)
+        return out
+
+    def step(self) -> float:
+        """:meth:`advance` from the state last read, then the force of that step: the
+        injected law's, or the engine's reported contact impulse / dt (read only when the
+        ball was within reach of the plate: contact offset + 2·|ẋ|·dt)."""
+        x, v, _, _ = self._last
+        f = self.advance(x, v)
+        if self.law is not None:
+            return f
+        w = self.world
+        return w.contact_force_n() if x + self._reach + 2.0 * abs(v) * w.dt > 0.0 else 0.0
+
+    def advance(self, x: float | None = None, v: float | None = None) -> float:
+        """Apply this step's injected force (at state x, ẋ; read from the engine if not
+        given) and step the engine; returns that force (N; 0 without a law)."""
+        f = 0.0
+        if self.law is not None:
+            if x is None or v is None:
+                x, v, _, _ = self.state()
+            f = self.law.force(x, v)
+            if f > 0.0:
+                self._force[2] = f
+                self.body.add_force_torque(self._force, self._torque)
+        self.world.scene.step()
+        return f
+
+
+class PairModel:
+    """The 2-DOF model along x; ``law`` set: no shapes and the local law is applied."""
+
+    def __init__(self, scenario: RigidFlexible, params: dict[str, Any], dt: float,
+                 law: Any = None) -> None:
+        import numpy as np
+
+        self.world = w = PhysxWorld(params, dt, 0.0, axis=0)
+        h = self.h = BODY_HALF_SIZE_M
+        gap = stepping.gap_m(scenario.velocity_m_s, dt)
+        self.body1 = w.add([-h - gap, 0.0, 0.0], scenario.m1_kg,
+                           None if law is not None else w.sphere(h))
+        self.body2 = w.add([h, 0.0, 0.0], scenario.m2_kg, None if law is not None else w.box(h))
+        for body in (self.body1, self.body2):
+            body.set_locked_motion_axes([False, True, True, True, True, True])
+        self.body1.set_linear_velocity([scenario.velocity_m_s, 0.0, 0.0])
+        drive = w.scene.create_drive(None, w.sapien.Pose([h, 0.0, 0.0]), self.body2,
+                                     w.sapien.Pose())
+        drive.set_drive_property_x(scenario.k2_n_per_m, 0.0)
+        self.drive = drive
+        self.beta = scenario.beta_n_per_m3 if scenario.structure == "softening" else 0.0
+        self.law = law
+        self.impulsive = law is None and params["restitution"] >= 0.0  # rigid
+        self._f1 = np.zeros(3, dtype=np.float32)
+        self._f2 = np.zeros(3, dtype=np.float32)
+        self._torque = np.zeros(3, dtype=np.float32)
+        self._reach = params["contact_offset"]
+        self._last = self.state()
+
+    def state(self) -> tuple[float, float, float, float]:
+        h = self.h
+        self._last = out = (
+            float(self.body1.entity_pose.p[0]) + h, float(self.body1.linear_velocity[0]),
+            float(self.body2.entity_pose.p[0]) - h, float(self.body2.linear_velocity[0]))
+        return out
+
+    def step(self) -> float:
+        """:meth:`advance` from the state last read, then the force of that step: the
+        injected law's, or the engine's reported contact impulse / dt (read only when the
+        bodies were within reach: contact offset + 2·|Δẋ|·dt)."""
+        x1, v1, x2, v2 = self._last
+        f = self.advance(x1, x2)
+        if self.law is not None:
+            return f
+        w = self.world
+        near = x1 - x2 + self._reach + 2.0 * abs(v1 - v2) * w.dt > 0.0
+        return w.contact_force_n() if near else 0.0
+
+    def advance(self, x1: float | None = None, x2: float | None = None) -> float:
+        """Apply this step's forces (injected law, softening term; at positions x1, x2,
+        read from the engine if not given) and step the engine; returns the injected
+        contact force (N; 0 without a law)."""
+        if (x1 is None or x2 is None) and (self.law is not None or self.beta):
+            x1, _, x2, _ = self.state()
+        f, extra = 0.0, self.beta * x2**3 if self.beta else 0.0
+        if self.law is not None:
+            dx = x1 - x2
+            f = self.law.force(dx)
+            self.law.update(dx)
+            self._f1[0] = -f
+            self.body1.add_force_torque(self._f1, self._torque)
+        if f != 0.0 or extra != 0.0:
+            self._f2[0] = f + extra
+            self.body2.add_force_torque(self._f2, self._torque)
+        self.world.scene.step()
+        return f
+
+
+class SapienAdapter(Adapter):
+    """PhysX 5 (SAPIEN 3): compliant (undamped) or rigid contacts; injected laws as forces."""
+
+    name = "sapien"
+    modes = ("native", "injected", "tuned", "default", "custom")
+    parameter_keys = tuple(PARAMETERS)
+    injection = ("cannot: PhysX's compliant contact is an undamped spring (no damping to "
+                 "schedule); the law is an external force (collision off) integrated by PhysX's "
+                 "semi-implicit Euler step")
+
+    def version(self) -> str:
+        sapien, _ = _import_sapien()
+        return f"{sapien.__version__} (PhysX {_physx_version()})"
+
+    def default_timestep_s(self, scenario: Scenario, mode: str) -> float:
+        return 1e-6 if isinstance(scenario, BallOnPlate) else 1e-5
+
+    def _run(self, scenario: Scenario, mode: str, settings: RunSettings) -> ImpactRecord:
+        if mode == "tuned" and settings.tuned is None:
+            return ImpactRecord.failed(
+                Status.UNSUPPORTED, "tuned mode needs settings.tuned (SAPIEN parameter names: "
+                f"{', '.join(PARAMETERS)}; no tuned-parameter file given)")
+        dt = float(settings.timestep_s)
+        params, meta = parameters(scenario, mode, settings)
+        law = None
+        if mode == "injected":
+            law = scenario.law() if isinstance(scenario, BallOnPlate) else scenario.local_law()
+        if isinstance(scenario, BallOnPlate):
+            model = BallModel(scenario, params, dt, law)
+            return stepping.run_ball(model, scenario, dt, settings.max_time_s, meta)
+        if isinstance(scenario, RigidFlexible):
+            model = PairModel(scenario, params, dt, law)
+            threshold = getattr(law, "contact_threshold", None)
+            return stepping.run_pair(model, scenario, dt, settings.max_time_s, meta, threshold)
+        raise ValueError(f"scenario = {type(scenario).__name__}: must be BallOnPlate or "
+                         f"RigidFlexible")
+
+
+def _physx_version() -> str:
+    _, px = _import_sapien()
+    return str(getattr(px, "version", lambda: "?")())
+
+
+def parameters(scenario: Scenario, mode: str, settings: RunSettings
+               ) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The complete PhysX parameter set for ``mode`` and the run's meta."""
+    defaults = engine_defaults()
+    ball = isinstance(scenario, BallOnPlate)
+    if mode == "default":
+        return dict(defaults), {"contact": "rigid", "engine_defaults": defaults,
+                                **_artefacts(defaults, ball)}
+    if mode == "custom":
+        own = stepping.engine_params("params", settings.params, PARAMETERS)
+        params = {**defaults, **own}
+        return params, {"contact": _kind(params), "params": own, "engine_defaults": defaults,
+                        **_artefacts(params, ball)}
+    native = {**defaults, "static_friction": 0.0, "dynamic_friction": 0.0,
+              "sleep_threshold": 0.0}
+    if mode == "injected":
+        law = "hunt_crossley" if ball else scenario.local
+        return native, {"contact": "injected force (no collision shapes)", "injected_law": law}
+    meta: dict[str, Any] = {}
+    if ball:
+        v_ref = reference_velocity(settings.options)
+        contact = check.one_of("options.contact", settings.options.get("contact", "compliant"),
+                               CONTACTS)
+        meta.update(reference_velocity_m_s=v_ref)
+        if contact == "compliant":
+            native["restitution"] = -native_ball_spring(scenario, v_ref)
+            meta["not_expressible"] = "contact damping (PhysX compliant contacts are undamped)"
+        else:
+            native.update(restitution=native_ball_restitution(scenario, v_ref),
+                          bounce_threshold=0.0)
+    else:
+        native["restitution"] = -scenario.k1_n_per_m
+        if scenario.local != "linear":
+            meta["not_expressible"] = f"the {scenario.local} local law (no contact memory)"
+    if mode == "tuned":
+        tuned = stepping.engine_params("tuned", settings.tuned, PARAMETERS)
+        native.update(tuned)
+        meta["tuned"] = tuned
+    meta.update(contact=_kind(native), restitution=native["restitution"],
+                bounce_threshold=native["bounce_threshold"], **_artefacts(native, ball))
+    return native, meta
+
+
+def _kind(params: dict[str, Any]) -> str:
+    return "compliant" if params["restitution"] < 0.0 else "rigid"
+
+
+def _artefacts(params: dict[str, Any], ball: bool) -> dict[str, Any]:
+    if _kind(params) == "compliant":
+        return {}
+    return {"not_comparable": stepping.rigid_artefacts(ball)}
+
+
+
