@@ -2,7 +2,18 @@
 
 from __future__ import annotations
 
+import sys
+import types
+from pathlib import Path
+
 import pytest
+
+# dartpy (the `dart` extra) installs a top-level package named `tests` into site-packages,
+# which would shadow this folder in `from tests.conftest import …`: bind the name here first.
+if str(Path(__file__).parent) not in list(getattr(sys.modules.get("tests"), "__path__", [])):
+    _tests = types.ModuleType("tests")
+    _tests.__path__ = [str(Path(__file__).parent)]
+    sys.modules["tests"] = _tests
 
 SMALL_REPORT = {
     "report": {"engines": ["mujoco", "pybullet", "pymunk", "drake"],
