@@ -37,7 +37,9 @@ LOCK_WAIT_S = 30.0
 """How long to wait for another process to release the store file."""
 
 _ENGINE_DISTRIBUTIONS = {"mujoco": ("mujoco", "mujoco"), "pybullet": ("pybullet", "pybullet"),
-                         "pymunk": ("pymunk", "pymunk"), "drake": ("drake", "pydrake")}
+                         "pymunk": ("pymunk", "pymunk"), "drake": ("drake", "pydrake"),
+                         "sapien": ("sapien", "sapien"), "dart": ("dartpy", "dartpy"),
+                         "box2d": ("box2d", "Box2D")}
 """engine → (distribution, top-level module)."""
 
 _SCHEMA = """

@@ -103,3 +103,14 @@ def test_twin_jobs_run_once_and_share_the_run(tmp_path: Path) -> None:
     assert first["matrix"].history and not first["work_precision"].history
     again = run_jobs(twins, workers=0, store=st)
     pd.testing.assert_frame_equal(pd.DataFrame(tidy(first.values())), pd.DataFrame(tidy(again)))
+
+
+def test_every_registered_engine_has_its_distribution() -> None:
+    """``engine_version`` reads package metadata for every built-in engine."""
+    from impactbench.engines.registry import ENGINES
+
+    from impactbench import store
+
+    assert set(store._ENGINE_DISTRIBUTIONS) == set(ENGINES)
+    for engine in ENGINES:
+        assert store.engine_version(engine)
