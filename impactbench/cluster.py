@@ -83,30 +83,60 @@ def client(workers: int | None = None, scheduler: str | None = None) -> Iterator
                 cluster.close(timeout=5)
 
 
+BATCHES_PER_WORKER = 4
+"""Runs go to the workers in batches (about this many per worker): one Dask task per run
+costs more than a short engine run (the ball's take milliseconds)."""
+
+
+def execute_batch(items: Sequence[tuple[Any, tuple]]) -> list[Any]:
+    """Run ``execute(job, *extra)`` for every item, in a worker process."""
+    from impactbench.matrix import execute
+
+    return [execute(job, *extra) for job, extra in items]
+
+
 def run_on_dask(jobs: Sequence[Any], args: Sequence[tuple], *, workers: int | None,
                 scheduler: str | None, on_result: Callable[[Any], None],
                 on_crash: Callable[[Any, str], None]) -> None:
     """Run ``execute(job, *args)`` of :mod:`impactbench.matrix` for every job; report each
-    result (or crash) as it finishes. A KeyboardInterrupt cancels what is left."""
+    result (or crash) as its batch finishes. A batch whose worker dies twice (or that raises)
+    is split into single runs, so only the run that kills its worker becomes ``crashed``.
+    A KeyboardInterrupt cancels what is left."""
+    import uuid
+
     from distributed import as_completed
     from distributed.scheduler import KilledWorker
 
-    from impactbench.matrix import execute
-
     n = min(workers or os.cpu_count() or 1, len(jobs))
+    items = list(zip(jobs, args, strict=True))
+    size = max(1, len(items) // (n * BATCHES_PER_WORKER))
+    batches = [items[i:i + size] for i in range(0, len(items), size)]
+    tag = uuid.uuid4().hex[:8]
     with client(n, scheduler) as c:
-        futures = {}
-        for job, extra in zip(jobs, args, strict=True):
-            futures[c.submit(execute, job, *extra, pure=False, key=f"run-{job.id}")] = job
+        def submit(batch: list) -> Any:
+            fut = c.submit(execute_batch, batch, pure=False,
+                           key=f"runs-{batch[0][0].id}-{len(batch)}-{tag}")
+            futures[fut] = batch
+            return fut
+
+        futures: dict[Any, list] = {}
+        pending = as_completed([submit(b) for b in batches])
         try:
-            for fut in as_completed(futures):
-                job = futures[fut]
+            for fut in pending:
+                batch = futures.pop(fut)
                 try:
-                    on_result(fut.result())
+                    for result in fut.result():
+                        on_result(result)
+                    continue
                 except KilledWorker:
-                    on_crash(job, "the engine's worker process died (twice)")
+                    why = "the engine's worker process died (twice)"
                 except Exception as exc:  # a bug in an adapter must not lose the rest
-                    on_crash(job, f"{type(exc).__name__}: {exc}")
+                    why = f"{type(exc).__name__}: {exc}"
+                if len(batch) == 1:
+                    on_crash(batch[0][0], why)
+                else:  # isolate: each run of the batch alone
+                    for item in batch:
+                        pending.add(submit([item]))
         except KeyboardInterrupt:
             with contextlib.suppress(Exception):
                 c.cancel(list(futures))
