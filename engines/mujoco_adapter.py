@@ -87,7 +87,7 @@ import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 from impactbench.engines.base import Adapter, EngineUnavailable, RunSettings, Scenario
@@ -324,8 +324,24 @@ EndFinder = Callable[[np.ndarray, np.ndarray, np.ndarray, int], int | None]
 before ``start`` were already searched."""
 
 
-def _drive(sim: _Sim, n_max: int, first: int, chunk: int, find_end: EndFinder) -> _Outcome:
-    """Step in chunks until ``find_end`` returns the last sample to keep, or n_max steps."""
+class Stepper(Protocol):
+    """What :func:`drive` steps: MuJoCo's ``_Sim`` here, and the MJX and Newton adapters'
+    simulations (sample k = pre-step qpos, pre-step qvel, the force acting over step k)."""
+
+    steps: int
+
+    def step_chunk(self, n: int) -> None: ...
+
+    def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]: ...
+
+    def unstable(self) -> bool: ...
+
+
+def drive(sim: Stepper, n_max: int, first: int, chunk: int, find_end: EndFinder) -> _Outcome:
+    """Step in chunks until ``find_end`` returns the last sample to keep, or n_max steps.
+
+    A stepper may advance more steps than asked (MJX scans in fixed-length chunks); only
+    ``sim.steps`` and the arrays count."""
     n = max(1, min(first, n_max))
     while True:
         start = sim.steps
@@ -351,6 +367,58 @@ def _drive(sim: _Sim, n_max: int, first: int, chunk: int, find_end: EndFinder) -
         if sim.steps >= n_max:
             return _Outcome(q, v, f, timed_out=True)
         n = max(1, min(chunk, n_max - sim.steps))
+
+
+def ball_end_finder() -> EndFinder:
+    """End of a ball impact (qpos[:, 0] = the gap): the first sample after first touch with
+    zero force, the ball moving away and the surfaces apart."""
+    touch: list[int] = []
+
+    def find_end(q: np.ndarray, v: np.ndarray, f: np.ndarray, start: int) -> int | None:
+        if not touch:
+            touched = np.flatnonzero(f[start:] > 0.0)
+            if touched.size == 0:
+                return None
+            touch.append(start + int(touched[0]))
+        lo = max(start, touch[0])
+        # zero force, moving away, surfaces apart (a faded Hunt–Crossley force can be 0 in
+        # round-off while the surfaces still overlap: that contact lasts until x = 0)
+        away = np.flatnonzero((f[lo:] <= 0.0) & (v[lo:, 0] > 0.0) & (q[lo:, 0] > 0.0))
+        return lo + int(away[0]) if away.size else None
+
+    return find_end
+
+
+def rigid_flexible_end_finder(s: RigidFlexible, structure: Any,
+                              collapsed: list[int]) -> EndFinder:
+    """End of a rigid–flexible run (qpos = (x1, x2)): the first sample from which
+    :func:`~impactbench.reference.laws.no_further_contact` holds. The first sample where body
+    2's energy exceeds the structural law's collapse energy is only flagged (its index goes
+    into ``collapsed``): the run goes on until body 2 escapes."""
+    touch: list[int] = []
+
+    def find_end(q: np.ndarray, v: np.ndarray, f: np.ndarray, start: int) -> int | None:
+        x1, x2, u1, u2 = q[:, 0], q[:, 1], v[:, 0], v[:, 1]
+        if math.isfinite(structure.collapse_energy) and not collapsed:
+            # flagged only: the run goes on until body 2 escapes (no_further_contact)
+            e2 = 0.5 * s.m2_kg * u2[start:] ** 2 + structure.potential(x2[start:])
+            over = np.flatnonzero(e2 > structure.collapse_energy)
+            if over.size:
+                collapsed.append(start + int(over[0]))
+        if not touch:
+            touched = np.flatnonzero(f[start:] > 0.0)
+            if touched.size == 0:
+                return None
+            touch.append(start + int(touched[0]))
+        # within one free flight the predicate is monotone, and it was false where the
+        # previous chunk ended, so searching from the new samples on is enough
+        lo = max(start, touch[0])
+        free = (f[lo:] <= 0.0) & (x1[lo:] < x2[lo:])
+        sep = _first_separated(free, lambda i: no_further_contact(
+            x1[lo + i], u1[lo + i], x2[lo + i], u2[lo + i], s.m2_kg, structure))
+        return None if sep is None else lo + sep
+
+    return find_end
 
 
 # --------------------------------------------------------------------------- ball on plate
@@ -458,22 +526,8 @@ def run_ball(s: BallOnPlate, mode: str, settings: RunSettings) -> ImpactRecord:
     first = math.ceil(GAP_STEPS) + math.ceil(t_est / dt) + 2
     chunk = max(8, math.ceil(0.05 * t_est / dt))
 
-    touch: list[int] = []
-
-    def find_end(q: np.ndarray, v: np.ndarray, f: np.ndarray, start: int) -> int | None:
-        if not touch:
-            touched = np.flatnonzero(f[start:] > 0.0)
-            if touched.size == 0:
-                return None
-            touch.append(start + int(touched[0]))
-        lo = max(start, touch[0])
-        # zero force, moving away, surfaces apart (a faded Hunt–Crossley force can be 0 in
-        # round-off while the surfaces still overlap: that contact lasts until x = 0)
-        away = np.flatnonzero((f[lo:] <= 0.0) & (v[lo:, 0] > 0.0) & (q[lo:, 0] > 0.0))
-        return lo + int(away[0]) if away.size else None
-
     sim = _Sim(model, data, hook)
-    out = _drive(sim, n_max, first, chunk, find_end)
+    out = drive(sim, n_max, first, chunk, ball_end_finder())
     x, rate = -out.qpos[:, 0], -out.qvel[:, 0]
     t = np.arange(x.size) * dt - gap / v0
     meta.update(steps=sim.steps, stepping="python loop" if hook else "rollout")
@@ -563,31 +617,8 @@ def run_rigid_flexible(s: RigidFlexible, mode: str, settings: RunSettings) -> Im
     first = chunk if beta else math.ceil(GAP_STEPS) + math.ceil(2.0 * t_contact / dt)
     collapsed: list[int] = []
 
-    touch: list[int] = []
-
-    def find_end(q: np.ndarray, v: np.ndarray, f: np.ndarray, start: int) -> int | None:
-        x1, x2, u1, u2 = q[:, 0], q[:, 1], v[:, 0], v[:, 1]
-        if math.isfinite(structure.collapse_energy) and not collapsed:
-            # flagged only: the run goes on until body 2 escapes (no_further_contact)
-            e2 = 0.5 * s.m2_kg * u2[start:] ** 2 + structure.potential(x2[start:])
-            over = np.flatnonzero(e2 > structure.collapse_energy)
-            if over.size:
-                collapsed.append(start + int(over[0]))
-        if not touch:
-            touched = np.flatnonzero(f[start:] > 0.0)
-            if touched.size == 0:
-                return None
-            touch.append(start + int(touched[0]))
-        # within one free flight the predicate is monotone, and it was false where the
-        # previous chunk ended, so searching from the new samples on is enough
-        lo = max(start, touch[0])
-        free = (f[lo:] <= 0.0) & (x1[lo:] < x2[lo:])
-        sep = _first_separated(free, lambda i: no_further_contact(
-            x1[lo + i], u1[lo + i], x2[lo + i], u2[lo + i], s.m2_kg, structure))
-        return None if sep is None else lo + sep
-
     sim = _Sim(model, data, hook, commit)
-    out = _drive(sim, n_max, first, chunk, find_end)
+    out = drive(sim, n_max, first, chunk, rigid_flexible_end_finder(s, structure, collapsed))
     x1, x2 = out.qpos[:, 0], out.qpos[:, 1]
     u1, u2 = out.qvel[:, 0], out.qvel[:, 1]
     t = np.arange(x1.size) * dt - gap / v1

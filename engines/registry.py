@@ -19,6 +19,8 @@ ENGINES: dict[str, str] = {
     "sapien": "impactbench.engines.sapien_adapter:SapienAdapter",
     "dart": "impactbench.engines.dart_adapter:DartAdapter",
     "box2d": "impactbench.engines.box2d_adapter:Box2dAdapter",
+    "mjx": "impactbench.engines.mjx_adapter:MjxAdapter",
+    "newton": "impactbench.engines.newton_adapter:NewtonAdapter",
 }
 
 PIP: dict[str, str] = {
@@ -29,6 +31,8 @@ PIP: dict[str, str] = {
     "sapien": "pip install sapien",
     "dart": "pip install dartpy",
     "box2d": "pip install box2d",
+    "mjx": "pip install mujoco-mjx jax",
+    "newton": "pip install newton",
 }
 
 ENGINES_ENV = "IMPACTBENCH_ENGINES"

@@ -1,0 +1,390 @@
+"""MJX (MuJoCo XLA, pip ``mujoco-mjx`` with jax on CPU): MuJoCo's physics in JAX.
+
+The models are MuJoCo's own (:func:`~impactbench.engines.mujoco_adapter.ball_mjcf`,
+:func:`~impactbench.engines.mujoco_adapter.rigid_flexible_mjcf`), moved to the device with
+``mjx.put_model``/``put_data``, and the contact physics is MuJoCo's soft constraint (see
+:mod:`impactbench.engines.mujoco_adapter`): a direct solref (−S, −D) with constant impedance is
+the physical linear spring–damper K = S/A, D_phys = D/A, A = efc_diagA. MJX computes in 64-bit
+floats here (``jax_enable_x64`` is switched on when the engine is first used, for the whole
+process), so it is MuJoCo's arithmetic on another compiler: the test suite checks that both give
+the same record. It serves as MuJoCo's batched twin (:func:`ball_batch`, one ``vmap`` over
+contact parameters).
+
+Modes — the MuJoCo adapter's, with its helpers (solref/solimp conversions, the custom keys
+``solref``, ``solimp``, ``integrator``, ``meta["engine_defaults"]`` read back from the compiled
+model, the end-of-impact rules):
+
+- ``native``, ``tuned``: as MuJoCo's (ball: the clipped spring–damper matching the
+  Hunt–Crossley reference's restitution and duration at V_ref; rigid–flexible: solref
+  (−k1·A, 0)).
+- ``default``, ``custom``: ball-on-plate only, as MuJoCo's.
+- ``injected``, ball only: the scenario's contact law through MuJoCo's contact pipeline, its
+  per-step secant stiffness c·x^(n−1) and damping c·b·xⁿ (Hunt–Crossley family) or k, d
+  (clipped Kelvin–Voigt), times A, written into ``geom_solref`` inside the compiled step (MJX
+  has no ``mjENBL_OVERRIDE``). The rigid–flexible local laws with memory (elastoplastic,
+  mutation) need a Python update between steps, which a compiled scan has not: that case
+  returns ``unsupported``.
+
+Stepping: a whole chunk of steps is one ``jax.lax.scan`` over ``mjx.step`` (a Python loop over a
+jitted step manages ~170 steps/s; the scan ~70k). Chunks have a fixed length per scenario
+(:data:`BALL_CHUNK`, :data:`RIGID_FLEXIBLE_CHUNK`), so each scenario kind and per-step control
+compiles once per process (2–5 s) and later runs reuse it; a chunk may step past the end, which
+is cut off. The softening structure's cubic term β·x2³ is written into ``qfrc_applied`` inside the
+scan. Sample k is the state at the start of step k and MuJoCo's ``contact`` sensor (the normal
+force acting over step k), exactly as in the MuJoCo adapter, whose end-of-impact rules
+(:func:`~impactbench.engines.mujoco_adapter.drive`) are reused. MJX raises no instability
+warning: a blow-up shows as non-finite state, hence ``diverged``.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from impactbench.engines.base import Adapter, EngineUnavailable, RunSettings, Scenario
+from impactbench.engines.common import NATIVE_REFERENCE_VELOCITY_M_S, classify
+from impactbench.engines.mujoco_adapter import (
+    BALL_TIMESTEP_S,
+    DEFAULT_TIME_CAP_S,
+    GAP_STEPS,
+    PARAMETER_KEYS,
+    RIGID_FLEXIBLE_TIMESTEP_S,
+    SOLIMP,
+    _contact_time_scale_s,
+    _native_ball,
+    _native_or_tuned,
+    _set_contact,
+    ball_end_finder,
+    ball_mjcf,
+    custom_parameters,
+    drive,
+    engine_defaults,
+    face_radius_m,
+    hertz_duration_s,
+    measured_diag_a,
+    rigid_flexible_end_finder,
+    rigid_flexible_mjcf,
+)
+from impactbench.reference.models import KelvinVoigt
+from impactbench.reference.record import ImpactRecord, Status
+from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
+
+BALL_CHUNK = 512
+"""Steps per compiled scan for the ball (one chunk covers a 1 m/s impact at dt = 1e-6 s)."""
+RIGID_FLEXIBLE_CHUNK = 2048
+"""Steps per compiled scan for the rigid–flexible model."""
+COMPILE_CACHE_DIR = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) \
+    / "impactbench" / "jax"
+"""jax's persistent compilation cache, unless ``JAX_COMPILATION_CACHE_DIR`` sets another: the
+2–5 s compile of each scan happens once per machine, not once per process."""
+
+
+@functools.lru_cache(maxsize=1)
+def _mjx() -> tuple[Any, Any, Any]:
+    """(mujoco, jax, mujoco.mjx) with 64-bit floats on; EngineUnavailable if missing."""
+    try:
+        import jax
+        import mujoco
+        from mujoco import mjx
+    except ImportError as exc:
+        raise EngineUnavailable("mjx", str(exc)) from exc
+    jax.config.update("jax_enable_x64", True)
+    if not jax.config.jax_compilation_cache_dir:  # keep compiled scans across processes
+        jax.config.update("jax_compilation_cache_dir", str(COMPILE_CACHE_DIR))
+    return mujoco, jax, mjx
+
+
+# --------------------------------------------------------------------------- compiled stepping
+
+
+def _no_control(mx: Any, dx: Any, p: Any) -> tuple[Any, Any]:
+    return mx, dx
+
+
+def _secant_control(mx: Any, dx: Any, p: Any) -> tuple[Any, Any]:
+    """Direct solref of the injected law at the step's start, p = (c, n, b, d0, A): secant
+    stiffness c·x^(n−1) and damping c·b·xⁿ + d0 (N/m, N·s/m), each times A."""
+    jnp = _mjx()[1].numpy
+    c, n, b, d0, a = p[0], p[1], p[2], p[3], p[4]
+    x = -dx.qpos[0]
+    xp = jnp.maximum(x, 0.0)
+    inside = x > 0.0
+    k = jnp.where(inside, c * xp ** (n - 1.0), 0.0)
+    d = jnp.where(inside, k * xp * b + d0, 0.0)
+    solref = jnp.stack([-k * a, -d * a])
+    return mx.replace(geom_solref=jnp.broadcast_to(solref, mx.geom_solref.shape)), dx
+
+
+def _cubic_control(mx: Any, dx: Any, p: Any) -> tuple[Any, Any]:
+    """The softening structure's cubic term +β·x2³ on joint 2; p = (β,)."""
+    return mx, dx.replace(qfrc_applied=dx.qfrc_applied.at[1].set(p[0] * dx.qpos[1] ** 3))
+
+
+CONTROLS = {"none": _no_control, "secant": _secant_control,
+            "cubic": _cubic_control}
+"""Per-step changes applied inside the scan before each ``mjx.step``."""
+
+
+@functools.lru_cache(maxsize=1)
+def _compiled_scan() -> Any:
+    """``scan(mx, dx, p, length, control) → (dx, (qpos, qvel, force))``, jitted."""
+    _, jax, mjx = _mjx()
+
+    def scan(mx: Any, dx: Any, p: Any, length: int, control: str) -> Any:
+        change = CONTROLS[control]
+
+        def body(dx: Any, _: Any) -> Any:
+            mx_k, dx = change(mx, dx, p)
+            pre = (dx.qpos, dx.qvel)
+            dx = mjx.step(mx_k, dx)
+            return dx, (*pre, dx.sensordata[0])  # contact sensor of the step just taken
+
+        return jax.lax.scan(body, dx, None, length=length)
+
+    return jax.jit(scan, static_argnames=("length", "control"))
+
+
+@functools.lru_cache(maxsize=1)
+def _compiled_forward() -> Any:
+    _, jax, mjx = _mjx()
+    return jax.jit(mjx.forward)
+
+
+@dataclass
+class _MjxSim:
+    """A model and data on the device, stepped in fixed-length compiled scans."""
+
+    model: Any
+    data: Any
+    control: str
+    params: np.ndarray
+    length: int
+    steps: int = 0
+    chunks: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        _, _, mjx = _mjx()
+        self.mx = mjx.put_model(self.model)
+        # a jitted forward first gives the data its 64-bit layout (put_data's integer fields
+        # would otherwise differ from the scan's carry)
+        self.dx = _compiled_forward()(self.mx, mjx.put_data(self.model, self.data))
+
+    def step_chunk(self, n: int) -> None:
+        scan = _compiled_scan()
+        for _ in range(max(1, math.ceil(n / self.length))):
+            self.dx, (q, v, f) = scan(self.mx, self.dx, self.params, self.length, self.control)
+            self.chunks.append((np.asarray(q), np.asarray(v), np.asarray(f)))
+            self.steps += self.length
+
+    def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        qs, vs, fs = zip(*self.chunks, strict=True)
+        return np.concatenate(qs), np.concatenate(vs), np.concatenate(fs)
+
+    def unstable(self) -> bool:
+        return False  # MJX has no warnings; a blow-up is non-finite state
+
+
+# --------------------------------------------------------------------------- scenarios
+
+
+def _ball_model(s: BallOnPlate, dt: float, integrator: str = "Euler",
+                out_of_box: bool = False) -> tuple[Any, Any, float]:
+    mujoco = _mjx()[0]
+    model = mujoco.MjModel.from_xml_string(ball_mjcf(s, dt, integrator,
+                                                     engine_defaults=out_of_box))
+    data = mujoco.MjData(model)
+    return model, data, measured_diag_a(model, data, (-1e-9,))
+
+
+def injected_parameters(law: Any, diag_a: float) -> np.ndarray | None:
+    """(c, n, b, d0, A) of the injected control — secant stiffness c·x^(n−1), damping
+    c·b·xⁿ + d0 — for a power-law Hunt–Crossley-family law or a clipped Kelvin–Voigt one
+    (c = k, n = 1, b = 0, d0 = d); None for a law given as an arbitrary elastic function."""
+    if isinstance(law, KelvinVoigt):
+        return np.array([law.stiffness, 1.0, 0.0, law.damping_ns_per_m, diag_a])
+    if not law.is_power_law:
+        return None
+    return np.array([law.stiffness, law.exponent, law.damping, 0.0, diag_a])
+
+
+def run_ball(s: BallOnPlate, mode: str, settings: RunSettings) -> ImpactRecord:
+    """Ball-on-plate in MJX; the same model, modes and end rule as MuJoCo's ``run_ball``."""
+    dt = float(settings.timestep_s or BALL_TIMESTEP_S)
+    user = custom_parameters(settings.params or {}) if mode == "custom" else {}
+    out_of_box = mode in ("default", "custom")
+    integrator = str(user.get("integrator", settings.options.get("integrator", "Euler")))
+    model, data, a = _ball_model(s, dt, integrator, out_of_box)
+    v0, m = s.velocity_m_s, s.mass_kg
+    meta: dict[str, Any] = {"integrator": integrator, "efc_diagA": a, "chunk_steps": BALL_CHUNK}
+    t_est = hertz_duration_s(s, v0)
+    control, params = "none", np.zeros(5)
+    if out_of_box:
+        meta["engine_defaults"] = engine_defaults(model)
+        if "solref" in user or "solimp" in user:
+            _set_contact(model, tuple(user.get("solref", model.geom_solref[1])),
+                         tuple(user.get("solimp", model.geom_solimp[1])))
+        meta.update(params=user, solref=[float(v) for v in model.geom_solref[1]],
+                    solimp=[float(v) for v in model.geom_solimp[1]])
+        t_est = max(t_est, _contact_time_scale_s(meta["solref"], a, m, dt))
+    elif mode == "injected":
+        injected = injected_parameters(s.law(), a)
+        if injected is None:
+            return ImpactRecord.failed(
+                Status.UNSUPPORTED, "mjx: injected needs a power-law or linear contact law "
+                "(an arbitrary elastic function cannot run inside the compiled step)")
+        control, params = "secant", injected
+        _set_contact(model, (0.0, 0.0), SOLIMP)
+        meta.update(law=s.model, solimp=list(SOLIMP))
+    else:
+        v_ref = float(settings.options.get("reference_velocity_m_s",
+                                           NATIVE_REFERENCE_VELOCITY_M_S))
+        k = d = 0.0
+        if mode == "native":
+            sd = _native_ball(s.replace(velocity_m_s=v_ref), v_ref)
+            k, d = sd.stiffness_n_per_m, sd.damping_ns_per_m
+            t_est = sd.duration_s(m)
+            meta.update(stiffness_n_per_m=k, damping_ns_per_m=d, reference_velocity_m_s=v_ref)
+        meta.update(_native_or_tuned(model, mode, settings, (-k * a, -d * a)))
+    gap = GAP_STEPS * v0 * dt
+    data.qpos[0], data.qvel[0] = gap, -v0
+    cap = max(20.0 * t_est, DEFAULT_TIME_CAP_S) if out_of_box else 20.0 * t_est
+    max_time = settings.max_time_s or gap / v0 + cap
+    n_max = max(math.ceil(max_time / dt), math.ceil(GAP_STEPS) + 16)
+    first = math.ceil(GAP_STEPS) + math.ceil(t_est / dt) + 2
+    chunk = max(BALL_CHUNK, math.ceil(0.05 * t_est / dt))
+    sim = _MjxSim(model, data, control, params, BALL_CHUNK)
+    out = drive(sim, n_max, first, chunk, ball_end_finder())
+    x, rate = -out.qpos[:, 0], -out.qvel[:, 0]
+    t = np.arange(x.size) * dt - gap / v0
+    meta.update(steps=sim.steps, stepping="lax.scan")
+    rec = ImpactRecord(t, x, rate, out.force_n, rate, np.zeros_like(x), mass_1_kg=m,
+                       mass_2_kg=math.inf, meta=meta)
+    final = 0.5 * m * rate[-1] ** 2 if x.size else math.nan
+    return classify(rec, initial_kinetic_j=0.5 * m * v0 * v0, final_kinetic_j=final,
+                    tunneled=bool(x.size and x[-1] > s.radius_m and rate[-1] >= 0.0),
+                    timed_out=out.timed_out)
+
+
+def run_rigid_flexible(s: RigidFlexible, mode: str, settings: RunSettings) -> ImpactRecord:
+    """Rigid–flexible 2-DOF impact in MJX; see the module docstring."""
+    if mode == "injected":
+        return ImpactRecord.failed(
+            Status.UNSUPPORTED, "mjx: injected rigid–flexible needs the local law's memory "
+            "updated between steps, which a compiled scan cannot call")
+    if mode in ("default", "custom"):
+        return ImpactRecord.failed(
+            Status.UNSUPPORTED, f"{mode} mode is implemented for ball-on-plate only (as MuJoCo)")
+    mujoco = _mjx()[0]
+    dt = float(settings.timestep_s or RIGID_FLEXIBLE_TIMESTEP_S)
+    model = mujoco.MjModel.from_xml_string(rigid_flexible_mjcf(s, dt))
+    data = mujoco.MjData(model)
+    a = measured_diag_a(model, data, (1e-9, 0.0))
+    structure = s.structural_law()
+    beta = s.beta_n_per_m3 if s.structure == "softening" else 0.0
+    meta: dict[str, Any] = {"efc_diagA": a, "face_radius_m": face_radius_m(s),
+                            "chunk_steps": RIGID_FLEXIBLE_CHUNK}
+    meta.update(_native_or_tuned(model, mode, settings, (-s.k1_n_per_m * a, 0.0)))
+    if mode == "native":
+        meta.update(stiffness_n_per_m=s.k1_n_per_m, damping_ns_per_m=0.0)
+    v1 = s.velocity_m_s
+    gap = GAP_STEPS * v1 * dt
+    data.qpos[:] = (-gap, 0.0)
+    data.qvel[:] = (v1, 0.0)
+    n_max = math.ceil((settings.max_time_s or s.max_time_s) / dt)
+    collapsed: list[int] = []
+    sim = _MjxSim(model, data, "cubic" if beta else "none", np.array([beta]),
+                  RIGID_FLEXIBLE_CHUNK)
+    out = drive(sim, n_max, RIGID_FLEXIBLE_CHUNK, RIGID_FLEXIBLE_CHUNK,
+                rigid_flexible_end_finder(s, structure, collapsed))
+    x1, x2 = out.qpos[:, 0], out.qpos[:, 1]
+    u1, u2 = out.qvel[:, 0], out.qvel[:, 1]
+    t = np.arange(x1.size) * dt - gap / v1
+    meta.update(steps=sim.steps, stepping="lax.scan")
+    rec = ImpactRecord(t, x1 - x2, u1 - u2, out.force_n, u1, u2, mass_1_kg=s.m1_kg,
+                       mass_2_kg=s.m2_kg, displacement_2_m=x2, meta=meta)
+    final = (0.5 * s.m1_kg * u1[-1] ** 2 + 0.5 * s.m2_kg * u2[-1] ** 2
+             + structure.potential(x2[-1])) if x1.size else math.nan
+    classify(rec, initial_kinetic_j=0.5 * s.m1_kg * v1 * v1, final_kinetic_j=final,
+             timed_out=out.timed_out)
+    if collapsed and rec.status in (Status.OK, Status.MAX_TIME, Status.DIVERGED) \
+            and np.all(np.isfinite(out.qpos)):
+        rec.status = Status.STRUCTURE_COLLAPSED
+        rec.message = (f"body 2's energy exceeded the softening law's collapse energy "
+                       f"{structure.collapse_energy:.6g} J")
+    return rec
+
+
+# --------------------------------------------------------------------------- batches
+
+
+def ball_batch(s: BallOnPlate, solrefs: Sequence[Sequence[float]], timestep_s: float,
+               steps: int, solimp: Sequence[float] = SOLIMP
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Many contact parameter sets for one ball impact in one compiled call (``vmap``).
+
+    Every world starts 2.5 steps above the plate at −V0 and runs ``steps`` steps with its own
+    geom solref (MuJoCo's convention, e.g. direct (−K·A, −D·A)). Returns (gap (m), gap rate (m/s),
+    contact force (N)), each shaped (worlds, steps): the pre-step state and the force over each
+    step. Build :class:`ImpactRecord`s from them as :func:`run_ball` does, or read the final
+    velocity for a restitution.
+    """
+    _, jax, mjx = _mjx()
+    jnp = jax.numpy
+    model, data, _ = _ball_model(s, timestep_s)
+    model.geom_solimp[:] = solimp
+    data.qpos[0], data.qvel[0] = GAP_STEPS * s.velocity_m_s * timestep_s, -s.velocity_m_s
+    mx = mjx.put_model(model)
+    dx = _compiled_forward()(mx, mjx.put_data(model, data))
+    refs = jnp.asarray(np.asarray(solrefs, dtype=float).reshape(-1, 2))
+    return tuple(np.asarray(a) for a in _batched_scan()(mx, dx, refs, steps))
+
+
+@functools.lru_cache(maxsize=1)
+def _batched_scan() -> Any:
+    _, jax, _ = _mjx()
+    jnp = jax.numpy
+    scan = _compiled_scan()
+
+    def one(mx: Any, dx: Any, solref: Any, steps: int) -> Any:
+        mx = mx.replace(geom_solref=jnp.broadcast_to(solref, mx.geom_solref.shape))
+        _, (q, v, f) = scan(mx, dx, jnp.zeros(1), steps, "none")
+        return q[:, 0], v[:, 0], f
+
+    return jax.jit(jax.vmap(one, in_axes=(None, None, 0, None)), static_argnames=("steps",))
+
+
+# --------------------------------------------------------------------------- the adapter
+
+
+class MjxAdapter(Adapter):
+    """MJX (pip ``mujoco-mjx`` and ``jax``): MuJoCo's contact in JAX, both scenarios."""
+
+    name = "mjx"
+    pip = "pip install mujoco-mjx jax"
+    modes = ("native", "injected", "tuned", "default", "custom")
+    parameter_keys = PARAMETER_KEYS
+
+    def version(self) -> str:
+        from importlib.metadata import version
+
+        mujoco, jax, _ = _mjx()
+        return f"{version('mujoco-mjx')} (mujoco {mujoco.__version__}, jax {jax.__version__})"
+
+    def default_timestep_s(self, scenario: Scenario, mode: str) -> float:
+        if isinstance(scenario, BallOnPlate):
+            return BALL_TIMESTEP_S
+        return RIGID_FLEXIBLE_TIMESTEP_S
+
+    def _run(self, scenario: Scenario, mode: str, settings: RunSettings) -> ImpactRecord:
+        if mode == "tuned" and settings.tuned is None:
+            return ImpactRecord.failed(
+                Status.UNSUPPORTED, "tuned mode needs a tuned-parameter file (none given)")
+        if isinstance(scenario, BallOnPlate):
+            return run_ball(scenario, mode, settings)
+        return run_rigid_flexible(scenario, mode, settings)
