@@ -40,7 +40,7 @@ def require_engine(name: str):
 
     module = {"drake": "pydrake", "pymunk": "pymunk", "mujoco": "mujoco",
               "pybullet": "pybullet", "sapien": "sapien", "dart": "dartpy",
-              "box2d": "Box2D"}[name]
+              "box2d": "Box2D", "mjx": "mujoco.mjx", "newton": "newton"}[name]
     return pytest.importorskip(module, reason=f"{name} not installed: run `{PIP[name]}`")
 
 

@@ -1,0 +1,137 @@
+"""Newton adapter on the real engine (warp on CPU, float32, Featherstone).
+
+The closed form of Newton's contact law (damping only while approaching) is checked against a
+direct integration first; the engine runs then check that law, the force
+derived from the momentum change, the native conversion and the injected reference. Warp
+compiles its kernels once per machine into its kernel cache; the runs here are short.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from conftest import require_engine
+
+require_engine("newton")
+
+from impactbench.engines.base import RunSettings, get_adapter  # noqa: E402
+from impactbench.engines.common import clipped_restitution  # noqa: E402
+from impactbench.engines.newton_adapter import (  # noqa: E402
+    NewtonAdapter,
+    approach_damped_duration_s,
+    approach_damped_matching,
+    approach_damped_restitution,
+)
+from impactbench.reference import hunt_crossley, two_dof  # noqa: E402
+from impactbench.reference.metrics import compute, relative_error  # noqa: E402
+from impactbench.reference.record import Status  # noqa: E402
+from impactbench.reference.scenarios import BallOnPlate, RigidFlexible  # noqa: E402
+from scipy.integrate import solve_ivp  # noqa: E402
+
+BALL = ("restitution", "duration_s", "peak_force_n")
+RF = ("peak_force_n", "pulse_width_s", "impulse_ns")
+K, D = 1.0e8, 316.2  # the engines note's target contact (N/m, N·s/m)
+
+
+def _errors(measured: dict, reference: dict, keys: tuple[str, ...]) -> dict[str, float]:
+    return {k: abs(relative_error(measured[k], reference[k])) for k in keys}
+
+
+@pytest.mark.parametrize(("ke", "kd", "mass"), [(K, D, 0.1), (2.5e3, 100.0, 0.1),
+                                                (1e5, 10.0, 10.0)])
+def test_approach_damped_law_closed_form(ke: float, kd: float, mass: float) -> None:
+    """e and T of m·ẍ = −(ke·x + kd·max(ẋ, 0)) from (0, 1 m/s) against an ODE solve, for
+    under- and overdamped approach."""
+    def rhs(t: float, y: list[float]) -> list[float]:
+        return [y[1], -(ke * y[0] + kd * max(y[1], 0.0)) / mass]
+
+    def out(t: float, y: list[float]) -> float:
+        return y[0]
+
+    out.terminal, out.direction = True, -1
+    sol = solve_ivp(rhs, (0.0, 10.0), [0.0, 1.0], events=out, rtol=1e-12, atol=1e-16,
+                    first_step=1e-9, max_step=1e-3 * math.sqrt(mass / ke))
+    duration = approach_damped_duration_s(ke, kd, mass)
+    assert sol.t_events[0][0] == pytest.approx(duration, rel=1e-7)
+    zeta = kd / (2.0 * math.sqrt(ke * mass))
+    if zeta < 1.0:
+        assert -sol.y_events[0][0][1] == pytest.approx(approach_damped_restitution(zeta),
+                                                       rel=1e-7)
+        sd = approach_damped_matching(mass, approach_damped_restitution(zeta), duration)
+        assert sd.stiffness_n_per_m == pytest.approx(ke, rel=1e-9)
+        assert sd.damping_ns_per_m == pytest.approx(kd, rel=1e-9)
+
+
+def test_matching_rejects_restitution_below_the_laws_floor() -> None:
+    with pytest.raises(ValueError, match="restitution"):
+        approach_damped_matching(0.1, 0.3, 1e-4)
+
+
+@pytest.fixture(scope="module")
+def newton() -> NewtonAdapter:
+    adapter = get_adapter("newton")
+    assert isinstance(adapter, NewtonAdapter)
+    return adapter
+
+
+def test_contact_damps_only_while_approaching(newton: NewtonAdapter) -> None:
+    """ke = 1e8, kd = 316.2 gives the one-sided law's e = 0.9267, not the two-sided
+    spring–damper's 0.8588; the recorded force (m·Δv/dt) is the law's ke·x + kd·max(ẋ, 0)."""
+    scenario = BallOnPlate(velocity_m_s=1.0)
+    rec = newton.run(scenario, "custom", RunSettings(timestep_s=1e-7,
+                                                     params={"ke": K, "kd": D}))
+    assert rec.status is Status.OK, rec.message
+    assert rec.meta["float"] == "float32" and rec.meta["solver"] == "featherstone"
+    zeta = D / (2.0 * math.sqrt(K * scenario.mass_kg))
+    e = compute(rec)["restitution"]
+    assert e == pytest.approx(approach_damped_restitution(zeta), rel=2e-4)
+    assert abs(e - clipped_restitution(zeta)) > 0.05
+    inside = rec.penetration_m > 1e-6
+    law = K * rec.penetration_m + D * np.maximum(rec.penetration_rate_m_s, 0.0)
+    np.testing.assert_allclose(rec.normal_force_n[inside], law[inside], rtol=2e-3)
+    assert np.all(rec.normal_force_n[rec.penetration_m <= 0.0] == 0.0)
+
+
+def test_native_ball_matches_reference_at_reference_velocity(newton: NewtonAdapter) -> None:
+    scenario = BallOnPlate(velocity_m_s=1.0)
+    rec = newton.run(scenario, "native")
+    assert rec.status is Status.OK, rec.message
+    err = _errors(compute(rec), hunt_crossley.solve(scenario), ("restitution", "duration_s"))
+    assert err["restitution"] <= 0.005, err
+    assert err["duration_s"] <= 0.01, err
+
+
+def test_injected_ball_reproduces_reference(newton: NewtonAdapter) -> None:
+    scenario = BallOnPlate(velocity_m_s=5.0)
+    rec = newton.run(scenario, "injected", RunSettings(timestep_s=1e-7))
+    assert rec.status is Status.OK, rec.message
+    err = _errors(compute(rec), hunt_crossley.solve(scenario), BALL)
+    assert err["restitution"] <= 0.005, err
+    assert err["duration_s"] <= 0.01, err
+    assert err["peak_force_n"] <= 0.01, err
+
+
+def test_default_mode_records_newton_defaults(newton: NewtonAdapter) -> None:
+    """ShapeConfig defaults (ke = 2.5e3 N/m, kd = 100 N·s/m: overdamped approach) and their
+    closed-form contact duration."""
+    scenario = BallOnPlate(velocity_m_s=1.0)
+    rec = newton.run(scenario, "default", RunSettings(timestep_s=1e-5))
+    assert rec.status is Status.OK, rec.message
+    defaults = rec.meta["engine_defaults"]
+    assert defaults["ke"] == 2.5e3 and defaults["kd"] == 100.0
+    duration = approach_damped_duration_s(defaults["ke"], defaults["kd"], scenario.mass_kg)
+    assert compute(rec)["duration_s"] == pytest.approx(duration, rel=0.01)
+
+
+@pytest.mark.parametrize(("local", "mode"), [("elastoplastic", "injected"),
+                                             ("linear", "native")])
+def test_rigid_flexible_matches_reference(newton: NewtonAdapter, local: str, mode: str) -> None:
+    scenario = RigidFlexible(velocity_m_s=3.3, local=local)
+    rec = newton.run(scenario, mode, RunSettings(timestep_s=2e-5))
+    assert rec.status is Status.OK, rec.message
+    ref = two_dof.solve(scenario)
+    measured = compute(rec)
+    assert measured["impacts"] == ref["impacts"]
+    assert max(_errors(measured, ref, RF).values()) <= 0.01
