@@ -44,9 +44,9 @@ Modes:
 - ``native``: ball — ``ke``, ``kd`` from :func:`approach_damped_matching` so Newton's own law has
   the Hunt–Crossley reference's restitution and duration at V_ref (default 1 m/s,
   ``options["reference_velocity_m_s"]``); rigid–flexible — ke = k1, kd = 0 (linear local law).
-- ``injected``: no collision detection; the reference law's force (Hunt–Crossley F(x, ẋ), or the
-  local law F1(Δx) with its memory updated after each step) is applied as a joint force
-  (``control.joint_f``) at each step's start state.
+- ``injected``: no collision detection; the reference law's force (the scenario's contact law
+  F(x, ẋ), or the local law F1(Δx) with its memory updated after each step) is applied as a
+  joint force (``control.joint_f``) at each step's start state.
 - ``tuned``: ``settings.tuned`` keys ``ke``, ``kd``; ``custom``: ``settings.params`` keys ``ke``,
   ``kd``, ``kf``, ``mu`` (Newton's ShapeConfig names; the rest keep Newton's defaults);
   ``default``: Newton's ``ShapeConfig`` defaults (ke = 2.5e3 N/m, kd = 100 N·s/m, kf = 1e3,
@@ -330,7 +330,7 @@ def run_ball(s: BallOnPlate, mode: str, settings: RunSettings) -> ImpactRecord:
         def force(q: list[float], qd: list[float], qd_next: list[float]) -> float:
             return law.force(-q[0], -qd[0])
 
-        meta.update(law="hunt_crossley", force_output="applied joint force (the law)")
+        meta.update(law=s.model, force_output="the applied joint force (the law's)")
     else:
         native = (0.0, 0.0)
         if mode == "native":
@@ -363,7 +363,8 @@ def run_ball(s: BallOnPlate, mode: str, settings: RunSettings) -> ImpactRecord:
                        mass_2_kg=math.inf, meta=meta)
     final = 0.5 * m * rate[-1] ** 2 if x.size else math.nan
     return classify(rec, initial_kinetic_j=0.5 * m * v0 * v0, final_kinetic_j=final,
-                    tunneled=bool(x.size and x[-1] > s.radius_m), timed_out=out.timed_out)
+                    tunneled=bool(x.size and x[-1] > s.radius_m and rate[-1] >= 0.0),
+                    timed_out=out.timed_out)
 
 
 def run_rigid_flexible(s: RigidFlexible, mode: str, settings: RunSettings) -> ImpactRecord:

@@ -92,7 +92,7 @@ def test_default_and_custom_modes(mjx: MjxAdapter) -> None:
     native = mjx.run(scenario, "native")
     params = {"solref": native.meta["solref"], "solimp": native.meta["solimp"]}
     custom = mjx.run(scenario, "custom", RunSettings(params=params))
-    assert custom.meta["engine_defaults"] == {}
+    assert custom.meta["solref"] == native.meta["solref"]
     np.testing.assert_array_equal(custom.normal_force_n, native.normal_force_n)
     with pytest.raises(ValueError, match="solref"):
         mjx.run(scenario, "custom", RunSettings(params={"solref": [1.0]}))
