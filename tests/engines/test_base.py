@@ -9,6 +9,7 @@ import sys
 import pytest
 from impactbench.engines.base import (
     ENGINES,
+    PIP,
     EngineUnavailable,
     RunSettings,
     get_adapter,
@@ -42,7 +43,8 @@ def test_engine_unavailable_names_the_pip_command() -> None:
 @pytest.mark.parametrize("engine", sorted(ENGINES))
 def test_absent_engine_becomes_status_unavailable(engine: str) -> None:
     """In a fresh interpreter where the engine's package cannot be imported."""
-    module = {"drake": "pydrake", "dart": "dartpy", "box2d": "Box2D"}.get(engine, engine)
+    module = {"drake": "pydrake", "dart": "dartpy", "box2d": "Box2D",
+              "mjx": "mujoco.mjx"}.get(engine, engine)
     code = (
         "import sys, json\n"
         f"sys.modules[{module!r}] = None  # makes `import {module}` raise ImportError\n"
@@ -55,4 +57,4 @@ def test_absent_engine_becomes_status_unavailable(engine: str) -> None:
                          check=True, timeout=120)
     got = json.loads(out.stdout.strip().splitlines()[-1])
     assert got["status"] == "unavailable"
-    assert f"pip install {engine}" in got["message"]
+    assert PIP[engine] in got["message"]
