@@ -3,7 +3,7 @@
 For each shared case (:data:`benchmarks.overhead.CASES`) the adapter runs the scenario
 (building the model, stepping, reading the joint state, the m·Δv/dt force, the end search and
 the record); the bare loop builds the same model (same contact parameters, same initial state)
-and calls ``collide`` (where the adapter does) and ``SolverFeatherstone.step`` for as many steps
+and calls ``collide`` and ``SolverFeatherstone.step`` for as many steps
 as the adapter's record holds, reading nothing. Both are timed as the best of a few alternating
 repeats (the machine is shared). Kernel compilation is excluded (a warm-up run first).
 
@@ -36,7 +36,7 @@ def bare_loop(scenario: Any, mode: str, dt: float, steps: int) -> None:
     """The same model and initial state, stepped ``steps`` times with nothing recorded."""
     newton = _newton()[1]
     ball = isinstance(scenario, BallOnPlate)
-    values = None
+    values = {"ke": 0.0, "kd": 0.0, "kf": 0.0, "mu": 0.0}  # injected: ke is set per step
     if mode != "injected":
         native = native_ball(scenario.replace(
             velocity_m_s=NATIVE_REFERENCE_VELOCITY_M_S)) if ball else None
@@ -50,12 +50,11 @@ def bare_loop(scenario: Any, mode: str, dt: float, steps: int) -> None:
     s0.joint_qd.assign(np.array([-v0] if ball else [v0, 0.0], dtype=np.float32))
     newton.eval_fk(model, s0.joint_q, s0.joint_qd, s0)
     solver = newton.solvers.SolverFeatherstone(model)
-    pipeline = newton.CollisionPipeline(model) if values is not None else None
-    contacts = pipeline.contacts() if pipeline is not None else None
+    pipeline = newton.CollisionPipeline(model)
+    contacts = pipeline.contacts()
     for _ in range(steps):
         s0.clear_forces()
-        if pipeline is not None:
-            pipeline.collide(s0, contacts)
+        pipeline.collide(s0, contacts)
         solver.step(s0, s1, control, contacts, dt)
         s0, s1 = s1, s0
 

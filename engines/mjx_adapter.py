@@ -367,6 +367,9 @@ class MjxAdapter(Adapter):
 
     name = "mjx"
     pip = "pip install mujoco-mjx jax"
+    injection = ("the law through MuJoCo's soft-contact solver in MJX: a direct solref written "
+                 "into geom_solref inside the compiled step, the law's secant stiffness and "
+                 "damping at the start state (Euler)")
     modes = ("native", "injected", "tuned", "default", "custom")
     parameter_keys = PARAMETER_KEYS
 

@@ -44,9 +44,10 @@ Modes:
 - ``native``: ball — ``ke``, ``kd`` from :func:`approach_damped_matching` so Newton's own law has
   the Hunt–Crossley reference's restitution and duration at V_ref (default 1 m/s,
   ``options["reference_velocity_m_s"]``); rigid–flexible — ke = k1, kd = 0 (linear local law).
-- ``injected``: no collision detection; the reference law's force (the scenario's contact law
-  F(x, ẋ), or the local law F1(Δx) with its memory updated after each step) is applied as a
-  joint force (``control.joint_f``) at each step's start state.
+- ``injected``: the reference law through Newton's own contact: at each step's start state the
+  material ``ke`` of every shape is set to the law's secant F(x, ẋ)/x (the scenario's contact
+  law, or the local law F1(Δx)/Δx with its memory updated after each step) and ``kd`` = 0, so
+  the contact kernel applies exactly the law's force over the step.
 - ``tuned``: ``settings.tuned`` keys ``ke``, ``kd``; ``custom``: ``settings.params`` keys ``ke``,
   ``kd``, ``kf``, ``mu`` (Newton's ShapeConfig names; the rest keep Newton's defaults);
   ``default``: Newton's ``ShapeConfig`` defaults (ke = 2.5e3 N/m, kd = 100 N·s/m, kf = 1e3,
@@ -197,19 +198,14 @@ def contact_parameters(mode: str, settings: RunSettings,
 # --------------------------------------------------------------------------- models
 
 
-def _shape_config(newton: Any, values: dict[str, float] | None) -> Any:
+def _shape_config(newton: Any, values: dict[str, float]) -> Any:
     cfg = newton.ModelBuilder.ShapeConfig(density=0.0)
-    if values is None:  # injected: no contact from the engine at all
-        cfg.has_shape_collision = False
-        cfg.has_particle_collision = False
-        cfg.ke = cfg.kd = cfg.kf = cfg.mu = 0.0
-        return cfg
     for key, value in values.items():
         setattr(cfg, key, float(value))
     return cfg
 
 
-def ball_model(s: BallOnPlate, values: dict[str, float] | None) -> Any:
+def ball_model(s: BallOnPlate, values: dict[str, float]) -> Any:
     """Plane at z = 0, sphere on a z prismatic joint, q = height of its lowest point."""
     wp, newton = _newton()
     b = newton.ModelBuilder(gravity=(0.0, 0.0, -s.gravity_m_s2))
@@ -225,7 +221,7 @@ def ball_model(s: BallOnPlate, values: dict[str, float] | None) -> Any:
     return b.finalize(device="cpu")
 
 
-def rigid_flexible_model(s: RigidFlexible, values: dict[str, float] | None) -> Any:
+def rigid_flexible_model(s: RigidFlexible, values: dict[str, float]) -> Any:
     """Two spheres on x prismatic joints touching at q = 0; joint 2's stiffness is k2."""
     wp, newton = _newton()
     b = newton.ModelBuilder(gravity=(0.0, 0.0, 0.0))
@@ -250,9 +246,10 @@ def rigid_flexible_model(s: RigidFlexible, values: dict[str, float] | None) -> A
 class NewtonSim:
     """A Featherstone simulation stepped in a Python loop, one sample per step.
 
-    ``applied(q, qd) → joint forces`` (a list, one per joint) is called at each step's start for
-    injected and softening runs; ``commit(q)`` after the step (a law's memory). ``force(q, qd,
-    qd_next)`` turns the step into the recorded contact force.
+    ``hook(q, qd) → (joint forces or None, contact ke or None)`` is called at each step's start
+    (injected and softening runs): the joint forces go into ``control.joint_f``, the ke into
+    every shape's ``shape_material_ke``; ``commit(q)`` runs after the step (a law's memory).
+    ``force(q, qd, qd_next)`` turns the step into the recorded contact force.
     """
 
     model: Any
@@ -260,8 +257,7 @@ class NewtonSim:
     q0: tuple[float, ...]
     qd0: tuple[float, ...]
     force: Any
-    collide: bool = True
-    applied: Any = None
+    hook: Any = None
     commit: Any = None
     steps: int = 0
     chunks: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = field(default_factory=list)
@@ -274,22 +270,27 @@ class NewtonSim:
         self.s0.joint_qd.assign(np.asarray(self.qd0, dtype=np.float32))
         newton.eval_fk(m, self.s0.joint_q, self.s0.joint_qd, self.s0)
         self.solver = newton.solvers.SolverFeatherstone(m)
-        self.pipeline = newton.CollisionPipeline(m) if self.collide else None
-        self.contacts = self.pipeline.contacts() if self.pipeline else None
-        self.joint_f = self.control.joint_f.numpy()  # a view on the CPU device: writes land
+        self.pipeline = newton.CollisionPipeline(m)
+        self.contacts = self.pipeline.contacts()
+        # views on the CPU device's memory: writes land in what the kernels read
+        self.joint_f = self.control.joint_f.numpy()
+        self.ke = m.shape_material_ke.numpy()
 
     def step_chunk(self, n: int) -> None:
         s0, s1, control, contacts = self.s0, self.s1, self.control, self.contacts
         solver, pipeline, dt = self.solver, self.pipeline, self.dt
-        applied, commit, joint_f = self.applied, self.commit, self.joint_f
+        hook, commit, joint_f, ke = self.hook, self.commit, self.joint_f, self.ke
         qs, vs, fs = [], [], []
         for _ in range(n):
             q, qd = s0.joint_q.numpy().tolist(), s0.joint_qd.numpy().tolist()
-            if applied is not None:
-                joint_f[:] = applied(q, qd)
+            if hook is not None:
+                forces, stiffness = hook(q, qd)
+                if forces is not None:
+                    joint_f[:] = forces
+                if stiffness is not None:
+                    ke[:] = stiffness
             s0.clear_forces()
-            if pipeline is not None:
-                pipeline.collide(s0, contacts)
+            pipeline.collide(s0, contacts)
             solver.step(s0, s1, control, contacts, dt)
             s0, s1 = s1, s0
             if commit is not None:
@@ -319,18 +320,16 @@ def run_ball(s: BallOnPlate, mode: str, settings: RunSettings) -> ImpactRecord:
     v0, m, g = s.velocity_m_s, s.mass_kg, s.gravity_m_s2
     meta: dict[str, Any] = {"solver": SOLVER, "float": "float32"}
     t_est = hertz_duration_s(s, v0)
-    applied = None
+    hook = None
     if mode == "injected":
         law = s.law()
-        values = None
+        values = {"ke": 0.0, "kd": 0.0, "kf": 0.0, "mu": 0.0}
 
-        def applied(q: list[float], qd: list[float]) -> list[float]:
-            return [law.force(-q[0], -qd[0])]  # F(x, ẋ) upward on the ball
+        def hook(q: list[float], qd: list[float]) -> tuple[None, float]:
+            x = -q[0]  # ke·x = F(x, ẋ) at the start state; kd = 0
+            return None, (law.force(x, -qd[0]) / x if x > 0.0 else 0.0)
 
-        def force(q: list[float], qd: list[float], qd_next: list[float]) -> float:
-            return law.force(-q[0], -qd[0])
-
-        meta.update(law=s.model, force_output="the applied joint force (the law's)")
+        meta.update(law=s.model)
     else:
         native = (0.0, 0.0)
         if mode == "native":
@@ -344,13 +343,12 @@ def run_ball(s: BallOnPlate, mode: str, settings: RunSettings) -> ImpactRecord:
         if values["ke"] > 0.0:
             t_est = approach_damped_duration_s(values["ke"], values["kd"], m)
 
-        def force(q: list[float], qd: list[float], qd_next: list[float]) -> float:
-            return m * ((qd_next[0] - qd[0]) / dt + g) if q[0] < 0.0 else 0.0
+    def force(q: list[float], qd: list[float], qd_next: list[float]) -> float:
+        return m * ((qd_next[0] - qd[0]) / dt + g) if q[0] < 0.0 else 0.0
 
-        meta.update(force_output="m·Δv/dt of the ball where in contact (no contact output)")
+    meta.update(force_output="m·Δv/dt of the ball where in contact (no contact output)")
     gap = GAP_STEPS * v0 * dt
-    sim = NewtonSim(ball_model(s, values), dt, (gap,), (-v0,), force,
-                    collide=values is not None, applied=applied)
+    sim = NewtonSim(ball_model(s, values), dt, (gap,), (-v0,), force, hook=hook)
     max_time = settings.max_time_s or gap / v0 + 20.0 * t_est
     n_max = max(math.ceil(max_time / dt), math.ceil(GAP_STEPS) + 16)
     first = math.ceil(GAP_STEPS) + math.ceil(t_est / dt) + 2
@@ -376,25 +374,31 @@ def run_rigid_flexible(s: RigidFlexible, mode: str, settings: RunSettings) -> Im
                             "face_radius_m": face_radius_m(s)}
     m1 = s.m1_kg
     commit = None
+    cubic = [0.0, 0.0]
     if mode == "injected":
         law = s.local_law()
-        values = None
+        values = {"ke": 0.0, "kd": 0.0, "kf": 0.0, "mu": 0.0}
 
-        def applied(q: list[float], qd: list[float]) -> list[float]:
-            f1 = law.force(q[0] - q[1])
-            return [-f1, f1 + beta * q[1] ** 3]
+        def hook(q: list[float], qd: list[float]) -> tuple[list[float], float]:
+            dx = q[0] - q[1]  # ke·Δx = F1(Δx), the secant
+            cubic[1] = beta * q[1] ** 3
+            return cubic, (law.force(dx) / dx if dx > 0.0 else 0.0)
 
         def commit(q: list[float]) -> None:
             law.update(q[0] - q[1])
 
-        meta.update(law=s.local, force_output="m1·Δu1/dt (the applied law force)")
+        meta.update(law=s.local)
     else:
         values, more = contact_parameters(mode, settings, (s.k1_n_per_m, 0.0))
         meta.update(more)
         if mode == "native":
             meta.update(stiffness_n_per_m=s.k1_n_per_m, damping_ns_per_m=0.0)
-        applied = (lambda q, qd: [0.0, beta * q[1] ** 3]) if beta else None
-        meta.update(force_output="m1·Δu1/dt of body 1 where in contact (no contact output)")
+
+        def hook(q: list[float], qd: list[float]) -> tuple[list[float], None]:
+            cubic[1] = beta * q[1] ** 3
+            return cubic, None
+
+    meta.update(force_output="m1·Δu1/dt of body 1 where in contact (no contact output)")
 
     def force(q: list[float], qd: list[float], qd_next: list[float]) -> float:
         return -m1 * (qd_next[0] - qd[0]) / dt if q[0] > q[1] else 0.0
@@ -402,7 +406,7 @@ def run_rigid_flexible(s: RigidFlexible, mode: str, settings: RunSettings) -> Im
     v1 = s.velocity_m_s
     gap = GAP_STEPS * v1 * dt
     sim = NewtonSim(rigid_flexible_model(s, values), dt, (-gap, 0.0), (v1, 0.0), force,
-                    collide=values is not None, applied=applied, commit=commit)
+                    hook=hook if beta or mode == "injected" else None, commit=commit)
     m_eff = s.m1_kg * s.m2_kg / (s.m1_kg + s.m2_kg)
     t_contact = math.pi * math.sqrt(m_eff / min(s.k1_n_per_m, s.k2_n_per_m))
     n_max = math.ceil((settings.max_time_s or s.max_time_s) / dt)
@@ -436,6 +440,9 @@ class NewtonAdapter(Adapter):
 
     name = "newton"
     pip = "pip install newton"
+    injection = ("the law through Newton's penalty contact: each shape's ke set every step to "
+                 "the law's secant F(x, ẋ)/x at the start state (kd = 0), stepped by "
+                 "Featherstone's semi-implicit Euler")
     modes = ("native", "injected", "tuned", "default", "custom")
     parameter_keys = PARAMETER_KEYS
 
