@@ -39,7 +39,8 @@ LOCK_WAIT_S = 30.0
 _ENGINE_DISTRIBUTIONS = {"mujoco": ("mujoco", "mujoco"), "pybullet": ("pybullet", "pybullet"),
                          "pymunk": ("pymunk", "pymunk"), "drake": ("drake", "pydrake"),
                          "sapien": ("sapien", "sapien"), "dart": ("dartpy", "dartpy"),
-                         "box2d": ("box2d", "Box2D")}
+                         "box2d": ("box2d", "Box2D"), "mjx": ("mujoco-mjx", "mujoco"),
+                         "newton": ("newton", "newton")}
 """engine → (distribution, top-level module)."""
 
 _SCHEMA = """
