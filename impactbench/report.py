@@ -24,7 +24,7 @@ from impactbench import config as config_mod
 from impactbench import plots, practical
 from impactbench.cliutil import progress_bar
 from impactbench.evaluate import SCENARIO_METRICS
-from impactbench.matrix import JobResult, plan, run_jobs, tidy
+from impactbench.matrix import Interrupted, JobResult, plan, run_jobs, tidy
 from impactbench.reference.scenarios import BallOnPlate
 from impactbench.report_render import ReportContext, render_documents
 from impactbench.report_sections import HEADLINE, SECTIONS, TITLES
@@ -268,8 +268,11 @@ def build(cfg: config_mod.ReportConfig, out_dir: Path, *, engines: list[str] | N
                                scheduler=scheduler, yes=yes)
         finally:
             close()
-        with publish.staged(out_dir, owned_by_report) as stage:
-            rep = _write(cfg, stage, results, engines, commit, t0, previous=out_dir)
+        try:
+            with publish.staged(out_dir, owned_by_report) as stage:
+                rep = _write(cfg, stage, results, engines, commit, t0, previous=out_dir)
+        except KeyboardInterrupt:  # every run is stored; only the rendering is lost
+            raise Interrupted(len(results), len(jobs), store is not None) from None
     rep.out_dir = out_dir
     rep.files = [out_dir / f.relative_to(stage) for f in rep.files]
     return rep

@@ -25,11 +25,12 @@ modes = ["injected"]
 [ball_on_plate]
 velocities_m_s = [1.0]
 """
-# the same plus slow runs (steps of a few ns): plenty of time to interrupt it mid-matrix
+# the same plus slow runs (steps of about 1 ns, ~2e5 steps and seconds each): the first one
+# is stored (FLUSH_EVERY_S) while the others still run, so the interrupt lands mid-matrix
 SLOW = SMALL + """
 [work_precision]
 velocity_m_s = 1.0
-timesteps_s = [4e-9, 3e-9, 2e-9, 1.5e-9]
+timesteps_s = [1.3e-9, 1.2e-9, 1.1e-9, 1e-9]
 modes = ["injected"]
 """
 
