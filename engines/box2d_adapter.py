@@ -56,10 +56,9 @@ import math
 from typing import Any
 
 from impactbench.engines import stepping
-from impactbench.engines.base import Adapter, EngineUnavailable, RunSettings, Scenario
+from impactbench.engines.base import EngineUnavailable, RunSettings, Scenario
 from impactbench.engines.common import native_ball_restitution, reference_velocity
 from impactbench.reference import validation as check
-from impactbench.reference.record import ImpactRecord, Status
 from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
 
 PARAMETERS: dict[str, Any] = {
@@ -272,41 +271,25 @@ class PairModel:
         return f
 
 
-class Box2dAdapter(Adapter):
+class Box2dAdapter(stepping.SteppedAdapter):
     """Box2D 2.3: rigid contacts (1 m/s restitution threshold) natively; injected forces."""
 
     name = "box2d"
-    modes = ("native", "injected", "tuned", "default", "custom")
+    label = "Box2D"
     parameter_keys = tuple(PARAMETERS)
+    ball_model = BallModel
+    pair_model = PairModel
     injection = ("cannot: Box2D's contacts are rigid impulses with no compliance; the law is a "
                  "force on the body (no fixture) integrated by Box2D's semi-implicit Euler step")
 
     def version(self) -> str:
         return str(_import_box2d().__version__)
 
-    def default_timestep_s(self, scenario: Scenario, mode: str) -> float:
-        return 1e-6 if isinstance(scenario, BallOnPlate) else 1e-5
-
-    def _run(self, scenario: Scenario, mode: str, settings: RunSettings) -> ImpactRecord:
-        if mode == "tuned" and settings.tuned is None:
-            return ImpactRecord.failed(
-                Status.UNSUPPORTED, "tuned mode needs settings.tuned (Box2D parameter names: "
-                f"{', '.join(PARAMETERS)}; no tuned-parameter file given)")
-        dt = float(settings.timestep_s)
+    def parameters(self, scenario: Scenario, mode: str, settings: RunSettings
+                   ) -> tuple[dict[str, Any], dict[str, Any]]:
         params, meta = parameters(scenario, mode, settings)
         meta["build_constants"] = build_constants()
-        law = None
-        if mode == "injected":
-            law = scenario.law() if isinstance(scenario, BallOnPlate) else scenario.local_law()
-        if isinstance(scenario, BallOnPlate):
-            model = BallModel(scenario, params, dt, law)
-            return stepping.run_ball(model, scenario, dt, settings.max_time_s, meta)
-        if isinstance(scenario, RigidFlexible):
-            model = PairModel(scenario, params, dt, law)
-            threshold = getattr(law, "contact_threshold", None)
-            return stepping.run_pair(model, scenario, dt, settings.max_time_s, meta, threshold)
-        raise ValueError(f"scenario = {type(scenario).__name__}: must be BallOnPlate or "
-                         f"RigidFlexible")
+        return params, meta
 
 
 def parameters(scenario: Scenario, mode: str, settings: RunSettings

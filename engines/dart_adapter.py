@@ -53,10 +53,9 @@ from __future__ import annotations
 from typing import Any
 
 from impactbench.engines import stepping
-from impactbench.engines.base import Adapter, EngineUnavailable, RunSettings, Scenario
+from impactbench.engines.base import EngineUnavailable, RunSettings, Scenario
 from impactbench.engines.common import native_ball_restitution, reference_velocity
 from impactbench.reference import validation as check
-from impactbench.reference.record import ImpactRecord, Status
 from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
 
 COLLISION_DETECTORS: tuple[str, ...] = ("fcl", "dart", "bullet", "ode")
@@ -260,40 +259,23 @@ class PairModel:
         return f
 
 
-class DartAdapter(Adapter):
+class DartAdapter(stepping.SteppedAdapter):
     """DART 6: rigid LCP contacts natively; injected laws as joint forces."""
 
     name = "dart"
-    modes = ("native", "injected", "tuned", "default", "custom")
+    label = "DART"
     parameter_keys = tuple(PARAMETERS)
+    ball_model = BallModel
+    pair_model = PairModel
     injection = ("cannot: DART's contacts are rigid LCP impulses with no compliance; the law is "
                  "a joint force (collision off) integrated by DART's semi-implicit Euler step")
 
     def version(self) -> str:
         return str(_import_dart().__version__)
 
-    def default_timestep_s(self, scenario: Scenario, mode: str) -> float:
-        return 1e-6 if isinstance(scenario, BallOnPlate) else 1e-5
-
-    def _run(self, scenario: Scenario, mode: str, settings: RunSettings) -> ImpactRecord:
-        if mode == "tuned" and settings.tuned is None:
-            return ImpactRecord.failed(
-                Status.UNSUPPORTED, "tuned mode needs settings.tuned (DART parameter names: "
-                f"{', '.join(PARAMETERS)}; no tuned-parameter file given)")
-        dt = float(settings.timestep_s)
-        params, meta = parameters(scenario, mode, settings)
-        law = None
-        if mode == "injected":
-            law = scenario.law() if isinstance(scenario, BallOnPlate) else scenario.local_law()
-        if isinstance(scenario, BallOnPlate):
-            model = BallModel(scenario, params, dt, law)
-            return stepping.run_ball(model, scenario, dt, settings.max_time_s, meta)
-        if isinstance(scenario, RigidFlexible):
-            model = PairModel(scenario, params, dt, law)
-            threshold = getattr(law, "contact_threshold", None)
-            return stepping.run_pair(model, scenario, dt, settings.max_time_s, meta, threshold)
-        raise ValueError(f"scenario = {type(scenario).__name__}: must be BallOnPlate or "
-                         f"RigidFlexible")
+    def parameters(self, scenario: Scenario, mode: str, settings: RunSettings
+                   ) -> tuple[dict[str, Any], dict[str, Any]]:
+        return parameters(scenario, mode, settings)
 
 
 def parameters(scenario: Scenario, mode: str, settings: RunSettings

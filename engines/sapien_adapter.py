@@ -68,14 +68,13 @@ from contextlib import contextmanager
 from typing import Any
 
 from impactbench.engines import stepping
-from impactbench.engines.base import Adapter, EngineUnavailable, RunSettings, Scenario
+from impactbench.engines.base import EngineUnavailable, RunSettings, Scenario
 from impactbench.engines.common import (
     native_ball_restitution,
     native_ball_spring,
     reference_velocity,
 )
 from impactbench.reference import validation as check
-from impactbench.reference.record import ImpactRecord, Status
 from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
 
 PARAMETERS: dict[str, Any] = {
@@ -330,12 +329,14 @@ class PairModel:
         return f
 
 
-class SapienAdapter(Adapter):
+class SapienAdapter(stepping.SteppedAdapter):
     """PhysX 5 (SAPIEN 3): compliant (undamped) or rigid contacts; injected laws as forces."""
 
     name = "sapien"
-    modes = ("native", "injected", "tuned", "default", "custom")
+    label = "SAPIEN"
     parameter_keys = tuple(PARAMETERS)
+    ball_model = BallModel
+    pair_model = PairModel
     injection = ("cannot: PhysX's compliant contact is an undamped spring (no damping to "
                  "schedule); the law is an external force (collision off) integrated by PhysX's "
                  "semi-implicit Euler step")
@@ -344,28 +345,9 @@ class SapienAdapter(Adapter):
         sapien, _ = _import_sapien()
         return f"{sapien.__version__} (PhysX {_physx_version()})"
 
-    def default_timestep_s(self, scenario: Scenario, mode: str) -> float:
-        return 1e-6 if isinstance(scenario, BallOnPlate) else 1e-5
-
-    def _run(self, scenario: Scenario, mode: str, settings: RunSettings) -> ImpactRecord:
-        if mode == "tuned" and settings.tuned is None:
-            return ImpactRecord.failed(
-                Status.UNSUPPORTED, "tuned mode needs settings.tuned (SAPIEN parameter names: "
-                f"{', '.join(PARAMETERS)}; no tuned-parameter file given)")
-        dt = float(settings.timestep_s)
-        params, meta = parameters(scenario, mode, settings)
-        law = None
-        if mode == "injected":
-            law = scenario.law() if isinstance(scenario, BallOnPlate) else scenario.local_law()
-        if isinstance(scenario, BallOnPlate):
-            model = BallModel(scenario, params, dt, law)
-            return stepping.run_ball(model, scenario, dt, settings.max_time_s, meta)
-        if isinstance(scenario, RigidFlexible):
-            model = PairModel(scenario, params, dt, law)
-            threshold = getattr(law, "contact_threshold", None)
-            return stepping.run_pair(model, scenario, dt, settings.max_time_s, meta, threshold)
-        raise ValueError(f"scenario = {type(scenario).__name__}: must be BallOnPlate or "
-                         f"RigidFlexible")
+    def parameters(self, scenario: Scenario, mode: str, settings: RunSettings
+                   ) -> tuple[dict[str, Any], dict[str, Any]]:
+        return parameters(scenario, mode, settings)
 
 
 def _physx_version() -> str:

@@ -25,9 +25,11 @@ after, and ∫F dt is the impulse.
 from __future__ import annotations
 
 import math
+from abc import abstractmethod
 from collections.abc import Callable
-from typing import Any, Protocol
+from typing import Any, ClassVar, Protocol
 
+from impactbench.engines.base import Adapter, RunSettings, Scenario
 from impactbench.engines.common import Recorder, classify
 from impactbench.reference.laws import StructuralLaw, no_further_contact
 from impactbench.reference.record import ImpactRecord, Status
@@ -204,3 +206,46 @@ def run_pair(model: SteppedModel, scenario: RigidFlexible, dt: float, max_time_s
         out.status = Status.STRUCTURE_COLLAPSED
         out.message = "body 2's energy passed the softening potential's peak k2²/(4β)"
     return out
+
+
+class SteppedAdapter(Adapter):
+    """An adapter whose engine runs through :func:`run_ball` / :func:`run_pair`.
+
+    Subclasses set ``label`` (the engine's display name), ``ball_model`` and ``pair_model``
+    (model classes taking ``(scenario, params, dt, law)``, ``law`` None for the engine's own
+    contact) and implement :meth:`parameters`. Injected mode hands the models the scenario's
+    law (the ball's contact model, or the 2-DOF local law) to apply as a force.
+    """
+
+    modes = ("native", "injected", "tuned", "default", "custom")
+    label: ClassVar[str]
+    ball_model: ClassVar[Callable[..., SteppedModel]]
+    pair_model: ClassVar[Callable[..., SteppedModel]]
+
+    @abstractmethod
+    def parameters(self, scenario: Scenario, mode: str, settings: RunSettings
+                   ) -> tuple[dict[str, Any], dict[str, Any]]:
+        """The complete engine parameter set for ``mode`` and the run's meta."""
+
+    def default_timestep_s(self, scenario: Scenario, mode: str) -> float:
+        return 1e-6 if isinstance(scenario, BallOnPlate) else 1e-5
+
+    def _run(self, scenario: Scenario, mode: str, settings: RunSettings) -> ImpactRecord:
+        if mode == "tuned" and settings.tuned is None:
+            return ImpactRecord.failed(
+                Status.UNSUPPORTED, f"tuned mode needs settings.tuned ({self.label} parameter "
+                f"names: {', '.join(self.parameter_keys)}; no tuned-parameter file given)")
+        dt = float(settings.timestep_s)
+        params, meta = self.parameters(scenario, mode, settings)
+        law = None
+        if mode == "injected":
+            law = scenario.law() if isinstance(scenario, BallOnPlate) else scenario.local_law()
+        if isinstance(scenario, BallOnPlate):
+            model = self.ball_model(scenario, params, dt, law)
+            return run_ball(model, scenario, dt, settings.max_time_s, meta)
+        if isinstance(scenario, RigidFlexible):
+            model = self.pair_model(scenario, params, dt, law)
+            threshold = getattr(law, "contact_threshold", None)
+            return run_pair(model, scenario, dt, settings.max_time_s, meta, threshold)
+        raise ValueError(f"scenario = {type(scenario).__name__}: must be BallOnPlate or "
+                         f"RigidFlexible")
