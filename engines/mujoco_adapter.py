@@ -619,10 +619,20 @@ def run_rigid_flexible(s: RigidFlexible, mode: str, settings: RunSettings) -> Im
 
     sim = _Sim(model, data, hook, commit)
     out = drive(sim, n_max, first, chunk, rigid_flexible_end_finder(s, structure, collapsed))
+    meta.update(steps=sim.steps, stepping="python loop" if hook else "rollout")
+    return _mark_unstable(rigid_flexible_record(s, structure, out, dt, gap, meta, collapsed), out)
+
+
+def rigid_flexible_record(s: RigidFlexible, structure: Any, out: _Outcome, dt: float,
+                          gap: float, meta: dict[str, Any], collapsed: list[int]
+                          ) -> ImpactRecord:
+    """The 2-DOF record of a driven run (two slide joints: qpos/qvel columns 0 and 1), its
+    energy classification, and ``structure_collapsed`` when the end finder saw body 2's
+    energy pass the softening law's collapse energy (``collapsed`` non-empty)."""
+    v1 = s.velocity_m_s
     x1, x2 = out.qpos[:, 0], out.qpos[:, 1]
     u1, u2 = out.qvel[:, 0], out.qvel[:, 1]
     t = np.arange(x1.size) * dt - gap / v1
-    meta.update(steps=sim.steps, stepping="python loop" if hook else "rollout")
     rec = ImpactRecord(t, x1 - x2, u1 - u2, out.force_n, u1, u2, mass_1_kg=s.m1_kg,
                        mass_2_kg=s.m2_kg, displacement_2_m=x2, meta=meta)
     final = (0.5 * s.m1_kg * u1[-1] ** 2 + 0.5 * s.m2_kg * u2[-1] ** 2
@@ -634,7 +644,7 @@ def run_rigid_flexible(s: RigidFlexible, mode: str, settings: RunSettings) -> Im
         rec.status = Status.STRUCTURE_COLLAPSED
         rec.message = (f"body 2's energy exceeded the softening law's collapse energy "
                        f"{structure.collapse_energy:.6g} J")
-    return _mark_unstable(rec, out)
+    return rec
 
 
 def _first_separated(free: np.ndarray, separated: Callable[[int], bool]) -> int | None:

@@ -80,6 +80,7 @@ from impactbench.engines.mujoco_adapter import (
     face_radius_m,
     hertz_duration_s,
     rigid_flexible_end_finder,
+    rigid_flexible_record,
 )
 from impactbench.reference import validation as check
 from impactbench.reference.record import ImpactRecord, Status
@@ -414,22 +415,8 @@ def run_rigid_flexible(s: RigidFlexible, mode: str, settings: RunSettings) -> Im
     first = chunk if beta else math.ceil(GAP_STEPS) + math.ceil(2.0 * t_contact / dt)
     collapsed: list[int] = []
     out = drive(sim, n_max, first, chunk, rigid_flexible_end_finder(s, structure, collapsed))
-    x1, x2 = out.qpos[:, 0], out.qpos[:, 1]
-    u1, u2 = out.qvel[:, 0], out.qvel[:, 1]
-    t = np.arange(x1.size) * dt - gap / v1
     meta.update(steps=sim.steps, stepping="python loop")
-    rec = ImpactRecord(t, x1 - x2, u1 - u2, out.force_n, u1, u2, mass_1_kg=s.m1_kg,
-                       mass_2_kg=s.m2_kg, displacement_2_m=x2, meta=meta)
-    final = (0.5 * s.m1_kg * u1[-1] ** 2 + 0.5 * s.m2_kg * u2[-1] ** 2
-             + structure.potential(x2[-1])) if x1.size else math.nan
-    classify(rec, initial_kinetic_j=0.5 * s.m1_kg * v1 * v1, final_kinetic_j=final,
-             timed_out=out.timed_out)
-    if collapsed and rec.status in (Status.OK, Status.MAX_TIME, Status.DIVERGED) \
-            and np.all(np.isfinite(out.qpos)):
-        rec.status = Status.STRUCTURE_COLLAPSED
-        rec.message = (f"body 2's energy exceeded the softening law's collapse energy "
-                       f"{structure.collapse_energy:.6g} J")
-    return rec
+    return rigid_flexible_record(s, structure, out, dt, gap, meta, collapsed)
 
 
 # --------------------------------------------------------------------------- the adapter
