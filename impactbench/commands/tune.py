@@ -91,6 +91,12 @@ def register(top: argparse._SubParsersAction, groups: dict) -> None:
                    help="an engine setting held fixed and written with the fit (repeatable), "
                    "e.g. Drake's discrete_contact_approximation=sap for a discrete plant")
     p.add_argument("--json", action="store_true", help="print one JSON object")
+    g = p.add_argument_group("results store")
+    g.add_argument("--store", type=Path, default=None, metavar="FILE",
+                   help="results store (DuckDB) serving engine runs already done; default "
+                   "$IMPACTBENCH_STORE or ~/.cache/impactbench/results.duckdb")
+    g.add_argument("--fresh", action="store_true",
+                   help="ignore stored runs and run everything again (results are stored)")
     add_parameter_flags(p, "ball-on-plate")
     p.set_defaults(func=main)
 
@@ -129,12 +135,16 @@ def main(args: argparse.Namespace) -> int:
     check_file_target(tuned_file, "out")  # before minutes of tuning, not after
     if plot_file is not None:
         check_file_target(plot_file, "plot")
+    from impactbench.store import Store, default_path
+
+    store = Store(args.store or default_path())
     try:
         _load_quietly(args.engine)
         result = tune(args.engine, scenario, args.velocities_m_s, args.targets, args.weights,
                       parameters=args.parameters, solref_form=args.solref_form,
                       timestep_s=args.timestep_s, budget_s=args.budget_s,
-                      max_evals=args.max_evals, fixed=dict(args.fixed) or None)
+                      max_evals=args.max_evals, fixed=dict(args.fixed) or None,
+                      store=store, fresh=args.fresh)
     except EngineUnavailable as exc:
         print(f"impactbench: error: {exc}")
         return 1
@@ -170,7 +180,8 @@ def _print_text(result, files: dict[str, str]) -> None:
     print(f"velocities {', '.join(f'{v:g}' for v in obj.velocities_m_s)} m/s; targets "
           + ", ".join(f"{k} (w {w:g})" for k, w in obj.weights.items()))
     print(f"{obj.evaluations} evaluations × {len(obj.velocities_m_s)} runs in "
-          f"{result.wall_s:.1f} s ({result.stop})")
+          f"{result.wall_s:.1f} s ({result.stop}); {obj.served} runs from the store, "
+          f"{obj.stored} stored")
     for line in result.stages:
         print(f"  {line}")
     if result.excluded:

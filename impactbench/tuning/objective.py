@@ -18,8 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from impactbench.engines.base import run_safely
-from impactbench.evaluate import record_metrics, reference_metrics
+from impactbench.evaluate import compare, reference_metrics
 from impactbench.reference import validation as check
 from impactbench.reference.metrics import BALL_METRICS, relative_error
 from impactbench.reference.record import Status
@@ -66,6 +65,11 @@ class Objective:
     evaluations: int = 0
     best: Evaluation | None = None
     run_wall_s: float = 0.0
+    store: Any = None
+    fresh: bool = False
+    served: int = 0
+    stored: int = 0
+    _true_refs: list[dict[str, Any]] = field(default_factory=list, repr=False)
 
     def __post_init__(self) -> None:
         if not self.velocities_m_s:
@@ -81,6 +85,7 @@ class Objective:
         if not self.references:
             self.references = [reference_metrics(self.scenario.replace(velocity_m_s=v))
                                for v in self.velocities_m_s]
+            self._true_refs = list(self.references)
 
     @property
     def targets(self) -> tuple[str, ...]:
@@ -96,17 +101,13 @@ class Objective:
         t0 = time.perf_counter()
         values = np.asarray(values, dtype=float)
         mets, errs, stats = [], [], []
-        for v, ref in zip(self.velocities_m_s, self.references, strict=True):
-            scenario, mode, settings = self.space.run(values, self.scenario.replace(
-                velocity_m_s=v), self.timestep_s)
-            rec = run_safely(self.space.engine, scenario, mode, settings)
-            got = record_metrics(rec, scenario)
-            ok = rec.status is Status.OK
-            mets.append({k: float(got[k]) for k in BALL_METRICS})
-            errs.append({k: (relative_error(float(got[k]), float(ref[k])) if ok else math.nan)
+        for run, ref in zip(self._runs(values), self.references, strict=True):
+            ok = run["status"] == str(Status.OK)
+            mets.append({k: float(run[k]) for k in BALL_METRICS})
+            errs.append({k: (relative_error(float(run[k]), float(ref[k])) if ok else math.nan)
                          for k in BALL_METRICS})
-            stats.append(str(rec.status) + (f": {rec.message}" if rec.message and not ok
-                                             else ""))
+            stats.append(run["status"] + (f": {run['message']}" if run["message"] and not ok
+                                          else ""))
         self.run_wall_s += time.perf_counter() - t0
         ev = Evaluation(values.copy(), 0.0, mets, errs, stats)
         ev.objective = float(np.sum(self.residuals_of(ev) ** 2))
@@ -114,6 +115,45 @@ class Objective:
         if self.best is None or ev.objective < self.best.objective:
             self.best = ev
         return ev
+
+    def _runs(self, values: np.ndarray) -> list[dict[str, Any]]:
+        """The engine's run objects (``evaluate.compare``) at every velocity for ``values``:
+        from the results store when it has them (same keys as the run matrix), else run and
+        stored. A store changes no number: stored floats round-trip exactly."""
+        from impactbench import store as store_mod
+
+        jobs = []
+        for v in self.velocities_m_s:
+            jobs.append(self.space.run(values, self.scenario.replace(velocity_m_s=v),
+                                       self.timestep_s))
+        if self.store is None:
+            return [compare(self.space.engine, *job, self._true_reference(i))[0]
+                    for i, job in enumerate(jobs)]
+        inputs = [store_mod.run_inputs(self.space.engine, "ball-on-plate", *job)
+                  for job in jobs]
+        keys = [store_mod.run_key(x) for x in inputs]
+        found = {} if self.fresh else self.store.get(keys)
+        runs, new = [], []
+        for i, (job, key) in enumerate(zip(jobs, keys, strict=True)):
+            if key in found:
+                runs.append(found[key][0])
+                self.served += 1
+                continue
+            run = compare(self.space.engine, *job, self._true_reference(i))[0]
+            runs.append(run)
+            new.append((key, inputs[i], {"engine": self.space.engine, "mode": job[1],
+                                         "scenario": "ball-on-plate",
+                                         "velocity_m_s": self.velocities_m_s[i]}, run, {}))
+        if new:
+            self.stored += self.store.put(new)
+        return runs
+
+    def _true_reference(self, i: int) -> dict[str, Any]:
+        """The Hunt–Crossley reference at velocity i (what a stored run is compared with)."""
+        while len(self._true_refs) <= i:
+            v = self.velocities_m_s[len(self._true_refs)]
+            self._true_refs.append(reference_metrics(self.scenario.replace(velocity_m_s=v)))
+        return self._true_refs[i]
 
     def residuals_of(self, ev: Evaluation) -> np.ndarray:
         """√w_m · e_{v,m}, velocity-major; failed entries are :data:`FAILED_RESIDUAL`."""

@@ -171,7 +171,8 @@ def tune(engine: str, scenario: BallOnPlate | None = None,
          timestep_s: float | None = None, budget_s: float = DEFAULT_BUDGET_S,
          max_evals: int | None = None, scan_points: int | None = None,
          start: tuple[float, ...] | None = None, references: list[dict] | None = None,
-         fixed: dict[str, Any] | None = None) -> TuneResult:
+         fixed: dict[str, Any] | None = None, store: Any = None,
+         fresh: bool = False) -> TuneResult:
     """Fit ``engine``'s native contact parameters to the Hunt–Crossley reference.
 
     Args:
@@ -189,6 +190,9 @@ def tune(engine: str, scenario: BallOnPlate | None = None,
         references: precomputed reference metrics per velocity (tests use engine-made ones).
         fixed: engine settings held fixed during the fit and written with the parameters
             (e.g. Drake's ``discrete_contact_approximation``: a discrete plant at the step).
+        store: an :class:`impactbench.store.Store`: engine runs it holds are served from it
+            (same keys as the run matrix), new ones are stored; ``fresh`` runs everything
+            again (and stores it). The result does not depend on the store.
 
     At a step too long to resolve the reference contact (fewer than
     ``impactbench.reference.metrics.MIN_CONTACT_SAMPLES`` steps in its shortest duration)
@@ -239,7 +243,7 @@ def tune(engine: str, scenario: BallOnPlate | None = None,
         raise ValueError(f"targets = {list(requested)}: {engine} can express none of them "
                          f"(only {', '.join(sorted(space.expressible))})")
     obj = Objective(space, scenario, velocities, effective, timestep_s,
-                    references=list(references or []))
+                    references=list(references or []), store=store, fresh=fresh)
     first = obj.evaluate(np.asarray(space.start), count_budget=False)
     obj.deadline = t0 + budget_s
     obj.max_evals = max_evals

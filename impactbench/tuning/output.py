@@ -229,6 +229,7 @@ def as_json(result: TuneResult, files: dict[str, str] | None = None) -> dict[str
         "start_parameters": tables["start"], "snippet": result.space.snippet(result.parameters),
         "objective_start": result.start.objective, "objective_tuned": result.tuned.objective,
         "evaluations": result.objective.evaluations, "wall_s": result.wall_s,
+        "runs_from_store": result.objective.served, "runs_stored": result.objective.stored,
         "stop": result.stop, "stages": result.stages, "timestep_s": result.timestep_s,
         "excluded": result.excluded, "honesty": honesty_lines(result),
         "summary": summary_rows(result), "residuals": residual_rows(result),

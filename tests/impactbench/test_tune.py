@@ -275,3 +275,41 @@ def test_cli_tunes_to_any_model(tmp_path, capsys):
     assert refs == pytest.approx([k, k], rel=1e-12)
     assert obj["parameters"]["elasticity"] == pytest.approx(k, rel=1e-5)
     assert tomllib.loads(out.read_text())["provenance"]["scenario_model"] == "flores"
+
+
+# --------------------------------------------------------------------------- results store
+
+
+def test_a_second_identical_tune_is_served_from_the_store(tmp_path):
+    require_engine("pymunk")
+    from impactbench.store import Store
+    from impactbench.tuning import tune
+
+    store = Store(tmp_path / "results.duckdb")
+    kwargs = {"parameters": "restitution-law", "start": (0.3,), "max_evals": 12}
+    plain = tune("pymunk", SCENARIO, FEW, **kwargs)
+    first = tune("pymunk", SCENARIO, FEW, store=store, **kwargs)
+    second = tune("pymunk", SCENARIO, FEW, store=store, **kwargs)
+    runs = first.objective.evaluations * len(FEW)
+    assert first.objective.served == 0 and 0 < first.objective.stored <= runs
+    assert second.objective.served == second.objective.evaluations * len(FEW)
+    assert second.objective.stored == 0
+    # the store changes no number: same parameters and objective, bit for bit
+    assert plain.parameters == first.parameters == second.parameters
+    assert plain.tuned.objective == first.tuned.objective == second.tuned.objective
+    fresh = tune("pymunk", SCENARIO, FEW, store=store, fresh=True, **kwargs)
+    assert fresh.objective.served == 0 and fresh.parameters == plain.parameters
+
+
+def test_cli_tune_reports_runs_from_the_store(tmp_path, capsys):
+    require_engine("pymunk")
+    argv = ["tune", "--engine", "pymunk", "--parameters", "restitution-law", "--velocities",
+            "1,4", "--max-evals", "6", "--store", str(tmp_path / "r.duckdb"), "--no-plot",
+            "--out", str(tmp_path / "pm.toml"), "--json"]
+    assert main(argv) == 0
+    one = json.loads(capsys.readouterr().out)
+    assert main(argv) == 0
+    two = json.loads(capsys.readouterr().out)
+    assert one["runs_from_store"] == 0 and one["runs_stored"] > 0
+    assert two["runs_from_store"] == 2 * two["evaluations"] and two["runs_stored"] == 0
+    assert two["parameters"] == one["parameters"]
