@@ -25,12 +25,13 @@ modes = ["injected"]
 [ball_on_plate]
 velocities_m_s = [1.0]
 """
-# the same plus slow runs (steps of about 1 ns, ~2e5 steps and seconds each): the first one
-# is stored (FLUSH_EVERY_S) while the others still run, so the interrupt lands mid-matrix
+# the same plus slow runs (steps of about 0.1 ns: ~2e6 steps, ~5 s each on this machine): the
+# first pair is stored while the second pair still has seconds to go, so the interrupt lands
+# mid-matrix however quickly the test polls (1 ns steps finished all four within one poll)
 SLOW = SMALL + """
 [work_precision]
 velocity_m_s = 1.0
-timesteps_s = [1.3e-9, 1.2e-9, 1.1e-9, 1e-9]
+timesteps_s = [1.3e-10, 1.2e-10, 1.1e-10, 1e-10]
 modes = ["injected"]
 """
 
