@@ -175,7 +175,7 @@ class Box2dWorld:
         self.world.Step(self.dt, *self.iterations)
 
 
-class BallModel:
+class BallModel(stepping.WorldModel):
     """The ball above the plate circle; ``law`` set: no fixture and the law acts."""
 
     def __init__(self, scenario: BallOnPlate, params: dict[str, Any], dt: float,
@@ -196,12 +196,6 @@ class BallModel:
     def state(self) -> tuple[float, float, float, float]:
         return -self.body.position[1], -self.body.linearVelocity[1], 0.0, 0.0
 
-    def step(self) -> float:
-        """:meth:`advance`, then the force of that step: the injected law's, or the
-        engine's reported contact impulse / dt."""
-        f = self.advance()
-        return f if self.law is not None else self.w.contact_force_n()
-
     def advance(self) -> float:
         """Apply this step's forces (injected law, softening term) and step the engine;
         returns the injected contact force (N; 0 without a law)."""
@@ -215,7 +209,7 @@ class BallModel:
         return f
 
 
-class PairModel:
+class PairModel(stepping.WorldModel):
     """The 2-DOF model along x; ``law`` set: no fixtures and the local law acts."""
 
     def __init__(self, scenario: RigidFlexible, params: dict[str, Any], dt: float,
@@ -244,12 +238,6 @@ class PairModel:
         h, b1, b2 = self.h, self.body1, self.body2
         return (b1.position[0] + h, b1.linearVelocity[0], b2.position[0] - h,
                 b2.linearVelocity[0])
-
-    def step(self) -> float:
-        """:meth:`advance`, then the force of that step: the injected law's, or the
-        engine's reported contact impulse / dt."""
-        f = self.advance()
-        return f if self.law is not None else self.w.contact_force_n()
 
     def advance(self) -> float:
         """Apply this step's forces (injected law, softening term) and step the engine;

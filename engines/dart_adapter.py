@@ -173,7 +173,7 @@ class DartWorld:
         return sum(abs(float(c.force[a])) for c in result.getContacts())
 
 
-class BallModel:
+class BallModel(stepping.WorldModel):
     """The ball above the plate; ``law`` set: the ball has no collision and the law acts."""
 
     def __init__(self, scenario: BallOnPlate, params: dict[str, Any], dt: float,
@@ -194,12 +194,6 @@ class BallModel:
     def state(self) -> tuple[float, float, float, float]:
         return -self.skeleton.getPosition(0), -self.skeleton.getVelocity(0), 0.0, 0.0
 
-    def step(self) -> float:
-        """:meth:`advance`, then the force of that step: the injected law's, or the
-        engine's reported contact impulse / dt."""
-        f = self.advance()
-        return f if self.law is not None else self.w.contact_force_n()
-
     def advance(self) -> float:
         """Apply this step's forces (injected law, softening term) and step the engine;
         returns the injected contact force (N; 0 without a law)."""
@@ -211,7 +205,7 @@ class BallModel:
         return f
 
 
-class PairModel:
+class PairModel(stepping.WorldModel):
     """The 2-DOF model along x; ``law`` set: no collision and the local law acts."""
 
     def __init__(self, scenario: RigidFlexible, params: dict[str, Any], dt: float,
@@ -236,12 +230,6 @@ class PairModel:
     def state(self) -> tuple[float, float, float, float]:
         b1, b2 = self.body1, self.body2
         return b1.getPosition(0), b1.getVelocity(0), b2.getPosition(0), b2.getVelocity(0)
-
-    def step(self) -> float:
-        """:meth:`advance`, then the force of that step: the injected law's, or the
-        engine's reported contact impulse / dt."""
-        f = self.advance()
-        return f if self.law is not None else self.w.contact_force_n()
 
     def advance(self) -> float:
         """Apply this step's forces (injected law, softening term) and step the engine;

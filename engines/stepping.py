@@ -100,6 +100,24 @@ class SteppedModel(Protocol):
     def step(self) -> float: ...
 
 
+class WorldModel:
+    """Base of models whose ``advance()`` applies this step's forces and steps the engine
+    (returning the injected law's force, 0 without a law) and whose world ``w`` reports
+    the engine's contact force (its contact impulse / dt) as ``w.contact_force_n()``."""
+
+    law: Any
+    w: Any
+
+    def advance(self) -> float:
+        raise NotImplementedError
+
+    def step(self) -> float:
+        """:meth:`advance`, then the force of that step: the injected law's, or the
+        engine's reported contact impulse / dt."""
+        f = self.advance()
+        return f if self.law is not None else self.w.contact_force_n()
+
+
 def gap_m(velocity_m_s: float, dt: float) -> float:
     """Initial free-flight distance (m): :data:`GAP_STEPS` steps at the impact velocity."""
     return GAP_STEPS * velocity_m_s * dt

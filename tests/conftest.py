@@ -66,3 +66,8 @@ def _private_results_store(tmp_path_factory: pytest.TempPathFactory) -> None:
     import os
 
     os.environ["IMPACTBENCH_STORE"] = str(tmp_path_factory.mktemp("store") / "results.duckdb")
+
+
+def rel(value: float, reference: float) -> float:
+    """|value − reference| / |reference|."""
+    return abs(value - reference) / abs(reference)

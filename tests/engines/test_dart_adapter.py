@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 import pytest
-from conftest import assert_escaped_after_whole_contact, require_engine
+from conftest import assert_escaped_after_whole_contact, rel, require_engine
 
 require_engine("dart")
 
@@ -29,9 +29,6 @@ CFM_LOSS = 1e-4
 def adapter():
     return get_adapter("dart")
 
-
-def rel(value: float, reference: float) -> float:
-    return abs(value - reference) / abs(reference)
 
 
 def ball(adapter, velocity: float, mode: str, dt: float = 1e-6, **kw):

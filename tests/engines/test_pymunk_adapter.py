@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 import pytest
-from conftest import assert_escaped_after_whole_contact, require_engine
+from conftest import assert_escaped_after_whole_contact, rel, require_engine
 
 require_engine("pymunk")
 
@@ -29,9 +29,6 @@ RF_METRICS = ("peak_force_n", "pulse_width_s", "impulse_ns")
 def adapter():
     return get_adapter("pymunk")
 
-
-def rel(value: float, reference: float) -> float:
-    return abs(value - reference) / abs(reference)
 
 
 def ball(adapter, velocity: float, mode: str = "injected", dt: float = 1e-7, **options):
