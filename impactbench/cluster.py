@@ -14,6 +14,7 @@ the rest and closes the cluster without worker tracebacks.
 from __future__ import annotations
 
 import contextlib
+import functools
 import logging
 import os
 import signal
@@ -84,60 +85,143 @@ def client(workers: int | None = None, scheduler: str | None = None) -> Iterator
 
 
 BATCHES_PER_WORKER = 4
-"""Runs go to the workers in batches (about this many per worker): one Dask task per run
+"""Items go to the workers in batches (about this many per worker): one Dask task per item
 costs more than a short engine run (the ball's take milliseconds)."""
 
 
-def execute_batch(items: Sequence[tuple[Any, tuple]]) -> list[Any]:
-    """Run ``execute(job, *extra)`` for every item, in a worker process."""
-    from impactbench.matrix import execute
-
-    return [execute(job, *extra) for job, extra in items]
+def apply_batch(fn: Callable[[Any], Any], batch: Sequence[Any]) -> list[Any]:
+    """``[fn(item) for item in batch]``, in a worker process."""
+    return [fn(item) for item in batch]
 
 
-def run_on_dask(jobs: Sequence[Any], args: Sequence[tuple], *, workers: int | None,
-                scheduler: str | None, on_result: Callable[[Any], None],
-                on_crash: Callable[[Any, str], None]) -> None:
-    """Run ``execute(job, *args)`` of :mod:`impactbench.matrix` for every job; report each
-    result (or crash) as its batch finishes. A batch whose worker dies twice (or that raises)
-    is split into single runs, so only the run that kills its worker becomes ``crashed``.
-    A KeyboardInterrupt cancels what is left."""
-    import uuid
+class Runner:
+    """Where a command's work runs: in this process (``workers = 0``, no crash isolation) or
+    on Dask, a local cluster of ``workers`` processes (default one per core) or the user's
+    ``scheduler``. The cluster starts on first use and lives until the runner is closed, so a
+    search that submits many small batches (tuning) pays its start-up once.
 
-    from distributed import as_completed
-    from distributed.scheduler import KilledWorker
+    :meth:`run` applies a picklable module-level ``fn`` to every item and reports each result
+    as its batch finishes. A batch whose worker dies twice (or that raises) is split into
+    single items, so only the item that kills its worker is reported as crashed.
+    """
 
-    n = min(workers or os.cpu_count() or 1, len(jobs))
-    items = list(zip(jobs, args, strict=True))
-    size = max(1, len(items) // (n * BATCHES_PER_WORKER))
-    batches = [items[i:i + size] for i in range(0, len(items), size)]
-    tag = uuid.uuid4().hex[:8]
-    with client(n, scheduler) as c:
+    def __init__(self, workers: int | None = None, scheduler: str | None = None) -> None:
+        if workers is not None and (isinstance(workers, bool) or workers < 0):
+            raise ValueError(f"workers = {workers!r}: must be an integer >= 0")
+        self.workers = workers
+        self.scheduler = scheduler or os.environ.get(SCHEDULER_ENV) or None
+        self._stack: contextlib.ExitStack | None = None
+        self._client: Any = None
+
+    @property
+    def in_process(self) -> bool:
+        """True when items run in this process (``workers = 0`` and no scheduler)."""
+        return self.workers == 0 and not self.scheduler
+
+    @property
+    def size(self) -> int:
+        """How many items run at once: 1 in process, else the local worker count (or the
+        user's cluster's, once connected)."""
+        if self.in_process:
+            return 1
+        if self._client is not None and self.scheduler:
+            return max(1, len(self._client.scheduler_info().get("workers", {})))
+        return self.workers or os.cpu_count() or 1
+
+    def __enter__(self) -> Runner:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def close(self) -> None:
+        if self._stack is not None:
+            self._stack.close()
+        self._stack, self._client = None, None
+
+    def client(self, at_most: int | None = None) -> Any:
+        """The Dask client, started on first call (a local cluster of at most ``at_most``
+        workers when that is fewer than :attr:`size`)."""
+        if self._client is None:
+            n = self.size if at_most is None else max(1, min(self.size, at_most))
+            stack = contextlib.ExitStack()
+            self._client = stack.enter_context(client(n, self.scheduler))
+            self._stack = stack
+        return self._client
+
+    def run(self, fn: Callable[[Any], Any], items: Sequence[Any], *,
+            on_result: Callable[[Any, Any], None], on_crash: Callable[[Any, str], None],
+            label: str = "items", batch_size: int | None = None) -> None:
+        """``on_result(item, fn(item))`` for every item (``on_crash(item, why)`` for one
+        whose worker died twice or that raised on Dask). Order of the calls: completion.
+        A KeyboardInterrupt cancels what is left and propagates."""
+        items = list(items)
+        if not items:
+            return
+        if self.in_process:
+            for item in items:
+                on_result(item, fn(item))
+            return
+        import uuid
+
+        from distributed import as_completed
+        from distributed.scheduler import KilledWorker
+
+        c = self.client(at_most=len(items))
+        n = self.size
+        size = batch_size or max(1, len(items) // (n * BATCHES_PER_WORKER))
+        batches = [items[i:i + size] for i in range(0, len(items), size)]
+        tag = uuid.uuid4().hex[:8]
+        futures: dict[Any, list] = {}
+        counter = iter(range(1 << 62))
+
         def submit(batch: list) -> Any:
-            fut = c.submit(execute_batch, batch, pure=False,
-                           key=f"runs-{batch[0][0].id}-{len(batch)}-{tag}")
+            fut = c.submit(apply_batch, fn, batch, pure=False,
+                           key=f"{label}-{next(counter)}-{len(batch)}-{tag}")
             futures[fut] = batch
             return fut
 
-        futures: dict[Any, list] = {}
         pending = as_completed([submit(b) for b in batches])
         try:
             for fut in pending:
                 batch = futures.pop(fut)
                 try:
-                    for result in fut.result():
-                        on_result(result)
-                    continue
+                    results = fut.result()
                 except KilledWorker:
-                    why = "the engine's worker process died (twice)"
+                    why = "the worker process died (twice)"
                 except Exception as exc:  # a bug in an adapter must not lose the rest
                     why = f"{type(exc).__name__}: {exc}"
+                else:
+                    for item, result in zip(batch, results, strict=True):
+                        on_result(item, result)
+                    continue
                 if len(batch) == 1:
-                    on_crash(batch[0][0], why)
-                else:  # isolate: each run of the batch alone
+                    on_crash(batch[0], why)
+                else:  # isolate: each item of the batch alone
                     for item in batch:
                         pending.add(submit([item]))
         except KeyboardInterrupt:
             with contextlib.suppress(Exception):
                 c.cancel(list(futures))
             raise
+
+    def map(self, fn: Callable[[Any], Any], items: Sequence[Any], *,
+            on_crash: Callable[[Any, str], Any], label: str = "items",
+            batch_size: int | None = None) -> list[Any]:
+        """``[fn(item) for item in items]`` in input order; an item whose worker died
+        twice (or that raised on Dask) gives ``on_crash(item, why)`` instead."""
+        out: list[Any] = [None] * len(items)
+
+        def done(pair: tuple[int, Any], result: tuple[int, Any]) -> None:
+            out[pair[0]] = result[1]
+
+        def crashed(pair: tuple[int, Any], why: str) -> None:
+            out[pair[0]] = on_crash(pair[1], why)
+
+        self.run(functools.partial(_indexed, fn), list(enumerate(items)), on_result=done,
+                 on_crash=crashed, label=label, batch_size=batch_size)
+        return out
+
+
+def _indexed(fn: Callable[[Any], Any], pair: tuple[int, Any]) -> tuple[int, Any]:
+    return pair[0], fn(pair[1])

@@ -119,6 +119,11 @@ def execute(job: Job, reference: dict[str, Any] | None = None,
     return JobResult(job, run, _thin(rec) if job.keep_history else {})
 
 
+def execute_item(item: tuple[Job, dict[str, Any] | None, Any]) -> JobResult:
+    """:func:`execute` of one (job, reference, settings) item (what the workers run)."""
+    return execute(*item)
+
+
 def plan(config: ReportConfig, engines: Iterable[str] | None = None) -> list[Job]:
     """All jobs of a config: the matrix, then the work-precision study."""
     from impactbench.tuned import tuned_path
@@ -317,17 +322,15 @@ def run_jobs(jobs: list[Job], workers: int | None = None,
             progress(len(group))
 
     try:
-        if pending and workers == 0:
-            for job in pending:
-                finished(execute(job, references[job.reference_key], settings[job.id]))
-        elif pending:
-            from impactbench.cluster import run_on_dask
+        if pending:
+            from impactbench.cluster import Runner
 
-            run_on_dask(pending, [(references[j.reference_key], settings[j.id])
-                                  for j in pending],
-                        workers=workers, scheduler=scheduler, on_result=finished,
-                        on_crash=lambda job, why: finished(
-                            _crashed(job, why, references[job.reference_key])))
+            with Runner(workers, scheduler) as runner:
+                runner.run(execute_item, [(j, references[j.reference_key], settings[j.id])
+                                          for j in pending],
+                           on_result=lambda _item, result: finished(result),
+                           on_crash=lambda item, why: finished(
+                               _crashed(item[0], why, item[1])), label="runs")
     except KeyboardInterrupt:
         flush()
         raise Interrupted(len(results), len(jobs), store is not None) from None

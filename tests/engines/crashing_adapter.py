@@ -19,3 +19,10 @@ class CrashingAdapter(Adapter):
 
     def _run(self, scenario, mode, settings):
         os.abort()  # SIGABRT: the worker process dies without a Python exception
+
+
+def square_or_die(x: int) -> int:
+    """x², except that 3 kills the worker process (a segfaulting solver, for Runner tests)."""
+    if x == 3:
+        os.abort()
+    return x * x

@@ -22,3 +22,32 @@ def test_a_dying_run_in_a_batch_costs_only_itself(monkeypatch: pytest.MonkeyPatc
     status = {r.job.id: r.run["status"] for r in results}
     assert [s for i, s in status.items() if "crasher" in i] == ["crashed"]
     assert all(s == "ok" for i, s in status.items() if "pymunk" in i), status
+
+
+@pytest.mark.parametrize("workers", [0, 1])
+def test_runner_map_keeps_input_order(workers: int) -> None:
+    from impactbench.cluster import Runner
+
+    with Runner(workers) as runner:
+        assert runner.map(abs, [-5, 2, -1, 0, 7, -3], on_crash=str) == [5, 2, 1, 0, 7, 3]
+
+
+def test_runner_map_a_dying_item_costs_only_itself(monkeypatch: pytest.MonkeyPatch) -> None:
+    from impactbench.cluster import Runner
+
+    monkeypatch.syspath_prepend(str(Path(__file__).resolve().parent.parent / "engines"))
+    from crashing_adapter import square_or_die
+
+    with Runner(workers=1) as runner:  # batches of 2: the batch [2, 3] is split
+        out = runner.map(square_or_die, list(range(8)), batch_size=2,
+                         on_crash=lambda item, why: f"crashed {item}: {why}")
+        assert out[:3] == [0, 1, 4] and out[4:] == [16, 25, 36, 49]
+        assert out[3] == "crashed 3: the worker process died (twice)"
+        assert runner.map(square_or_die, [9], on_crash=str) == [81]  # one cluster, reused
+
+
+def test_runner_rejects_negative_workers() -> None:
+    from impactbench.cluster import Runner
+
+    with pytest.raises(ValueError, match=r"^workers = -1: must be an integer >= 0$"):
+        Runner(-1)
