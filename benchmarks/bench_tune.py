@@ -9,7 +9,15 @@ defaults' objective):
   eval/runs is the objective's own overhead, the shared metrics path (~0.05 ms per run):
   ≈ 1 where an impact costs milliseconds (MuJoCo, PyBullet, Drake), ~1.5 for pymunk's
   0.1 ms rigid impacts, where it does not matter for the wall time;
-- ``tune_s`` and ``evaluations``: a full default tuning (``impactbench tune --engine E``).
+- ``tune_s`` and ``evaluations``: a full default tuning in this process
+  (``impactbench tune --engine E --workers 0``);
+- ``dask_s``: the same tuning with every batch of runs on a fresh local Dask cluster of one
+  worker per core (cluster start-up included); ``auto_s``: as ``impactbench tune`` runs it,
+  batches estimated under ``DISPATCH_MIN_S`` kept in this process; their ratios to
+  ``tune_s``, and ``same``: whether all three found the same parameters (they must: the
+  search is the same). Dask pays where a batch costs more than a cluster start and a round
+  trip (~10–30 ms on 2 cores): the Sobol scan's slices and each Jacobian's points run at once.
+  Two rows at dt = 1e-7 s (runs ten times longer), cut at ``FINE_EVALS`` evaluations.
 
 Run: ``python -m benchmarks tune`` (or this file directly).
 """
@@ -22,9 +30,13 @@ import numpy as np
 from impactbench.engines.base import available_engines, run_safely
 from impactbench.reference.scenarios import PAPER_VELOCITIES_M_S, BallOnPlate
 
+from impactbench.cluster import Runner
+from impactbench.commands.tune import DISPATCH_MIN_S
 from impactbench.tuning import Objective, make_space, parse_weights, tune
+from impactbench.tuning.names import VARIANTS
 
 REPEATS = 5
+FINE_EVALS = 60
 
 
 def _best(fn, repeats: int = REPEATS) -> float:
@@ -41,26 +53,45 @@ def main() -> None:
 
     s = BallOnPlate()
     rows = []
-    for engine in available_engines():
-        space = make_space(engine, s)
+    engines = [e for e in available_engines() if e in VARIANTS]  # the tunable ones
+    cases = [(e, None, None) for e in engines]
+    cases += [(e, 1e-7, FINE_EVALS) for e in ("mujoco", "pybullet") if e in engines]
+    for engine, dt, max_evals in cases:
+        space = make_space(engine, s, timestep_s=dt)
         weights = parse_weights(None, None)
         weights = {k: (w if k in space.expressible else 0.0) for k, w in weights.items()}
-        obj = Objective(space, s, PAPER_VELOCITIES_M_S, weights)
+        obj = Objective(space, s, PAPER_VELOCITIES_M_S, weights, dt)
         x0 = np.asarray(space.start)
         obj.evaluate(x0, count_budget=False)  # warm-up: imports, caches
 
-        def runs(space=space, x0=x0) -> None:
+        def runs(space=space, x0=x0, dt=dt) -> None:
             for v in PAPER_VELOCITIES_M_S:
-                run_safely(space.engine, *space.run(x0, s.replace(velocity_m_s=v), None))
+                run_safely(space.engine, *space.run(x0, s.replace(velocity_m_s=v), dt))
 
         eval_s = _best(lambda obj=obj, x0=x0: obj.evaluate(x0, count_budget=False))
         runs_s = _best(runs)
-        t0 = time.perf_counter()
-        res = tune(engine, s)
-        rows.append([engine, space.variant, 1e3 * eval_s, 1e3 * runs_s, eval_s / runs_s,
-                     time.perf_counter() - t0, res.objective.evaluations, res.stop])
-    print(tabulate(rows, headers=["engine", "parameters", "eval_ms", "runs_ms", "ratio",
-                                  "tune_s", "evaluations", "stop"], floatfmt=".3g"))
+        walls, found = [], []
+        for min_dispatch_s in (None, 0.0, DISPATCH_MIN_S):
+            t0 = time.perf_counter()
+            with Runner(0 if min_dispatch_s is None else None,
+                        min_dispatch_s=min_dispatch_s or 0.0) as runner:
+                res = tune(engine, s, timestep_s=dt, max_evals=max_evals, runner=runner)
+            walls.append(time.perf_counter() - t0)
+            found.append(res.parameters)
+        here_s, dask_s, auto_s = walls
+        rows.append([engine, f"{dt or space_dt(engine):g}", 1e3 * eval_s, 1e3 * runs_s,
+                     eval_s / runs_s, here_s, dask_s, dask_s / here_s, auto_s,
+                     auto_s / here_s, found[0] == found[1] == found[2],
+                     res.objective.evaluations, res.stop])
+    print(tabulate(rows, headers=["engine", "dt_s", "eval_ms", "runs_ms", "ratio", "tune_s",
+                                  "dask_s", "dask/here", "auto_s", "auto/here", "same",
+                                  "evaluations", "stop"], floatfmt=".3g"))
+
+
+def space_dt(engine: str) -> float:
+    from impactbench.engines.base import get_adapter
+
+    return get_adapter(engine).default_timestep_s(BallOnPlate(), "tuned")
 
 
 if __name__ == "__main__":

@@ -204,11 +204,14 @@ def check_cost(count: float, what: str, yes: bool, detail: str = "") -> None:
                          "pass --yes to run it anyway")
 
 
-def add_execution_flags(p: argparse.ArgumentParser) -> None:
-    """``--workers``, ``--scheduler``, ``--fresh``, ``--store``, ``--yes`` (report and gate)."""
+def add_execution_flags(p: argparse.ArgumentParser, *, yes: bool = True,
+                        in_process: bool = False) -> None:
+    """``--workers``, ``--scheduler``, ``--fresh``, ``--store`` and (``yes``) ``--yes``;
+    ``in_process``: ``--workers 0`` runs in this process."""
     g = p.add_argument_group("execution and results store")
     g.add_argument("--workers", type=int, default=None, metavar="N",
-                   help="local worker processes (default: one per core)")
+                   help="local worker processes (default: one per core"
+                   + ("; 0: in this process, without crash isolation)" if in_process else ")"))
     g.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="run on an existing Dask scheduler, e.g. tcp://10.0.0.5:8786 "
                    "(default: a local cluster; also $IMPACTBENCH_SCHEDULER)")
@@ -217,8 +220,9 @@ def add_execution_flags(p: argparse.ArgumentParser) -> None:
     g.add_argument("--store", type=_path, default=None, metavar="FILE",
                    help="results store (DuckDB); default $IMPACTBENCH_STORE or "
                    "~/.cache/impactbench/results.duckdb")
-    g.add_argument("--yes", action="store_true",
-                   help=f"run even when the estimate exceeds {COST_LIMIT:.0e} steps")
+    if yes:
+        g.add_argument("--yes", action="store_true",
+                       help=f"run even when the estimate exceeds {COST_LIMIT:.0e} steps")
 
 
 def _path(text: str):

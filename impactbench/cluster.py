@@ -105,10 +105,14 @@ class Runner:
     single items, so only the item that kills its worker is reported as crashed.
     """
 
-    def __init__(self, workers: int | None = None, scheduler: str | None = None) -> None:
+    def __init__(self, workers: int | None = None, scheduler: str | None = None, *,
+                 min_dispatch_s: float = 0.0) -> None:
         if workers is not None and (isinstance(workers, bool) or workers < 0):
             raise ValueError(f"workers = {workers!r}: must be an integer >= 0")
         self.workers = workers
+        self.min_dispatch_s = min_dispatch_s
+        """Work estimated below this (s) runs in this process: a cluster start (~1 s) and a
+        round trip to a worker (~10–30 ms) would cost more than it saves."""
         self.scheduler = scheduler or os.environ.get(SCHEDULER_ENV) or None
         self._stack: contextlib.ExitStack | None = None
         self._client: Any = None
@@ -127,6 +131,15 @@ class Runner:
         if self._client is not None and self.scheduler:
             return max(1, len(self._client.scheduler_info().get("workers", {})))
         return self.workers or os.cpu_count() or 1
+
+    def describe(self) -> str:
+        """Where items run, for output: ``in this process``, ``on N local workers`` or
+        ``on the scheduler ADDRESS``."""
+        if self.in_process:
+            return "in this process"
+        if self.scheduler:
+            return f"on the scheduler {self.scheduler}"
+        return f"on {self.size} local worker{'s' if self.size != 1 else ''}"
 
     def __enter__(self) -> Runner:
         return self
@@ -151,14 +164,17 @@ class Runner:
 
     def run(self, fn: Callable[[Any], Any], items: Sequence[Any], *,
             on_result: Callable[[Any, Any], None], on_crash: Callable[[Any, str], None],
-            label: str = "items", batch_size: int | None = None) -> None:
+            label: str = "items", batch_size: int | None = None,
+            estimate_s: float | None = None) -> None:
         """``on_result(item, fn(item))`` for every item (``on_crash(item, why)`` for one
         whose worker died twice or that raised on Dask). Order of the calls: completion.
-        A KeyboardInterrupt cancels what is left and propagates."""
+        ``estimate_s``: the work's estimated time in one process; below
+        :attr:`min_dispatch_s` it runs here. A KeyboardInterrupt cancels what is left and
+        propagates."""
         items = list(items)
         if not items:
             return
-        if self.in_process:
+        if self.in_process or (estimate_s is not None and estimate_s < self.min_dispatch_s):
             for item in items:
                 on_result(item, fn(item))
             return
@@ -207,7 +223,7 @@ class Runner:
 
     def map(self, fn: Callable[[Any], Any], items: Sequence[Any], *,
             on_crash: Callable[[Any, str], Any], label: str = "items",
-            batch_size: int | None = None) -> list[Any]:
+            batch_size: int | None = None, estimate_s: float | None = None) -> list[Any]:
         """``[fn(item) for item in items]`` in input order; an item whose worker died
         twice (or that raised on Dask) gives ``on_crash(item, why)`` instead."""
         out: list[Any] = [None] * len(items)
@@ -219,7 +235,8 @@ class Runner:
             out[pair[0]] = on_crash(pair[1], why)
 
         self.run(functools.partial(_indexed, fn), list(enumerate(items)), on_result=done,
-                 on_crash=crashed, label=label, batch_size=batch_size)
+                 on_crash=crashed, label=label, batch_size=batch_size,
+                 estimate_s=estimate_s)
         return out
 
 

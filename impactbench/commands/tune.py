@@ -19,6 +19,7 @@ import argparse
 from pathlib import Path
 
 from impactbench.cliutil import (
+    add_execution_flags,
     key_value,
     number,
     number_list,
@@ -34,6 +35,9 @@ from impactbench.reference.scenarios import PAPER_VELOCITIES_M_S
 HELP = ("fit an engine's native contact parameters to the reference (Hunt–Crossley, or any "
         "--model)")
 SCENARIOS = ("ball-on-plate", "rigid-flexible")
+DISPATCH_MIN_S = 0.5
+"""A batch of runs estimated (from the runs so far) below this runs in this process: on two
+cores a cluster start costs ~1 s and a round trip ~10–30 ms (``python -m benchmarks tune``)."""
 REPO_FIGURES = Path(__file__).resolve().parents[2] / "reports" / "figures"
 
 
@@ -91,12 +95,7 @@ def register(top: argparse._SubParsersAction, groups: dict) -> None:
                    help="an engine setting held fixed and written with the fit (repeatable), "
                    "e.g. Drake's discrete_contact_approximation=sap for a discrete plant")
     p.add_argument("--json", action="store_true", help="print one JSON object")
-    g = p.add_argument_group("results store")
-    g.add_argument("--store", type=Path, default=None, metavar="FILE",
-                   help="results store (DuckDB) serving engine runs already done; default "
-                   "$IMPACTBENCH_STORE or ~/.cache/impactbench/results.duckdb")
-    g.add_argument("--fresh", action="store_true",
-                   help="ignore stored runs and run everything again (results are stored)")
+    add_execution_flags(p, yes=False, in_process=True)
     add_parameter_flags(p, "ball-on-plate")
     p.set_defaults(func=main)
 
@@ -138,13 +137,19 @@ def main(args: argparse.Namespace) -> int:
     from impactbench.store import Store, default_path
 
     store = Store(args.store or default_path())
+    from impactbench.cluster import Runner
+
+    if args.workers is not None and args.workers < 0:
+        raise ValueError(f"workers = {args.workers}: must be >= 0 (0: in this process)")
     try:
         _load_quietly(args.engine)
-        result = tune(args.engine, scenario, args.velocities_m_s, args.targets, args.weights,
-                      parameters=args.parameters, solref_form=args.solref_form,
-                      timestep_s=args.timestep_s, budget_s=args.budget_s,
-                      max_evals=args.max_evals, fixed=dict(args.fixed) or None,
-                      store=store, fresh=args.fresh)
+        with Runner(args.workers, args.scheduler, min_dispatch_s=DISPATCH_MIN_S) as runner:
+                result = tune(args.engine, scenario, args.velocities_m_s, args.targets,
+                          args.weights, parameters=args.parameters,
+                          solref_form=args.solref_form, timestep_s=args.timestep_s,
+                          budget_s=args.budget_s, max_evals=args.max_evals,
+                          fixed=dict(args.fixed) or None, store=store, fresh=args.fresh,
+                          runner=runner)
     except EngineUnavailable as exc:
         print(f"impactbench: error: {exc}")
         return 1
@@ -159,7 +164,7 @@ def main(args: argparse.Namespace) -> int:
     if args.json:
         print_json(output.as_json(result, files))
         return 0
-    _print_text(result, files)
+    _print_text(result, files, runner.describe())
     return 0
 
 
@@ -171,7 +176,7 @@ def _load_quietly(engine: str) -> None:
         get_adapter(engine).version()
 
 
-def _print_text(result, files: dict[str, str]) -> None:
+def _print_text(result, files: dict[str, str], where: str) -> None:
     from impactbench.tuning import output
 
     obj = result.objective
@@ -180,7 +185,7 @@ def _print_text(result, files: dict[str, str]) -> None:
     print(f"velocities {', '.join(f'{v:g}' for v in obj.velocities_m_s)} m/s; targets "
           + ", ".join(f"{k} (w {w:g})" for k, w in obj.weights.items()))
     print(f"{obj.evaluations} evaluations × {len(obj.velocities_m_s)} runs in "
-          f"{result.wall_s:.1f} s ({result.stop}); {obj.served} runs from the store, "
+          f"{result.wall_s:.1f} s ({result.stop}) {where}; {obj.served} runs from the store, "
           f"{obj.stored} stored")
     for line in result.stages:
         print(f"  {line}")

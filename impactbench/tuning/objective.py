@@ -7,12 +7,20 @@ space's own run) and the metrics from ``impactbench.reference.metrics.compute`` 
 every
 comparison. A run that fails (non-ok status, or a NaN metric) gets the residual
 :data:`FAILED_RESIDUAL` (an error of 1000 %) in each metric, so the optimiser backs away.
+
+Evaluations are sequential (the search's budget, counting and best-so-far never depend on
+where runs execute), but their engine runs need not be: :meth:`Objective.prefetch` runs every
+run of several parameter points at once, on a :class:`impactbench.cluster.Runner` (Dask), and
+the evaluations that follow read them back. The optimiser prefetches each slice of its Sobol
+scan and each finite-difference Jacobian, so a result on Dask equals the in-process one.
 """
 
 from __future__ import annotations
 
+import contextlib
 import math
 import time
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -27,7 +35,39 @@ from impactbench.tuning.names import DEFAULT_TARGETS, TARGETS
 from impactbench.tuning.spaces import Space
 
 FAILED_RESIDUAL = 10.0
+SCAN_SLICE_PER_WORKER = 4
+"""Sobol-scan evaluations prefetched per worker at once on Dask."""
 
+
+@contextlib.contextmanager
+def quiet(engine: str) -> Iterator[None]:
+    """Silence MuJoCo's warning printer (and its MUJOCO_LOG.TXT) while the search probes
+    unstable corners; the adapter still sees the warning counters and reports ``diverged``."""
+    if engine not in ("mujoco", "mjx"):
+        yield
+        return
+    import mujoco
+
+    previous = mujoco.get_mju_user_warning()
+    mujoco.set_mju_user_warning(lambda _msg: None)
+    try:
+        yield
+    finally:
+        mujoco.set_mju_user_warning(previous)
+
+
+def run_one(item: tuple[str, Any, str, Any, dict[str, Any]]) -> dict[str, Any]:
+    """One engine run of the objective, ``(engine, scenario, mode, settings, reference)`` →
+    its comparison object (``evaluate.compare``), in a worker process or here."""
+    engine, scenario, mode, settings, reference = item
+    with quiet(engine):
+        return compare(engine, scenario, mode, settings, reference)[0]
+
+
+def crashed_run(item: tuple, why: str) -> dict[str, Any]:
+    """The run object of a run whose worker died: status ``crashed``, NaN metrics."""
+    return {"status": str(Status.CRASHED), "message": why,
+            **dict.fromkeys(BALL_METRICS, math.nan)}
 
 
 class OutOfBudget(Exception):
@@ -69,7 +109,11 @@ class Objective:
     fresh: bool = False
     served: int = 0
     stored: int = 0
+    runner: Any = None
+    """An :class:`impactbench.cluster.Runner` for :meth:`prefetch`; None runs here."""
     _true_refs: list[dict[str, Any]] = field(default_factory=list, repr=False)
+    _ready: dict[tuple[bytes, int], dict[str, Any]] = field(default_factory=dict, repr=False)
+    _walls: list[float] = field(default_factory=list, repr=False)
 
     def __post_init__(self) -> None:
         if not self.velocities_m_s:
@@ -116,37 +160,76 @@ class Objective:
             self.best = ev
         return ev
 
-    def _runs(self, values: np.ndarray) -> list[dict[str, Any]]:
-        """The engine's run objects (``evaluate.compare``) at every velocity for ``values``:
-        from the results store when it has them (same keys as the run matrix), else run and
-        stored. A store changes no number: stored floats round-trip exactly."""
+    @property
+    def parallel(self) -> int:
+        """How many evaluations a scan prefetches at once: 1 when runs execute here, else
+        :data:`SCAN_SLICE_PER_WORKER` per worker (the time budget is checked per slice)."""
+        if self.runner is None or self.runner.in_process:
+            return 1
+        return SCAN_SLICE_PER_WORKER * self.runner.size
+
+    def remaining(self) -> float:
+        """Evaluations left in the evaluation budget (inf without one)."""
+        return math.inf if self.max_evals is None else max(0, self.max_evals - self.evaluations)
+
+    def prefetch(self, points: Sequence[np.ndarray]) -> None:
+        """Make the engine runs of every point (natural units) at every velocity ready for
+        :meth:`evaluate`: from the results store when it has them (same keys as the run
+        matrix), else run on the runner (all at once) and stored. A store changes no number:
+        stored floats round-trip exactly; nor does the runner: each run is the same call."""
         from impactbench import store as store_mod
 
-        jobs = []
-        for v in self.velocities_m_s:
-            jobs.append(self.space.run(values, self.scenario.replace(velocity_m_s=v),
-                                       self.timestep_s))
-        if self.store is None:
-            return [compare(self.space.engine, *job, self._true_reference(i))[0]
-                    for i, job in enumerate(jobs)]
-        inputs = [store_mod.run_inputs(self.space.engine, "ball-on-plate", *job)
-                  for job in jobs]
-        keys = [store_mod.run_key(x) for x in inputs]
-        found = {} if self.fresh else self.store.get(keys)
-        runs, new = [], []
-        for i, (job, key) in enumerate(zip(jobs, keys, strict=True)):
-            if key in found:
-                runs.append(found[key][0])
-                self.served += 1
-                continue
-            run = compare(self.space.engine, *job, self._true_reference(i))[0]
-            runs.append(run)
-            new.append((key, inputs[i], {"engine": self.space.engine, "mode": job[1],
-                                         "scenario": "ball-on-plate",
-                                         "velocity_m_s": self.velocities_m_s[i]}, run, {}))
-        if new:
-            self.stored += self.store.put(new)
-        return runs
+        wanted: dict[tuple[bytes, int], tuple] = {}
+        for values in points:
+            values = np.asarray(values, dtype=float)
+            for i, v in enumerate(self.velocities_m_s):
+                key = (values.tobytes(), i)
+                if key not in self._ready and key not in wanted:
+                    job = self.space.run(values, self.scenario.replace(velocity_m_s=v),
+                                         self.timestep_s)
+                    wanted[key] = (self.space.engine, *job, self._true_reference(i))
+        if not wanted:
+            return
+        keys: dict[tuple[bytes, int], str] = {}
+        inputs: dict[tuple[bytes, int], dict[str, Any]] = {}
+        if self.store is not None:
+            for k, item in wanted.items():
+                inputs[k] = store_mod.run_inputs(item[0], "ball-on-plate", *item[1:4])
+                keys[k] = store_mod.run_key(inputs[k])
+            found = {} if self.fresh else self.store.get(keys.values())
+            for k in list(wanted):
+                if keys[k] in found:
+                    self._ready[k] = found[keys[k]][0]
+                    self.served += 1
+                    del wanted[k]
+        todo = list(wanted)
+        if self.runner is None or self.runner.in_process:
+            runs = [run_one(wanted[k]) for k in todo]
+        else:
+            # one task per worker: a round trip costs about as much as a short run
+            per_task = math.ceil(len(todo) / self.runner.size)
+            runs = self.runner.map(run_one, [wanted[k] for k in todo], on_crash=crashed_run,
+                                   label="tune", batch_size=per_task,
+                                   estimate_s=len(todo) * self._mean_run_s())
+        self._ready.update(zip(todo, runs, strict=True))
+        self._walls += [float(r["wall_s"]) for r in runs
+                        if math.isfinite(float(r.get("wall_s", math.nan)))]
+        if self.store is not None and todo:
+            self.stored += self.store.put(
+                (keys[k], inputs[k], {"engine": self.space.engine, "mode": wanted[k][2],
+                                      "scenario": "ball-on-plate",
+                                      "velocity_m_s": self.velocities_m_s[k[1]]}, run, {})
+                for k, run in zip(todo, runs, strict=True))
+
+    def _mean_run_s(self) -> float:
+        """Mean wall time of the engine runs so far (s); 0 before the first."""
+        return sum(self._walls) / len(self._walls) if self._walls else 0.0
+
+    def _runs(self, values: np.ndarray) -> list[dict[str, Any]]:
+        """The engine's run objects at every velocity for ``values`` (prefetched or run)."""
+        self.prefetch([values])
+        blob = values.tobytes()
+        return [self._ready.pop((blob, i)) for i in range(len(self.velocities_m_s))]
 
     def _true_reference(self, i: int) -> dict[str, Any]:
         """The Hunt–Crossley reference at velocity i (what a stored run is compared with)."""

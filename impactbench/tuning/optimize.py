@@ -21,10 +21,9 @@ depends on the machine's speed (the ``stop`` field says so).
 
 from __future__ import annotations
 
-import contextlib
 import math
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -36,7 +35,13 @@ from impactbench.reference import validation as check
 from impactbench.reference.metrics import BALL_METRICS, MIN_CONTACT_SAMPLES, TIME_RESOLVED
 from impactbench.reference.scenarios import BallOnPlate
 from impactbench.tuning.names import DEFAULT_BUDGET_S
-from impactbench.tuning.objective import Evaluation, Objective, OutOfBudget, parse_weights
+from impactbench.tuning.objective import (
+    Evaluation,
+    Objective,
+    OutOfBudget,
+    parse_weights,
+    quiet,
+)
 from impactbench.tuning.spaces import SAP_LIMIT, Space, make_space
 
 SEED = 20240607
@@ -105,6 +110,20 @@ def _from_unit(space: Space, u: np.ndarray) -> np.ndarray:
     return np.exp(lo + np.clip(u, 0.0, 1.0) * (hi - lo))
 
 
+def _prefetching(obj: Objective) -> Callable[[Callable, Iterable], list]:
+    """A map for scipy's finite differences: run every point's engine runs at once
+    (:meth:`Objective.prefetch`), then call scipy's function on each point in order, which
+    evaluates from the prefetched runs: the same Jacobian as a plain ``map``."""
+
+    def mapper(fun: Callable, points: Iterable) -> list:
+        points = list(points)
+        room = int(min(len(points), obj.remaining()))
+        obj.prefetch([_from_unit(obj.space, u) for u in points[:room]])
+        return [fun(u) for u in points]
+
+    return mapper
+
+
 def search(obj: Objective, *, scan_points: int | None = None, polish_starts: int = 2,
            diff_step: float = 1e-4, max_polish_evals: int = 400) -> tuple[str, list[str]]:
     """Run the search stages on ``obj`` (its best evaluation is the answer).
@@ -124,8 +143,11 @@ def search(obj: Objective, *, scan_points: int | None = None, polish_starts: int
             sampler = qmc.Sobol(dim, scramble=True, seed=SEED)
             pts = sampler.random(scan_points)
             scored = []
-            for u in pts:
-                scored.append((obj.evaluate(_from_unit(space, u)).objective, tuple(u)))
+            for i in range(0, len(pts), obj.parallel):
+                points = [_from_unit(space, u) for u in pts[i:i + obj.parallel]]
+                obj.prefetch(points[:int(min(len(points), obj.remaining()))])
+                for u, values in zip(pts[i:i + obj.parallel], points, strict=True):
+                    scored.append((obj.evaluate(values).objective, tuple(u)))
             scored.sort()
             starts += [np.array(u) for _, u in scored[:polish_starts]]
             stages.append(f"Sobol scan: {scan_points} points, best J = {scored[0][0]:.6g}")
@@ -136,7 +158,7 @@ def search(obj: Objective, *, scan_points: int | None = None, polish_starts: int
             res = optimize.least_squares(
                 lambda u: obj.residuals(_from_unit(space, u)), u0, bounds=(0.0, 1.0),
                 method="trf", diff_step=diff_step, x_scale=1.0, xtol=1e-8, ftol=1e-10,
-                gtol=1e-10, max_nfev=max_polish_evals)
+                gtol=1e-10, max_nfev=max_polish_evals, workers=_prefetching(obj))
             stages.append(f"least_squares from {'start' if i == 0 else f'scan #{i}'}: "
                           f"J = {2.0 * res.cost:.6g} after {obj.evaluations - n0} evaluations "
                           f"({res.message})")
@@ -144,23 +166,6 @@ def search(obj: Objective, *, scan_points: int | None = None, polish_starts: int
         stages.append(f"stopped: {exc}")
         return str(exc), stages
     return "converged", stages
-
-
-@contextlib.contextmanager
-def quiet(engine: str) -> Iterator[None]:
-    """Silence MuJoCo's warning printer (and its MUJOCO_LOG.TXT) while the search probes
-    unstable corners; the adapter still sees the warning counters and reports ``diverged``."""
-    if engine != "mujoco":
-        yield
-        return
-    import mujoco
-
-    previous = mujoco.get_mju_user_warning()
-    mujoco.set_mju_user_warning(lambda _msg: None)
-    try:
-        yield
-    finally:
-        mujoco.set_mju_user_warning(previous)
 
 
 def tune(engine: str, scenario: BallOnPlate | None = None,
@@ -172,7 +177,7 @@ def tune(engine: str, scenario: BallOnPlate | None = None,
          max_evals: int | None = None, scan_points: int | None = None,
          start: tuple[float, ...] | None = None, references: list[dict] | None = None,
          fixed: dict[str, Any] | None = None, store: Any = None,
-         fresh: bool = False) -> TuneResult:
+         fresh: bool = False, runner: Any = None) -> TuneResult:
     """Fit ``engine``'s native contact parameters to the Hunt–Crossley reference.
 
     Args:
@@ -193,6 +198,9 @@ def tune(engine: str, scenario: BallOnPlate | None = None,
         store: an :class:`impactbench.store.Store`: engine runs it holds are served from it
             (same keys as the run matrix), new ones are stored; ``fresh`` runs everything
             again (and stores it). The result does not depend on the store.
+        runner: an :class:`impactbench.cluster.Runner` that executes the engine runs of each
+            Sobol-scan slice and each finite-difference Jacobian at once (Dask workers); None
+            runs them in this process. The result does not depend on it.
 
     At a step too long to resolve the reference contact (fewer than
     ``impactbench.reference.metrics.MIN_CONTACT_SAMPLES`` steps in its shortest duration)
@@ -243,7 +251,8 @@ def tune(engine: str, scenario: BallOnPlate | None = None,
         raise ValueError(f"targets = {list(requested)}: {engine} can express none of them "
                          f"(only {', '.join(sorted(space.expressible))})")
     obj = Objective(space, scenario, velocities, effective, timestep_s,
-                    references=list(references or []), store=store, fresh=fresh)
+                    references=list(references or []), store=store, fresh=fresh,
+                    runner=runner)
     first = obj.evaluate(np.asarray(space.start), count_budget=False)
     obj.deadline = t0 + budget_s
     obj.max_evals = max_evals

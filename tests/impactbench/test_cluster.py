@@ -51,3 +51,18 @@ def test_runner_rejects_negative_workers() -> None:
 
     with pytest.raises(ValueError, match=r"^workers = -1: must be an integer >= 0$"):
         Runner(-1)
+
+
+def test_runner_keeps_work_under_min_dispatch_s_here(monkeypatch: pytest.MonkeyPatch) -> None:
+    import os
+
+    from impactbench.cluster import Runner
+
+    monkeypatch.syspath_prepend(str(Path(__file__).resolve().parent.parent / "engines"))
+    from crashing_adapter import pid
+
+    with Runner(workers=1, min_dispatch_s=0.5) as runner:
+        assert runner.map(pid, [0, 1], on_crash=str, estimate_s=0.4) == [os.getpid()] * 2
+        assert runner._client is None  # no cluster started for it
+        there = runner.map(pid, [0, 1], on_crash=str, estimate_s=0.6)
+        assert there[0] == there[1] != os.getpid()

@@ -248,6 +248,7 @@ def test_cli_text_output_has_snippet_table_and_honesty(tmp_path, capsys):
     (["--engine", "pybullet", "--weights", "1,1"], "one weight per target"),
     (["--engine", "pybullet", "--scenario", "rigid-flexible"], "not supported yet"),
     (["--engine", "pybullet", "--budget-s", "0"], "budget_s = 0.0"),
+    (["--engine", "pybullet", "--workers", "-1"], "workers = -1"),
 ])
 def test_cli_bad_input_exits_2_with_one_line(argv, needle, capsys, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
@@ -313,3 +314,26 @@ def test_cli_tune_reports_runs_from_the_store(tmp_path, capsys):
     assert one["runs_from_store"] == 0 and one["runs_stored"] > 0
     assert two["runs_from_store"] == 2 * two["evaluations"] and two["runs_stored"] == 0
     assert two["parameters"] == one["parameters"]
+
+
+# --------------------------------------------------------------------------- Dask
+
+
+def test_tune_on_dask_equals_tune_in_process(tmp_path):
+    """The Sobol scan's slices and the Jacobians run on two Dask workers; the search (and
+    so every number) is the in-process one, and no run is made past the evaluation budget."""
+    require_engine("mujoco")
+    from impactbench.cluster import Runner
+    from impactbench.store import Store
+    from impactbench.tuning import tune
+
+    kwargs = {"scan_points": 8, "max_evals": 30}
+    here = tune("mujoco", SCENARIO, FEW, store=Store(tmp_path / "a.duckdb"), **kwargs)
+    with Runner(workers=2) as runner:
+        there = tune("mujoco", SCENARIO, FEW, store=Store(tmp_path / "b.duckdb"),
+                     runner=runner, **kwargs)
+    assert there.stop == here.stop == "evaluation budget spent"
+    assert there.objective.evaluations == here.objective.evaluations == 30  # 1 + 8 + polish
+    assert there.parameters == here.parameters
+    assert there.tuned.objective == here.tuned.objective
+    assert there.objective.stored == here.objective.stored == 30 * len(FEW)
