@@ -451,13 +451,14 @@ def _job(run: RunKey) -> Any:
                run.parameters, run.local, run.structure)
 
 
-def execute(runs: Iterable[RunKey], jobs: int = 2,
+def execute(runs: Iterable[RunKey], jobs: int | None = None,
             progress: Callable[[int], None] | None = None,
             **run_options: Any) -> dict[RunKey, dict[str, Any]]:
     """Run every run and compare it with the reference: run → ``evaluate.compare``'s object.
 
-    Built on :func:`impactbench.matrix.run_jobs` (``jobs`` spawned workers; an engine that
-    kills its worker process becomes a ``crashed`` run, the others are unaffected);
+    Built on :func:`impactbench.matrix.run_jobs` (``jobs`` local workers, default one per
+    core, or the ``scheduler``'s; an engine that kills its worker process becomes a
+    ``crashed`` run, the others are unaffected);
     ``jobs = 0`` runs in this process (no crash isolation; for debugging). ``run_options``
     (store, fresh, scheduler, yes) go to ``run_jobs``: stored runs are not run again.
     """
@@ -465,7 +466,7 @@ def execute(runs: Iterable[RunKey], jobs: int = 2,
 
     runs = list(runs)
     by_job = {_job(run): run for run in runs}
-    results = matrix.run_jobs(list(by_job), workers=max(jobs, 0), progress=progress,
+    results = matrix.run_jobs(list(by_job), workers=jobs, progress=progress,
                               **run_options)
     out = {by_job[r.job]: r.run for r in results}
     return {run: out[run] for run in runs}
@@ -521,7 +522,7 @@ def drift(err: float, base_err: float, margin: float, floor: float) -> tuple[str
 
 
 def evaluate(checks: Iterable[Check], baseline: Mapping[str, Mapping[str, Any]] | None = None,
-             jobs: int = 2, progress: Callable[[int], None] | None = None,
+             jobs: int | None = None, progress: Callable[[int], None] | None = None,
              **run_options: Any) -> list[Outcome]:
     """Plan, run (deduplicated, in parallel) and judge ``checks``, in their order."""
     checks = list(checks)

@@ -34,9 +34,10 @@ def register(top: argparse._SubParsersAction, groups: dict) -> None:
                    help="not-comparable checks (missing engine, unsupported mode) fail too")
     p.add_argument("--select", action="append", default=[], metavar="TEXT",
                    help="only checks whose id contains TEXT (repeatable)")
-    p.add_argument("--jobs", type=int, default=2, metavar="N",
-                   help="worker processes (default 2; 0 runs in this process)")
     g = p.add_argument_group("execution and results store")
+    g.add_argument("--workers", "--jobs", type=int, default=None, dest="jobs", metavar="N",
+                   help="local worker processes (default: one per core; 0: in this process, "
+                   "without crash isolation)")
     g.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="run on an existing Dask scheduler (default: a local cluster)")
     g.add_argument("--fresh", action="store_true",
@@ -45,6 +46,12 @@ def register(top: argparse._SubParsersAction, groups: dict) -> None:
                    help="results store (DuckDB); default $IMPACTBENCH_STORE or "
                    "~/.cache/impactbench/results.duckdb")
     p.set_defaults(func=main)
+
+
+def _where(args: argparse.Namespace) -> str:
+    from impactbench.cluster import Runner
+
+    return Runner(args.jobs, args.scheduler).describe()
 
 
 def default_baseline(config: Path) -> Path:
@@ -57,8 +64,8 @@ def main(args: argparse.Namespace) -> int:
     from impactbench.publish import check_file_target
     from impactbench.store import Store, default_path
 
-    if args.jobs < 0:
-        raise ValueError(f"--jobs = {args.jobs}: must be >= 0")
+    if args.jobs is not None and args.jobs < 0:
+        raise ValueError(f"workers = {args.jobs}: must be >= 0 (0: in this process)")
     if args.baseline is not None and not args.baseline.is_file() and not args.update_baseline:
         raise ValueError(f"baseline = '{args.baseline}': no such file (omit --baseline for "
                          "the default, or add --update-baseline to create it)")
@@ -75,7 +82,7 @@ def main(args: argparse.Namespace) -> int:
     baseline = gates.load_baseline(baseline_path)
     runs = gates.plan(checks)
     print(f"impactbench gate: {len(checks)} checks need {len(runs)} engine runs "
-          f"({args.jobs or 'no'} worker processes)", file=sys.stderr)
+          f"({_where(args)})", file=sys.stderr)
 
     from impactbench.cliutil import progress_bar
 

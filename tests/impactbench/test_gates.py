@@ -189,7 +189,7 @@ def test_must_fail_gate_exits_1_with_junit_failure(engine, tmp_path, capsys,
     junit = tmp_path / "junit.xml"
     summary = tmp_path / "summary.md"
     monkeypatch.setenv("GITHUB_STEP_SUMMARY", str(summary))
-    rc = main(["gate", "--config", str(path), "--junit", str(junit), "--jobs", "1"])
+    rc = main(["gate", "--config", str(path), "--junit", str(junit), "--workers", "1"])
     out = capsys.readouterr().out
     assert rc == 1, out
     suite = ET.parse(junit).getroot().find("testsuite")
@@ -207,18 +207,18 @@ def test_update_baseline_then_worse_is_caught(engine, tmp_path, capsys) -> None:
     # the default floor (1e-8) is far below the errors here (~1e-5)
     path = write(tmp_path, gate_text(engine))
     base = tmp_path / "gates_baseline.json"
-    assert main(["gate", "--config", str(path), "--update-baseline", "--jobs", "0"]) == 0
+    assert main(["gate", "--config", str(path), "--update-baseline", "--workers", "0"]) == 0
     stored = json.loads(base.read_text())["checks"]
     assert len(stored) == 2 and all(math.isfinite(v["rel_error"]) for v in stored.values())
     assert all(v["rel_error"] != 0 for v in stored.values())
     # the default baseline beside the gate file is read: same measurements -> pass
-    assert main(["gate", "--config", str(path), "--jobs", "0"]) == 0
+    assert main(["gate", "--config", str(path), "--workers", "0"]) == 0
     capsys.readouterr()
     # a baseline that was far better: the same run is now "worse", which fails
     for v in stored.values():
         v["rel_error"] /= 10
     gates.save_baseline(base, stored)
-    assert main(["gate", "--config", str(path), "--jobs", "0"]) == 1
+    assert main(["gate", "--config", str(path), "--workers", "0"]) == 1
     out = capsys.readouterr().out
     assert out.count("\nworse ") == 2 and "gates FAILED" in out
 
@@ -236,7 +236,7 @@ def test_missing_engine_is_not_comparable(engine, tmp_path) -> None:
         [str(shim), *filter(None, [os.environ.get("PYTHONPATH")])])}
     env.pop("GITHUB_STEP_SUMMARY", None)
     cmd = [sys.executable, "-m", "impactbench.cli", "gate", "--config", str(path),
-           "--junit", str(junit), "--jobs", "1"]
+           "--junit", str(junit), "--jobs", "1"]  # the old name still works
     done = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=300)
     assert done.returncode == 0, done.stdout + done.stderr
     marks = [line.split()[0] for line in done.stdout.splitlines() if "-injected-" in line]
