@@ -283,6 +283,25 @@ class Store:
             out[key] = (json.loads(run), histories.get(key, {}))
         return out
 
+    def runs_of(self, engine: str, impactbench_version: str) -> dict[str, dict[str, Any]]:
+        """Every stored run of ``engine`` made by ``impactbench_version`` (key → run fields):
+        one query for a search that looks up thousands of runs one batch at a time."""
+        con = self._connect(read_only=True)
+        if con is None:
+            return {}
+        try:
+            tables = {r[0] for r in con.execute("SELECT table_name FROM information_schema"
+                                                ".tables").fetchall()}
+            if not {"runs", "results"} <= tables:
+                return {}
+            rows = con.execute(
+                "SELECT run_key, run FROM runs WHERE run_key IN (SELECT run_key FROM results "
+                "WHERE engine = ? AND impactbench_version = ?)",
+                [engine, impactbench_version]).fetchall()
+        finally:
+            con.close()
+        return {key: json.loads(run) for key, run in rows}
+
     def put(self, entries: Iterable[tuple[str, Mapping[str, Any], Mapping[str, Any],
                                           Mapping[str, Any], Mapping[str, Any]]]) -> int:
         """Store runs: (key, inputs, job fields, run object, history). ``crashed`` runs are

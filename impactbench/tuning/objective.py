@@ -35,6 +35,8 @@ from impactbench.tuning.names import DEFAULT_TARGETS, TARGETS
 from impactbench.tuning.spaces import Space
 
 FAILED_RESIDUAL = 10.0
+FLUSH_EVERY_S = 2.0
+"""New runs are written to the store at least this often (and at the end)."""
 SCAN_SLICE_PER_WORKER = 4
 """Sobol-scan evaluations prefetched per worker at once on Dask."""
 
@@ -114,6 +116,9 @@ class Objective:
     _true_refs: list[dict[str, Any]] = field(default_factory=list, repr=False)
     _ready: dict[tuple[bytes, int], dict[str, Any]] = field(default_factory=dict, repr=False)
     _walls: list[float] = field(default_factory=list, repr=False)
+    _stored: dict[str, dict[str, Any]] | None = field(default=None, repr=False)
+    _unstored: list[tuple] = field(default_factory=list, repr=False)
+    _last_flush: float = field(default_factory=time.monotonic, repr=False)
 
     def __post_init__(self) -> None:
         if not self.velocities_m_s:
@@ -175,8 +180,10 @@ class Objective:
     def prefetch(self, points: Sequence[np.ndarray]) -> None:
         """Make the engine runs of every point (natural units) at every velocity ready for
         :meth:`evaluate`: from the results store when it has them (same keys as the run
-        matrix), else run on the runner (all at once) and stored. A store changes no number:
-        stored floats round-trip exactly; nor does the runner: each run is the same call."""
+        matrix; the engine's runs of this impactbench version are read once, at the first
+        call), else run on the runner (all at once) and stored (:meth:`flush`). A store
+        changes no number: stored floats round-trip exactly; nor does the runner: each run
+        is the same call."""
         from impactbench import store as store_mod
 
         wanted: dict[tuple[bytes, int], tuple] = {}
@@ -196,10 +203,12 @@ class Objective:
             for k, item in wanted.items():
                 inputs[k] = store_mod.run_inputs(item[0], "ball-on-plate", *item[1:4])
                 keys[k] = store_mod.run_key(inputs[k])
-            found = {} if self.fresh else self.store.get(keys.values())
+            if self._stored is None:  # one query for the whole search, not one per point
+                self._stored = {} if self.fresh else self.store.runs_of(
+                    self.space.engine, store_mod.impactbench_version())
             for k in list(wanted):
-                if keys[k] in found:
-                    self._ready[k] = found[keys[k]][0]
+                if keys[k] in self._stored:
+                    self._ready[k] = self._stored[keys[k]]
                     self.served += 1
                     del wanted[k]
         todo = list(wanted)
@@ -215,11 +224,23 @@ class Objective:
         self._walls += [float(r["wall_s"]) for r in runs
                         if math.isfinite(float(r.get("wall_s", math.nan)))]
         if self.store is not None and todo:
-            self.stored += self.store.put(
+            assert self._stored is not None
+            self._stored.update((keys[k], run) for k, run in zip(todo, runs, strict=True))
+            self._unstored += [
                 (keys[k], inputs[k], {"engine": self.space.engine, "mode": wanted[k][2],
                                       "scenario": "ball-on-plate",
                                       "velocity_m_s": self.velocities_m_s[k[1]]}, run, {})
-                for k, run in zip(todo, runs, strict=True))
+                for k, run in zip(todo, runs, strict=True)]
+            if time.monotonic() - self._last_flush > FLUSH_EVERY_S:
+                self.flush()
+
+    def flush(self) -> None:
+        """Write the runs not yet stored (done at most every :data:`FLUSH_EVERY_S`, at the
+        end of a search and when it is interrupted: a store write costs ~20 ms)."""
+        if self.store is not None and self._unstored:
+            self.stored += self.store.put(self._unstored)
+        self._unstored = []
+        self._last_flush = time.monotonic()
 
     def _mean_run_s(self) -> float:
         """Mean wall time of the engine runs so far (s); 0 before the first."""

@@ -49,6 +49,22 @@ COARSE_SCAN_POINTS = 64
 """Sobol scan size at a step too coarse to resolve the contact, or when the start fails."""
 
 
+class Interrupted(KeyboardInterrupt):
+    """Ctrl-C during :func:`tune`. Every finished engine run is in the store, and the search
+    is deterministic, so the same tune replays them from it and goes on. ``str()`` is the
+    one line the CLI prints."""
+
+    def __init__(self, obj: Objective) -> None:
+        super().__init__(obj.evaluations)
+        done = f"interrupted after {obj.evaluations} evaluations"
+        self.line = (f"{done}; {obj.stored} runs stored ({obj.served} served); rerun the same "
+                     "tune to resume" if obj.store is not None
+                     else f"{done} (no store: nothing kept)")
+
+    def __str__(self) -> str:
+        return self.line
+
+
 @dataclass
 class TuneResult:
     """The outcome of one tuning run (see :func:`tune`).
@@ -253,15 +269,20 @@ def tune(engine: str, scenario: BallOnPlate | None = None,
     obj = Objective(space, scenario, velocities, effective, timestep_s,
                     references=list(references or []), store=store, fresh=fresh,
                     runner=runner)
-    first = obj.evaluate(np.asarray(space.start), count_budget=False)
-    obj.deadline = t0 + budget_s
-    obj.max_evals = max_evals
-    if scan_points is None and (coarse or any(st != "ok" for st in first.statuses)):
-        # a coarse step makes the start a one-step impulse whose restitution barely moves
-        # with the parameters (or the start fails): search the whole box first
-        scan_points = COARSE_SCAN_POINTS
-    with quiet(engine):
-        stop, stages = search(obj, scan_points=scan_points)
+    try:
+        first = obj.evaluate(np.asarray(space.start), count_budget=False)
+        obj.deadline = t0 + budget_s
+        obj.max_evals = max_evals
+        if scan_points is None and (coarse or any(st != "ok" for st in first.statuses)):
+            # a coarse step makes the start a one-step impulse whose restitution barely moves
+            # with the parameters (or the start fails): search the whole box first
+            scan_points = COARSE_SCAN_POINTS
+        with quiet(engine):
+            stop, stages = search(obj, scan_points=scan_points)
+    except KeyboardInterrupt:
+        obj.flush()
+        raise Interrupted(obj) from None
+    obj.flush()
     assert obj.best is not None
     dt = timestep_s or adapter.default_timestep_s(scenario, space.mode)
     return TuneResult(space, obj, first, obj.best, requested, excluded, stop,

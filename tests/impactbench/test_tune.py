@@ -337,3 +337,53 @@ def test_tune_on_dask_equals_tune_in_process(tmp_path):
     assert there.parameters == here.parameters
     assert there.tuned.objective == here.tuned.objective
     assert there.objective.stored == here.objective.stored == 30 * len(FEW)
+
+
+def test_ctrl_c_then_the_same_tune_resumes_from_the_store(tmp_path):
+    """SIGINT a real `impactbench tune`: one line, exit 130, no tuned file; the rerun replays
+    the stored runs (the search is deterministic) and ends where an uninterrupted tune does.
+    At 1e-7 s the search takes several seconds, so the first store write (after 2 s) lands
+    mid-search."""
+    require_engine("mujoco")
+    import os
+    import re
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    from impactbench.store import Store
+    from impactbench.tuning import tune
+
+    store, out = tmp_path / "s.duckdb", tmp_path / "mj.toml"
+    argv = [sys.executable, "-m", "impactbench.cli", "tune", "--engine", "mujoco",
+            "--velocities", "1,4", "--timestep", "1e-7", "--max-evals", "300", "--workers",
+            "0", "--store", str(store), "--no-plot", "--out", str(out), "--json"]
+    proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline:
+        assert proc.poll() is None, proc.communicate()
+        try:
+            frame = Store(store).frame()
+        except ValueError:  # the tune holds the file right now
+            continue
+        if not frame.empty and frame.run_key.nunique() >= 40:
+            break
+        time.sleep(0.05)
+    os.killpg(proc.pid, signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    assert "Traceback" not in err and "KeyboardInterrupt" not in err, err
+    line = re.fullmatch(r"impactbench: interrupted after (\d+) evaluations; (\d+) runs stored "
+                        r"\(0 served\); rerun the same tune to resume\n", err)
+    assert line, err
+    stored = int(line.group(2))
+    assert stored >= 40 and not out.exists()
+    again = subprocess.run(argv, capture_output=True, text=True, timeout=300)
+    assert again.returncode == 0, again.stderr
+    resumed = json.loads(again.stdout)
+    assert resumed["runs_from_store"] >= stored
+    plain = tune("mujoco", SCENARIO, FEW, timestep_s=1e-7, max_evals=300)
+    assert resumed["evaluations"] == plain.objective.evaluations
+    assert resumed["parameters"] == json.loads(json.dumps(plain.parameters))
