@@ -95,7 +95,7 @@ def register(top: argparse._SubParsersAction, groups: dict) -> None:
                    help="an engine setting held fixed and written with the fit (repeatable), "
                    "e.g. Drake's discrete_contact_approximation=sap for a discrete plant")
     p.add_argument("--json", action="store_true", help="print one JSON object")
-    add_execution_flags(p, yes=False, in_process=True)
+    add_execution_flags(p, in_process=True)
     add_parameter_flags(p, "ball-on-plate")
     p.set_defaults(func=main)
 
@@ -128,6 +128,7 @@ def main(args: argparse.Namespace) -> int:
     if args.timestep_s is not None:
         check.positive("timestep", args.timestep_s)
     scenario = scenario_from_args("ball-on-plate", args)
+    _check_cost(scenario, args)
     from impactbench.publish import check_file_target
 
     tuned_file, plot_file = _paths(args)
@@ -166,6 +167,21 @@ def main(args: argparse.Namespace) -> int:
         return 0
     _print_text(result, files, runner.describe())
     return 0
+
+
+def _check_cost(scenario, args: argparse.Namespace) -> None:
+    """Refuse (unless ``--yes``) a step at which one evaluation, a run per velocity, needs
+    more than ``COST_LIMIT`` steps: the budget is checked between evaluations only."""
+    if args.timestep_s is None:
+        return
+    from impactbench.cliutil import check_cost
+    from impactbench.evaluate import reference_metrics
+    from impactbench.matrix import estimated_steps_of
+
+    steps = sum(estimated_steps_of(reference_metrics(scenario.replace(velocity_m_s=v)),
+                                   args.timestep_s) for v in args.velocities_m_s)
+    check_cost(steps, f"timestep = {args.timestep_s!r}", args.yes,
+               "integration steps per evaluation")
 
 
 def _load_quietly(engine: str) -> None:

@@ -249,6 +249,7 @@ def test_cli_text_output_has_snippet_table_and_honesty(tmp_path, capsys):
     (["--engine", "pybullet", "--scenario", "rigid-flexible"], "not supported yet"),
     (["--engine", "pybullet", "--budget-s", "0"], "budget_s = 0.0"),
     (["--engine", "pybullet", "--workers", "-1"], "workers = -1"),
+    (["--engine", "pybullet", "--timestep", "1e-12"], "pass --yes"),
 ])
 def test_cli_bad_input_exits_2_with_one_line(argv, needle, capsys, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
