@@ -65,8 +65,10 @@ CREATE TABLE IF NOT EXISTS results (
     impactbench_version VARCHAR NOT NULL,
     inputs VARCHAR NOT NULL,
     stored_at DOUBLE NOT NULL,
+    study VARCHAR,
     PRIMARY KEY (run_key, metric)
 );
+ALTER TABLE results ADD COLUMN IF NOT EXISTS study VARCHAR;
 CREATE TABLE IF NOT EXISTS runs (
     run_key VARCHAR PRIMARY KEY,
     run VARCHAR NOT NULL
@@ -79,6 +81,10 @@ CREATE TABLE IF NOT EXISTS histories (
 );
 """
 HISTORY_KEYS = ("time_s", "normal_force_n", "penetration_m")
+CANDIDATE = "tune"
+"""The ``study`` of a run stored by a tuning search: a candidate parameter point, not a
+setting anyone runs, so ``impactbench history`` leaves it out. (A report never shares its
+key: a tuned file's run carries the file's provenance in its settings.)"""
 
 
 def default_path() -> Path:
@@ -332,6 +338,7 @@ class Store:
                     "wall_s": _float(run.get("wall_s")),
                     "impactbench_version": inputs["impactbench_version"],
                     "inputs": json.dumps(inputs, sort_keys=True), "stored_at": now,
+                    "study": job.get("study", ""),
                 })
             if history:
                 hist.append({"run_key": key, **{k: [float(x) for x in history[k]]

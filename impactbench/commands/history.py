@@ -4,6 +4,9 @@ Reads the results store (:mod:`impactbench.store`), like asv does for speed: one
 engine × engine version × impactbench version × scenario × mode × metric with the number of
 ``ok`` runs and their median and largest |relative error| against the reference; a plot of the
 largest error per metric against the versions in the order they were first stored.
+
+Runs a tuning search stored as candidates (``store.CANDIDATE``: parameter points it tried, not
+settings anyone runs) are left out, and counted.
 """
 
 from __future__ import annotations
@@ -27,6 +30,13 @@ def register(top: argparse._SubParsersAction, groups: dict) -> None:
     p.set_defaults(func=main)
 
 
+def candidates(df):
+    """Rows of runs a tuning search stored as candidates (a boolean Series)."""
+    from impactbench.store import CANDIDATE
+
+    return df.study == CANDIDATE if "study" in df else df.status != df.status
+
+
 def summarize(df):
     """The history table of a store frame (see the module docstring)."""
     import pandas as pd
@@ -34,7 +44,7 @@ def summarize(df):
     if df.empty:
         return pd.DataFrame(columns=[*GROUP, "runs", "median_abs_rel_error",
                                      "max_abs_rel_error", "first_stored"])
-    ok = df[df.status == "ok"].copy()
+    ok = df[(df.status == "ok") & ~candidates(df)].copy()
     ok["abs_err"] = ok.rel_error.abs()
     first = df.groupby(["engine", "engine_version", "impactbench_version"]).stored_at.min()
     table = (ok.groupby(GROUP).agg(runs=("run_key", "nunique"),
@@ -86,7 +96,11 @@ def main(args: argparse.Namespace) -> int:
         raise ValueError(f"store = '{path}': no such file (run a report or gate first)")
     if not args.no_plot:
         check_file_target(args.plot, "plot")
-    table = summarize(Store(path).frame(args.engine))
+    frame = Store(path).frame(args.engine)
+    table = summarize(frame)
+    if not frame.empty and candidates(frame).any():
+        print(f"({frame[candidates(frame)].run_key.nunique()} runs stored by tuning searches "
+              "are candidates, not shown)")
     if table.empty:
         print(f"no stored ok runs{' of ' + args.engine if args.engine else ''} in {path}")
         return 0

@@ -185,6 +185,7 @@ class Objective:
         changes no number: stored floats round-trip exactly; nor does the runner: each run
         is the same call."""
         from impactbench import store as store_mod
+        from impactbench.store import CANDIDATE
 
         wanted: dict[tuple[bytes, int], tuple] = {}
         for values in points:
@@ -228,7 +229,7 @@ class Objective:
             self._stored.update((keys[k], run) for k, run in zip(todo, runs, strict=True))
             self._unstored += [
                 (keys[k], inputs[k], {"engine": self.space.engine, "mode": wanted[k][2],
-                                      "scenario": "ball-on-plate",
+                                      "scenario": "ball-on-plate", "study": CANDIDATE,
                                       "velocity_m_s": self.velocities_m_s[k[1]]}, run, {})
                 for k, run in zip(todo, runs, strict=True)]
             if time.monotonic() - self._last_flush > FLUSH_EVERY_S:
