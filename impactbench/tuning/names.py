@@ -18,6 +18,7 @@ DEFAULT_BUDGET_S = 120.0
 
 MUJOCO_VARIANTS = ("solref+solimp", "solref")
 PYMUNK_VARIANTS = ("elasticity", "restitution-law")
+SAPIEN_VARIANTS = ("compliant-stiffness", "restitution")
 SOLREF_FORMS = ("direct", "timeconst")
 
 VARIANTS: dict[str, tuple[str, ...]] = {
@@ -25,5 +26,10 @@ VARIANTS: dict[str, tuple[str, ...]] = {
     "pybullet": ("stiffness+damping",),
     "pymunk": PYMUNK_VARIANTS,
     "drake": ("stiffness+dissipation", "stiffness+relaxation"),
+    "sapien": SAPIEN_VARIANTS,
+    "dart": ("restitution",),
+    "box2d": ("restitution",),
+    "mjx": MUJOCO_VARIANTS,
+    "newton": ("ke+kd",),
 }
 """Each engine's parameter sets (the first is the default)."""

@@ -197,7 +197,7 @@ def tune(engine: str, scenario: BallOnPlate | None = None,
     """Fit ``engine``'s native contact parameters to the Hunt–Crossley reference.
 
     Args:
-        engine: registry name (mujoco, pybullet, pymunk, drake).
+        engine: registry name with a tuning space (:data:`~impactbench.tuning.names.VARIANTS`).
         scenario: the ball on the plate (default: the paper's); its velocity is ignored.
         velocities_m_s: impact velocities of the objective (default the paper's 0.5–5 m/s).
         targets: metric names (:data:`~impactbench.tuning.objective.TARGETS`; default

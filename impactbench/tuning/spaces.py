@@ -35,6 +35,22 @@ Engines and their force laws (x penetration, ẋ its rate, m the ball's mass):
   contact through ``arbiter.restitution`` in ``pre_solve``, with b tuned.
 - **Drake**: point contact f = k·x·(1 + d·ẋ)₊, pair point stiffness k (N/m) and Hunt–Crossley
   dissipation d (s/m).
+- **MJX**: MuJoCo's model and soft-constraint law run in JAX, so MuJoCo's space (above) with
+  the engine name ``mjx``: the same solref/solimp keys and efc_diagA.
+- **SAPIEN (PhysX 5)**: a negative material ``restitution`` −K is a compliant contact, the
+  *undamped* spring F = K·x (K in N/m; the pair averages the two materials, so both get −K):
+  K is tuned, restitution stays ≈ 1 (no contact damping to set). Or, as a separate option, a
+  rigid contact with a constant ``restitution`` e ≥ 0 (pair: the average) and
+  ``bounce_threshold`` 0 m/s.
+- **DART**: rigid LCP contact with a constant ``restitution_coeff`` e (pair: the product; the
+  plate's is 1).
+- **Box2D**: rigid contact with a constant fixture ``restitution`` e (pair: the maximum; the
+  plate's is 0), applied only above the compiled-in 1 m/s ``b2_velocityThreshold``.
+- **Newton** (Featherstone, semi-implicit Euler): penalty contact F = ke·x + kd·max(ẋ, 0),
+  shape ``ke`` (N/m) and ``kd`` (N·s/m), averaged over the two shapes; damping acts only while
+  approaching, so e = exp(−ζφ/√(1−ζ²)) with ζ = kd/(2√(ke·m)), φ = atan2(√(1−ζ²), ζ).
+
+The last four live in :mod:`~impactbench.tuning.spaces_more`.
 """
 
 from __future__ import annotations
@@ -153,8 +169,12 @@ def _mujoco_diag_a(scenario: BallOnPlate, timestep_s: float | None) -> float:
 
 
 def mujoco_space(scenario: BallOnPlate, variant: str = "solref+solimp",
-                 solref_form: str = "direct", timestep_s: float | None = None) -> Space:
-    """MuJoCo: solref in either form, optionally with the solimp shape (see module doc)."""
+                 solref_form: str = "direct", timestep_s: float | None = None,
+                 engine: str = "mujoco") -> Space:
+    """MuJoCo: solref in either form, optionally with the solimp shape (see module doc).
+
+    ``engine`` ``mjx`` is the same space for MJX, which runs MuJoCo's model (same
+    efc_diagA) and contact law and reads the same tuned keys."""
     from impactbench.engines.common import native_ball_spring_damper
     from impactbench.engines.mujoco_adapter import BALL_TIMESTEP_S, SOLIMP
 
@@ -199,9 +219,11 @@ def mujoco_space(scenario: BallOnPlate, variant: str = "solref+solimp",
         return {"solref": solref, "solimp": solimp}
 
     def snippet(t: dict[str, Any]) -> str:
+        mjx = ("; then mjx.put_model(mujoco.MjModel.from_xml_string(xml))"
+               if engine == "mjx" else "")
         return (f'<geom solref="{_fmt(t["solref"])}" solimp="{_fmt(t["solimp"])}"/>\n'
                 f"(on both the ball and the plate geoms, or as <default><geom .../>; "
-                f"efc_diagA = {a:.10g} 1/kg, solref {solref_form} form)")
+                f"efc_diagA = {a:.10g} 1/kg, solref {solref_form} form{mjx})")
 
     limits = (
         "restitution is nearly independent of the impact velocity: the impedance scales "
@@ -209,7 +231,7 @@ def mujoco_space(scenario: BallOnPlate, variant: str = "solref+solimp",
         "unchanged across penetration scales, so Hunt–Crossley's falling k(b·V0) cannot be "
         "followed",
     ) if with_imp else LINEAR_LIMITS
-    return Space("mujoco", variant if solref_form == "direct" else f"{variant} ({solref_form})",
+    return Space(engine, variant if solref_form == "direct" else f"{variant} ({solref_form})",
                  tuple(params), tuple(p.clip(s) for p, s in zip(params, start, strict=True)),
                  "tuned", frozenset({"restitution", "duration_s", "peak_force_n",
                                      "max_penetration_m", "energy_loss_fraction"}),
@@ -397,12 +419,16 @@ def make_space(engine: str, scenario: BallOnPlate, variant: str | None = None,
     """The engine's parameterisation ``variant`` (default: the first of :data:`VARIANTS`)."""
     check.one_of("engine", engine, tuple(VARIANTS))
     variant = check.one_of("parameters", variant or VARIANTS[engine][0], VARIANTS[engine])
-    if engine == "mujoco":
-        return mujoco_space(scenario, variant, solref_form, timestep_s)
+    if engine in ("mujoco", "mjx"):
+        return mujoco_space(scenario, variant, solref_form, timestep_s, engine)
     if engine == "pybullet":
         return pybullet_space(scenario, timestep_s)
     if engine == "pymunk":
         return pymunk_space(scenario, variant)
+    if engine in ("sapien", "dart", "box2d", "newton"):
+        from impactbench.tuning import spaces_more
+
+        return spaces_more.make_space(engine, scenario, variant, timestep_s)
     if variant == "stiffness+relaxation":
         return drake_relaxation_space(scenario, timestep_s)
     return drake_space(scenario, timestep_s)
