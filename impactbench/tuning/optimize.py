@@ -11,7 +11,9 @@ Search, all deterministic:
    with a fixed seed (:data:`SEED`) of ``scan_points`` points over the box;
 3. a local polish with ``scipy.optimize.least_squares`` (trust-region reflective, bounds on u,
    forward differences of step ``diff_step`` in u) from the start and then from the best scan
-   points (``polish_starts``), on the residual vector √w_m·e_{v,m}.
+   points (``polish_starts``), on the residual vector √w_m·e_{v,m}; the difference step is
+   the space's ``diff_step`` (1e-4 of u; larger for float32 engines, SAPIEN and Newton, whose
+   metrics carry rounding noise a small step would differentiate).
 
 Budgets: ``budget_s`` (wall time) and ``max_evals`` (objective evaluations) stop the search
 cleanly at the next evaluation and keep the best so far; the result then says which budget
@@ -141,12 +143,15 @@ def _prefetching(obj: Objective) -> Callable[[Callable, Iterable], list]:
 
 
 def search(obj: Objective, *, scan_points: int | None = None, polish_starts: int = 2,
-           diff_step: float = 1e-4, max_polish_evals: int = 400) -> tuple[str, list[str]]:
-    """Run the search stages on ``obj`` (its best evaluation is the answer).
+           diff_step: float | None = None, max_polish_evals: int = 400
+           ) -> tuple[str, list[str]]:
+    """Run the search stages on ``obj`` (its best evaluation is the answer); ``diff_step``
+    defaults to the space's (larger for float32 engines, whose metrics carry rounding noise).
 
     Returns (stop reason, a line per stage).
     """
     space = obj.space
+    diff_step = space.diff_step if diff_step is None else diff_step
     dim = len(space.parameters)
     if scan_points is None:
         scan_points = 128 if dim > 2 else 0

@@ -116,6 +116,8 @@ class Space:
             not plain tuned mode with ``to_tuned(values)``.
         snippet: tuned keys → the text a user pastes into the engine.
         linear: the contact is scale-invariant (restitution and duration independent of V0).
+        diff_step: the polish's relative finite-difference step in the unit box; a float32
+            engine needs one whose metric change clears its rounding noise.
     """
 
     engine: str
@@ -129,6 +131,7 @@ class Space:
     snippet: Callable[[dict[str, Any]], str]
     run_args: RunArgs | None = field(default=None, repr=False)
     linear: bool = False
+    diff_step: float = 1e-4
 
     def run(self, values: np.ndarray, scenario: BallOnPlate, timestep_s: float | None
             ) -> tuple[BallOnPlate, str, RunSettings]:

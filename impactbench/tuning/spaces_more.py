@@ -50,6 +50,11 @@ from impactbench.tuning.spaces import (
 
 TIME_RESOLVED = frozenset({"restitution", "duration_s", "peak_force_n", "max_penetration_m",
                            "energy_loss_fraction"})
+SAPIEN_DIFF_STEP = 2e-2
+"""PhysX's float32 compliant contact: duration and peak force jitter by ~1e-3 (relative)
+between stiffnesses 0.1 % apart, so the polish differentiates over ~10 % of K (0.01 of u)."""
+NEWTON_DIFF_STEP = 1e-3
+"""Newton's float32 metrics jitter by ~5e-6; a 1e-3 step (~1 % of ke) clears it 100-fold."""
 CONSTANT_E = ("a constant restitution coefficient cannot follow Hunt–Crossley's restitution, "
               "which falls with the impact velocity")
 
@@ -101,7 +106,7 @@ def sapien_space(scenario: BallOnPlate, variant: str = "compliant-stiffness",
               "damping): its restitution stays ≈ 1 whatever the stiffness", *LINEAR_LIMITS)
     return Space("sapien", "compliant-stiffness", (param,), (param.clip(k0),), "tuned",
                  TIME_RESOLVED - {"restitution", "energy_loss_fraction"}, limits, to_tuned,
-                 snippet, linear=True)
+                 snippet, linear=True, diff_step=SAPIEN_DIFF_STEP)
 
 
 def dart_space(scenario: BallOnPlate) -> Space:
@@ -150,7 +155,7 @@ def newton_space(scenario: BallOnPlate, timestep_s: float | None = None) -> Spac
               "Hunt–Crossley's restitution falls with b·V0 and its duration and peak force "
               "follow Hertz's V0^(−1/5) and V0^(6/5)",)
     return Space("newton", "ke+kd", params, (k0, d0), "tuned", TIME_RESOLVED, limits, to_tuned,
-                 snippet, linear=True)
+                 snippet, linear=True, diff_step=NEWTON_DIFF_STEP)
 
 
 def make_space(engine: str, scenario: BallOnPlate, variant: str,

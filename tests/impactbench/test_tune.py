@@ -164,11 +164,13 @@ def test_tuned_file_round_trip(tmp_path):
         write_tuned(tmp_path / "u.toml", {"provenance": {}})
 
 
-def closed_form_objective(engine: str, parameters: dict, prov: dict) -> float:
-    """Σ over velocities and targets of weight·(relative error)², each error taken against the
-    closed form (``hunt_crossley.solve``) — computed here, not read from the file."""
+def closed_form_objective(engine: str, parameters: dict, prov: dict,
+                          above_m_s: float = 0.0) -> float:
+    """Σ over velocities (those above ``above_m_s``) and targets of weight·(relative error)²,
+    each error taken against the closed form (``hunt_crossley.solve``) — computed here, not
+    read from the file."""
     total = 0.0
-    for v in prov["velocities_m_s"]:
+    for v in (v for v in prov["velocities_m_s"] if v > above_m_s):
         s = SCENARIO.replace(velocity_m_s=v)
         rec = run_safely(engine, s, "tuned", RunSettings(tuned=parameters,
                                                          timestep_s=prov["timestep_s"]))
@@ -180,7 +182,13 @@ def closed_form_objective(engine: str, parameters: dict, prov: dict) -> float:
     return total
 
 
-@pytest.mark.parametrize("engine", ["mujoco", "pybullet", "pymunk", "drake"])
+NO_BOUNCE_AT_OR_BELOW_M_S = {"box2d": 1.0}
+"""Box2D's compiled-in b2_velocityThreshold: at and below it no coefficient bounces the ball,
+so those velocities' residuals are the same for every fit and the comparison leaves them out."""
+
+
+@pytest.mark.parametrize("engine", ["mujoco", "pybullet", "pymunk", "drake", "sapien", "dart",
+                                    "box2d", "mjx", "newton"])
 def test_packaged_tuning_beats_its_start_against_the_closed_form(engine):
     """The committed defaults (paper's case, 0.5–5 m/s, three targets, equal weights),
     checked against the closed-form reference rather than against their own file: tuned
@@ -194,9 +202,13 @@ def test_packaged_tuning_beats_its_start_against_the_closed_form(engine):
     assert prov["requested_weights"] == [1.0, 1.0, 1.0] and prov["mode"] == "tuned"
     tuned = closed_form_objective(engine, data["parameters"], prov)
     start = closed_form_objective(engine, data["start"], prov)
-    assert tuned < 0.7 * start, (tuned, start)
     assert tuned == pytest.approx(prov["objective_tuned"], rel=1e-6)
     assert start == pytest.approx(prov["objective_start"], rel=1e-6)
+    if engine in NO_BOUNCE_AT_OR_BELOW_M_S:
+        above = NO_BOUNCE_AT_OR_BELOW_M_S[engine]
+        tuned = closed_form_objective(engine, data["parameters"], prov, above)
+        start = closed_form_objective(engine, data["start"], prov, above)
+    assert tuned < 0.7 * start, (tuned, start)
 
 
 def test_packaged_pymunk_elasticity_is_the_closed_form_least_squares():
