@@ -142,20 +142,28 @@ def table_format(path) -> str:
 
 def write_table(table, path) -> None:
     """Write a DataFrame as CSV or Parquet by extension, with pyarrow (full float64
-    precision: the CSV round-trips exactly)."""
+    precision: the CSV round-trips exactly). Atomic: written beside ``path`` and renamed, so
+    an interrupted write never leaves half a table."""
+    import os
+
     import pyarrow as pa
 
     fmt = table_format(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     arrow = pa.Table.from_pandas(table, preserve_index=False)
-    if fmt == "parquet":
-        import pyarrow.parquet as pq
+    part = path.with_name(f".{path.name}.part")
+    try:
+        if fmt == "parquet":
+            import pyarrow.parquet as pq
 
-        pq.write_table(arrow, path)
-    else:
-        import pyarrow.csv as pacsv
+            pq.write_table(arrow, part)
+        else:
+            import pyarrow.csv as pacsv
 
-        pacsv.write_csv(arrow, path)
+            pacsv.write_csv(arrow, part)
+        os.replace(part, path)
+    finally:
+        part.unlink(missing_ok=True)
 
 
 def progress_bar(total: int, unit: str = "run"):
@@ -222,7 +230,8 @@ def add_execution_flags(p: argparse.ArgumentParser, *, yes: bool = True,
                    "~/.cache/impactbench/results.duckdb")
     if yes:
         g.add_argument("--yes", action="store_true",
-                       help=f"run even when the estimate exceeds {COST_LIMIT:.0e} steps")
+                       help=f"run even when the estimate exceeds {COST_LIMIT:.0e} steps "
+                       "(or sweep points)")
 
 
 def _path(text: str):

@@ -116,6 +116,8 @@ class Runner:
         self.scheduler = scheduler or os.environ.get(SCHEDULER_ENV) or None
         self._stack: contextlib.ExitStack | None = None
         self._client: Any = None
+        self.dispatched = 0
+        """Items sent to Dask so far (the others ran in this process)."""
 
     @property
     def in_process(self) -> bool:
@@ -184,6 +186,7 @@ class Runner:
         from distributed.scheduler import KilledWorker
 
         c = self.client(at_most=len(items))
+        self.dispatched += len(items)
         n = self.size
         size = batch_size or max(1, len(items) // (n * BATCHES_PER_WORKER))
         batches = [items[i:i + size] for i in range(0, len(items), size)]

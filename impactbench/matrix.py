@@ -204,14 +204,14 @@ def _crashed(job: Job, why: str, reference: dict[str, Any]) -> JobResult:
 
 
 class Interrupted(KeyboardInterrupt):
-    """Ctrl-C during :func:`run_jobs`; finished runs are stored. ``str()`` is the one line."""
+    """Ctrl-C during :func:`run_jobs` (or a sweep: ``unit`` points); what finished is stored.
+    ``str()`` is the one line."""
 
-    def __init__(self, stored: int, total: int, store: bool) -> None:
+    def __init__(self, stored: int, total: int, store: bool, unit: str = "runs") -> None:
         super().__init__(stored, total)
         self.stored, self.total = stored, total
-        self.line = (f"interrupted; {stored} of {total} runs stored; rerun to resume" if store
-                     else f"interrupted; {stored} of {total} runs done (no store: --fresh "
-                     "or none given)")
+        self.line = (f"interrupted; {stored} of {total} {unit} stored; rerun to resume"
+                     if store else f"interrupted; {stored} of {total} {unit} done (no store)")
 
     def __str__(self) -> str:
         return self.line

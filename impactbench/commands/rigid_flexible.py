@@ -2,7 +2,9 @@
 
 The rigid–flexible 2-DOF reference (MODELS.md §2): one solve with the paper's base
 parameters by default (SI: kg, N/m, m, N/m³, N), or a sweep of one parameter over all 3 × 2
-law combinations (or the chosen ones), in parallel over the cores, into a CSV or Parquet file.
+law combinations (or the chosen ones) into a CSV or Parquet file. A sweep reads the points a
+results store holds and solves only the others, on Dask workers when that pays
+(:mod:`impactbench.sweeps`); Ctrl-C stores what finished, and the rerun resumes.
 """
 
 from __future__ import annotations
@@ -11,6 +13,7 @@ import argparse
 from pathlib import Path
 
 from impactbench.cliutil import (
+    add_execution_flags,
     grid,
     number,
     print_json,
@@ -53,11 +56,10 @@ def register(top: argparse._SubParsersAction, groups: dict) -> None:
                    help="v1 (m/s) when sweeping another parameter; default 2")
     add_law_flags(s, default=None)
     add_parameter_flags(s, "rigid-flexible")
-    s.add_argument("--processes", type=int, default=None, metavar="N",
-                   help="worker processes; default: all cores")
     s.add_argument("--out", type=Path, required=True, metavar="FILE",
                    help="output table: .csv or .parquet")
-    s.add_argument("--yes", action="store_true", help="sweep even over more than 1e7 points")
+    add_execution_flags(s, in_process=True)
+    s.add_argument("--processes", type=int, dest="workers", help=argparse.SUPPRESS)  # old name
     s.set_defaults(func=sweep_main)
 
 
@@ -77,7 +79,6 @@ def reference_main(args: argparse.Namespace) -> int:
 
 def sweep_main(args: argparse.Namespace) -> int:
     from impactbench.publish import check_file_target
-    from impactbench.reference import two_dof
 
     table_format(args.out)
     check_file_target(args.out, "out")
@@ -94,18 +95,23 @@ def sweep_main(args: argparse.Namespace) -> int:
     locals_ = (args.local,) if args.local else tuple(LOCAL_LAWS)
     structures = (args.structure,) if args.structure else tuple(STRUCTURAL_LAWS)
     combos = [(lo, st) for lo in locals_ for st in structures]
-    table_format(args.out)
-    if args.processes is not None and args.processes < 1:
-        raise ValueError(f"processes = {args.processes!r}: must be >= 1")
-    update, close = progress_bar(len(values) * len(combos), unit="solve")
+    if args.workers is not None and args.workers < 0:
+        raise ValueError(f"workers = {args.workers}: must be >= 0 (0: in this process)")
+    from impactbench.store import Store, default_path
+    from impactbench.sweeps import rigid_flexible
+
+    update, close = progress_bar(len(values) * len(combos), unit="point")
     try:
-        df = two_dof.sweep(base, args.over, values, combos=combos, processes=args.processes,
-                           progress=update)
+        result = rigid_flexible(base, args.over, values, combos,
+                                store=Store(args.store or default_path()), fresh=args.fresh,
+                                workers=args.workers, scheduler=args.scheduler,
+                                progress=update)
     finally:
         close()
+    df = result.frame
     write_table(df, args.out)
     counts = df["status"].value_counts().to_dict()
-    print(f"{len(df)} solves ({len(combos)} law combinations × {len(values)} values of "
-          f"{field}) → {args.out}; status: "
-          + ", ".join(f"{k} {v}" for k, v in sorted(counts.items())))
+    print(f"{len(df)} points ({len(combos)} law combinations × {len(values)} values of "
+          f"{field}): {result.served} from the store, {result.solved} solved {result.where} "
+          f"→ {args.out}; status: " + ", ".join(f"{k} {v}" for k, v in sorted(counts.items())))
     return 0

@@ -4,7 +4,8 @@
 Figures (``rf_figNN_….png``): for each swept parameter (v1, k1, k2, m2) a force-history figure
 F1(t) at the paper's three values, then peak force, pulse width and impulse against the
 parameter, for the 3 local × 2 structural laws. Sweeps use the paper's full grids and the
-reference solver (:func:`impactbench.reference.two_dof.sweep`). A run whose softening
+reference solver (:func:`impactbench.reference.two_dof.sweep`'s points, through the results
+store and Dask: :func:`impactbench.sweeps.rigid_flexible`). A run whose softening
 structure collapses goes on until body 2 has escaped, so its metrics describe the whole
 contact as the paper's ode45 runs did; dotted lines mark where collapse sets in. The k2 sweep
 reads the paper's range in kN/m (to 10⁹ N/m, the reading that reproduces the most numbers:
@@ -65,10 +66,23 @@ def grid(over: str, start: float, stop: float, step: float) -> np.ndarray:
     return g
 
 
-def sweeps() -> dict[str, pd.DataFrame]:
-    """The four paper sweeps over all law combinations (full grids)."""
-    return {over: two_dof.sweep(_base(over), over, grid(over, *g))
-            for _, over, _, g, *_ in SWEEPS}
+def sweeps(execution: dict[str, Any] | None = None) -> dict[str, pd.DataFrame]:
+    """The four paper sweeps over all law combinations (full grids), through
+    :func:`impactbench.sweeps.rigid_flexible`: points in the results store are served from it
+    (an unchanged rerun only draws), the rest solved on one shared
+    :class:`~impactbench.cluster.Runner`. ``execution``: ``store``, ``fresh``, ``workers``,
+    ``scheduler`` (default: the default store, one worker per core)."""
+    from impactbench.cluster import Runner
+    from impactbench.store import Store, default_path
+    from impactbench.sweeps import DISPATCH_MIN_S, rigid_flexible
+
+    opts = dict(execution or {})
+    store = opts.get("store") or Store(default_path())
+    with Runner(opts.get("workers"), opts.get("scheduler"),
+                min_dispatch_s=DISPATCH_MIN_S) as runner:
+        return {over: rigid_flexible(_base(over), over, grid(over, *g), store=store,
+                                     fresh=bool(opts.get("fresh")), runner=runner).frame
+                for _, over, _, g, *_ in SWEEPS}
 
 
 def _history_figure(path: Path, num: int, over: str, field: str, values: tuple[float, ...],
@@ -123,12 +137,14 @@ def _metric_figure(path: Path, num: int, df: pd.DataFrame, field: str, metric: s
     plt.close(fig)
 
 
-def write(out_dir: Path, report: Path | None = None) -> list[Path]:
+def write(out_dir: Path, report: Path | None = None,
+          execution: dict[str, Any] | None = None) -> list[Path]:
     """Write rf_fig03 … rf_fig18 into ``out_dir`` and the report (default:
-    ``out_dir/../rigid_flexible.md``); return the PNG paths."""
+    ``out_dir/../rigid_flexible.md``); return the PNG paths. ``execution``: see
+    :func:`sweeps`."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    data = sweeps()
+    data = sweeps(execution)
     paths: list[Path] = []
     for num, over, field, _, values, label, scale in SWEEPS:
         p = out_dir / f"rf_fig{num:02d}_history_{over}.png"

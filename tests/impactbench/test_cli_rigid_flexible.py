@@ -67,9 +67,14 @@ def test_bad_input_exits_2_with_one_line(capsys, argv):
 
 def test_sweep_all_combinations_to_csv(capsys, tmp_path):
     out_file = tmp_path / "sweep.csv"
-    code, out, _ = run(capsys, "sweep", "rigid-flexible", "--over", "m2", "--start", "1",
-                       "--stop", "3", "--step", "1", "--velocity", "5", "--out", str(out_file))
-    assert code == 0 and "18 solves" in out
+    argv = ("sweep", "rigid-flexible", "--over", "m2", "--start", "1", "--stop", "3",
+            "--step", "1", "--velocity", "5", "--out", str(out_file))
+    code, out, _ = run(capsys, *argv)
+    assert code == 0 and "18 points (" in out and "0 from the store, 18 solved" in out
+    first = out_file.read_bytes()
+    code, out, _ = run(capsys, *argv)  # the results store serves every point
+    assert code == 0 and "18 from the store, 0 solved" in out
+    assert out_file.read_bytes() == first
     df = pd.read_csv(out_file)
     assert list(df.columns) == ["local", "structure", "m2_kg", *JSON_KEYS[1:], "status"]
     assert list(df["m2_kg"][:3]) == [1.0, 2.0, 3.0]

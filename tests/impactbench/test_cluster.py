@@ -63,6 +63,6 @@ def test_runner_keeps_work_under_min_dispatch_s_here(monkeypatch: pytest.MonkeyP
 
     with Runner(workers=1, min_dispatch_s=0.5) as runner:
         assert runner.map(pid, [0, 1], on_crash=str, estimate_s=0.4) == [os.getpid()] * 2
-        assert runner._client is None  # no cluster started for it
+        assert runner.dispatched == 0 and runner._client is None  # no cluster started
         there = runner.map(pid, [0, 1], on_crash=str, estimate_s=0.6)
-        assert there[0] == there[1] != os.getpid()
+        assert there[0] == there[1] != os.getpid() and runner.dispatched == 2

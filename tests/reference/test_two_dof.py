@@ -299,7 +299,7 @@ def test_bad_inputs_raise_one_line_errors():
 
 def test_sweep_is_ordered_and_matches_solve():
     values = [1.0, 3.0, 20.0]
-    df = two_dof.sweep(RigidFlexible(), "velocity", values, processes=2)
+    df = two_dof.sweep(RigidFlexible(), "velocity", values)
     assert list(df.columns) == ["local", "structure", "velocity_m_s", *KEYS, "status"]
     assert len(df) == 6 * len(values)
     assert list(zip(df["local"], df["structure"], strict=True))[::3] == list(COMBOS)
@@ -307,5 +307,12 @@ def test_sweep_is_ordered_and_matches_solve():
     r = two_dof.solve(RigidFlexible(velocity_m_s=20.0, local=row["local"],
                                     structure=row["structure"]))
     assert row["velocity_m_s"] == 20.0 and row["peak_force_n"] == r["peak_force_n"]
-    single = two_dof.sweep(RigidFlexible(), "velocity", values, processes=1)
-    assert single.equals(df)
+
+
+def test_sweep_tasks_are_fixed_chunks_in_combo_then_value_order():
+    values = np.arange(1, two_dof.SWEEP_CHUNK + 2, dtype=float)  # one full chunk and one value
+    tasks = two_dof.sweep_tasks(RigidFlexible(), "m2", values, [("mutation", "softening")])
+    assert [len(t[2]) for t in tasks] == [two_dof.SWEEP_CHUNK, 1]
+    assert {(t[0].local, t[0].structure, t[1]) for t in tasks} == {("mutation", "softening",
+                                                                      "m2")}
+    assert tasks[0][2] + tasks[1][2] == list(values)
