@@ -58,6 +58,9 @@ def test_table_output_lists_the_energy_partition(capsys):
      "--step", "1", "--out", "x.csv"),
     ("sweep", "rigid-flexible", "--over", "k2", "--start", "1", "--stop", "2",
      "--step", "1", "--out", "x.txt"),
+    ("sweep", "rigid-flexible", "--over", "k2", "--start", "1", "--stop", "2",
+     "--step", "1", "--out", "x.csv", "--workers", "-1"),
+    ("figures", "--workers", "-2"),
 ])
 def test_bad_input_exits_2_with_one_line(capsys, argv):
     code, out, err = run(capsys, *argv)
