@@ -315,11 +315,12 @@ class Store:
             con.close()
         histories = {key: {name: np.asarray(arr, dtype=float)
                            for name, arr in zip(HISTORY_KEYS, arrays, strict=True)}
+                     if len(arrays[0]) else {}  # a run that recorded nothing
                      for key, *arrays in hist_rows}
         out = {}
         for key, run in rows:
             if key in need_history and key not in histories:
-                continue
+                continue  # stored by a job that kept no history: run it again
             out[key] = (json.loads(run), histories.get(key, {}))
         return out
 
@@ -413,8 +414,8 @@ class Store:
                     "inputs": json.dumps(inputs, sort_keys=True), "stored_at": now,
                     "study": job.get("study", ""),
                 })
-            if history:
-                hist.append({"run_key": key, **{k: [float(x) for x in history[k]]
+            if history or job.get("keep_history"):  # none recorded (a failed run): empty
+                hist.append({"run_key": key, **{k: [float(x) for x in history.get(k, ())]
                                                 for k in HISTORY_KEYS}})
         if not rows:
             return 0

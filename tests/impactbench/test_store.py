@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 
@@ -56,6 +57,20 @@ def test_a_history_is_required_where_plots_need_it(stored) -> None:
     st, *_ = stored  # the work-precision run has no history stored: a plotting job reruns
     job = Job("matrix", "pymunk", "ball-on-plate", "native", 1.0, 1e-5, keep_history=True)
     assert not run_jobs([job], workers=0, store=st)[0].cached
+
+
+def test_a_plotting_run_that_recorded_nothing_is_served(tmp_path: Path) -> None:
+    """An unsupported run has no history; it is stored as such, not rerun by every report."""
+    require_engine("pymunk")
+    job = Job("matrix", "pymunk", "ball-on-plate", "injected", 1.0, 1e-5,
+              parameters=(("exponent", 1.0), ("model", "kelvin-voigt"),
+                          ("nominal_restitution", 0.5), ("stiffness", 1e7)), keep_history=True)
+    st = store_mod.Store(tmp_path / "r.duckdb")
+    first = run_jobs([job], workers=0, store=st)[0]
+    assert first.run["status"] == "unsupported" and first.history == {}
+    again = run_jobs([job], workers=0, store=st)[0]
+    assert again.cached and again.history == {}
+    assert json.dumps(again.run, sort_keys=True) == json.dumps(first.run, sort_keys=True)
 
 
 def test_the_key_sees_every_input() -> None:
