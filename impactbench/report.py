@@ -292,7 +292,9 @@ def render_key(df: pd.DataFrame, results: list[JobResult], meta: dict[str, Any],
     for r in results:
         for name in sorted(r.history):
             h.update(f"{r.job.id}/{name}".encode())
-            h.update(r.history[name].tobytes())
+            # + 0.0 turns −0.0 into 0.0: the store's DOUBLE[] keeps no sign of zero, and a
+            # plot does not show one (Newton's histories start at −0.0)
+            h.update((r.history[name] + 0.0).tobytes())
     shown = {k: v for k, v in meta.items() if k not in ("runs", "wall_s", "command")}
     h.update(json.dumps(shown, sort_keys=True, default=str).encode())
     h.update(f"{cfg.title}\0{impactbench_version()}".encode())

@@ -115,3 +115,23 @@ def test_what_this_means_names_each_engines_own_contact(small_report: report.Rep
             assert "k1 contact" not in rf
         else:
             assert "a linear, undamped k1 contact" in rf
+
+
+def test_render_key_sees_values_not_the_sign_of_zero(tmp_path: Path) -> None:
+    """A served run's history comes back from the store with 0.0 for −0.0; the rendering
+    (and so its key) is the same, so a cached rerun keeps the rendered files."""
+    import numpy as np
+
+    from impactbench.matrix import JobResult
+
+    cfg = config.parse({"report": {"engines": ["pymunk"], "modes": ["injected"]}})
+    job = Job("matrix", "pymunk", "ball-on-plate", "injected", 1.0, 1e-5, keep_history=True)
+
+    def key(force: list[float]) -> str:
+        history = {"time_s": np.array([0.0, 1e-5]), "normal_force_n": np.array(force),
+                   "penetration_m": np.array([0.0, 1e-6])}
+        return report.render_key(pd.DataFrame({"a": [1.0]}), [JobResult(job, {}, history)],
+                                 {}, cfg, tmp_path)
+
+    assert key([-0.0, 5.0]) == key([0.0, 5.0])
+    assert key([0.0, 5.0]) != key([0.0, 5.000000001])
