@@ -30,11 +30,12 @@ and retries for a few seconds when another impactbench process has it open.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import os
 import time
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import asdict
 from functools import cache
 from pathlib import Path
@@ -286,33 +287,41 @@ class Store:
             con.execute(_SCHEMA)
         return con
 
+    @contextlib.contextmanager
+    def _reader(self, *tables: str) -> Iterator[Any]:
+        """A read-only connection, or None when the file or any of ``tables`` is missing
+        (nothing stored yet)."""
+        con = self._connect(read_only=True)
+        if con is None:
+            yield None
+            return
+        try:
+            have = {r[0] for r in con.execute("SELECT table_name FROM information_schema"
+                                              ".tables").fetchall()}
+            yield con if set(tables) <= have else None
+        finally:
+            con.close()
+
     def get(self, keys: Iterable[str], *, with_history: Iterable[str] = ()
             ) -> dict[str, tuple[dict[str, Any], dict[str, Any]]]:
         """Stored runs among ``keys``: key → (run fields, history). A key in
         ``with_history`` counts as stored only when its history is stored too."""
         import numpy as np
+        import pyarrow as pa
 
         keys = list(dict.fromkeys(keys))
         need_history = set(with_history)
         if not keys:
             return {}
-        con = self._connect(read_only=True)
-        if con is None:
-            return {}
-        try:
-            tables = {r[0] for r in con.execute("SELECT table_name FROM information_schema"
-                                                ".tables").fetchall()}
-            if "runs" not in tables:
+        with self._reader("runs") as con:
+            if con is None:
                 return {}
-            con.execute("CREATE TEMP TABLE wanted (run_key VARCHAR)")
-            con.executemany("INSERT INTO wanted VALUES (?)", [(k,) for k in keys])
+            wanted = pa.table({"run_key": pa.array(keys, pa.string())})  # noqa: F841
             rows = con.execute("SELECT r.run_key, run FROM runs r JOIN wanted USING (run_key)"
                                ).fetchall()
             hist_rows = con.execute(
                 "SELECT h.run_key, time_s, normal_force_n, penetration_m FROM histories h "
                 "JOIN wanted USING (run_key)").fetchall() if need_history else []
-        finally:
-            con.close()
         histories = {key: {name: np.asarray(arr, dtype=float)
                            for name, arr in zip(HISTORY_KEYS, arrays, strict=True)}
                      if len(arrays[0]) else {}  # a run that recorded nothing
@@ -331,20 +340,13 @@ class Store:
         import pyarrow as pa
 
         columns = ["value", *POINT_KEYS, "status"]
-        con = self._connect(read_only=True)
-        if con is None:
-            return pd.DataFrame(columns=columns)
-        try:
-            tables = {r[0] for r in con.execute("SELECT table_name FROM information_schema"
-                                                ".tables").fetchall()}
-            if "sweep_points" not in tables:
+        with self._reader("sweep_points") as con:
+            if con is None:
                 return pd.DataFrame(columns=columns)
             wanted = pa.table({"value": pa.array(list(values), pa.float64())})  # noqa: F841
             return con.execute(
                 f"SELECT DISTINCT {', '.join(columns)} FROM sweep_points "
                 "JOIN wanted USING (value) WHERE base_key = ?", [key]).df()
-        finally:
-            con.close()
 
     def put_points(self, key: str, frame) -> int:
         """Store sweep points of ``key``: ``frame`` with ``value``, :data:`POINT_KEYS` and
@@ -366,20 +368,13 @@ class Store:
     def runs_of(self, engine: str, impactbench_version: str) -> dict[str, dict[str, Any]]:
         """Every stored run of ``engine`` made by ``impactbench_version`` (key → run fields):
         one query for a search that looks up thousands of runs one batch at a time."""
-        con = self._connect(read_only=True)
-        if con is None:
-            return {}
-        try:
-            tables = {r[0] for r in con.execute("SELECT table_name FROM information_schema"
-                                                ".tables").fetchall()}
-            if not {"runs", "results"} <= tables:
+        with self._reader("runs", "results") as con:
+            if con is None:
                 return {}
             rows = con.execute(
                 "SELECT run_key, run FROM runs WHERE run_key IN (SELECT run_key FROM results "
                 "WHERE engine = ? AND impactbench_version = ?)",
                 [engine, impactbench_version]).fetchall()
-        finally:
-            con.close()
         return {key: json.loads(run) for key, run in rows}
 
     def put(self, entries: Iterable[tuple[str, Mapping[str, Any], Mapping[str, Any],
@@ -441,13 +436,8 @@ class Store:
         """Every stored row (one per run and metric) as a DataFrame, optionally one engine's."""
         import pandas as pd
 
-        con = self._connect(read_only=True)
-        if con is None:
-            return pd.DataFrame()
-        try:
-            tables = {r[0] for r in con.execute("SELECT table_name FROM information_schema"
-                                                ".tables").fetchall()}
-            if "results" not in tables:
+        with self._reader("results") as con:
+            if con is None:
                 return pd.DataFrame()
             query = "SELECT * EXCLUDE (inputs) FROM results"
             params: list[Any] = []
@@ -455,5 +445,3 @@ class Store:
                 query += " WHERE engine = ?"
                 params.append(engine)
             return con.execute(query, params).df()
-        finally:
-            con.close()
