@@ -126,11 +126,11 @@ class Runner:
 
     @property
     def size(self) -> int:
-        """How many items run at once: 1 in process, else the local worker count (or the
-        user's cluster's, once connected)."""
+        """How many items run at once: 1 in process, else the cluster's workers once it is
+        started, before that the local worker count it will have."""
         if self.in_process:
             return 1
-        if self._client is not None and self.scheduler:
+        if self._client is not None:
             return max(1, len(self._client.scheduler_info().get("workers", {})))
         return self.workers or os.cpu_count() or 1
 
