@@ -7,9 +7,9 @@
   laws, the fixed parameters, the swept value and impactbench's version) are served from it,
   so a rerun or an overlapping range costs only the lookup, and an interrupted sweep resumes;
 - the missing points are solved in the solver's fixed chunks on a
-  :class:`impactbench.cluster.Runner` (Dask workers, or a user's scheduler); the first chunk
-  runs here and times the solver, and the rest stays here when it would take less than
-  :data:`DISPATCH_MIN_S` (a cluster start costs about a second);
+  :class:`impactbench.cluster.Runner` (Dask workers, or a user's scheduler); the first two
+  chunks run here (the second times the solver, the first having loaded its compiled kernel),
+  and the rest stays here when it would take less than :data:`DISPATCH_MIN_S`;
 - finished chunks are stored as they arrive (at most every :data:`FLUSH_EVERY_S`); a chunk
   whose worker dies twice gives ``crashed`` points (not stored), never a lost sweep;
 - Ctrl-C stores what finished and raises :class:`impactbench.matrix.Interrupted`.
@@ -107,14 +107,14 @@ def rigid_flexible(base: Any, over: str, values: Any, combos: Any = None, *,
     try:
         with runner if own else contextlib.nullcontext(runner):
             dispatched = runner.dispatched
-            if todo:  # the first chunk here: it times the solver for the estimate
+            per_point = 0.0
+            for task in todo[:2]:  # here: the first loads the kernel, the second is timed
                 t0 = time.perf_counter()
-                finished(todo[0], two_dof.sweep_chunk(todo[0]))
-                per_point = (time.perf_counter() - t0) / len(todo[0][2])
-                rest = todo[1:]
-                runner.run(two_dof.sweep_chunk, rest, on_result=finished, on_crash=crashed,
-                           label="sweep",
-                           estimate_s=per_point * sum(len(t[2]) for t in rest))
+                finished(task, two_dof.sweep_chunk(task))
+                per_point = (time.perf_counter() - t0) / len(task[2])
+            rest = todo[2:]
+            runner.run(two_dof.sweep_chunk, rest, on_result=finished, on_crash=crashed,
+                       label="sweep", estimate_s=per_point * sum(len(t[2]) for t in rest))
             where = (runner.describe() if runner.dispatched > dispatched
                      else "in this process")
     except KeyboardInterrupt:
