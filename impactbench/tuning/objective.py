@@ -213,7 +213,7 @@ class Objective:
                     self.served += 1
                     del wanted[k]
         todo = list(wanted)
-        if self.runner is None or self.runner.in_process:
+        if self.runner is None:
             runs = [run_one(wanted[k]) for k in todo]
         else:
             # one task per worker: a round trip costs about as much as a short run
