@@ -309,8 +309,8 @@ def run_jobs(jobs: list[Job], workers: int | None = None,
         last_flush = time.monotonic()
 
     def finished(result: JobResult) -> None:
+        unstored.append(result)  # first: a result counted below is one the flush writes
         results[result.job.id] = result
-        unstored.append(result)
         group = twins[keys.get(result.job.id, result.job.id)]
         for twin in group[1:]:
             results[twin.id] = JobResult(twin, dict(result.run),
@@ -333,7 +333,8 @@ def run_jobs(jobs: list[Job], workers: int | None = None,
                                _crashed(item[0], why, item[1])), label="runs")
     except KeyboardInterrupt:
         flush()
-        raise Interrupted(len(results), len(jobs), store is not None) from None
+        kept = sum(r.run["status"] != "crashed" for r in results.values())  # crashed: not stored
+        raise Interrupted(kept, len(jobs), store is not None) from None
     flush()
     return [results[j.id] for j in sorted(jobs, key=lambda j: j.id)]
 

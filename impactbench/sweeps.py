@@ -76,22 +76,25 @@ def rigid_flexible(base: Any, over: str, values: Any, combos: Any = None, *,
         progress(served)
     todo = [task for lw, sc in scenarios.items() for task in two_dof.sweep_tasks(
         sc, over, [v for v in dict.fromkeys(vals) if (*lw, v) not in done], [lw])]
-    unstored: list[dict[str, Any]] = []
+    unstored: dict[tuple[str, str], list[dict[str, Any]]] = {}
+    stored = served
     last_flush = time.monotonic()
 
     def flush() -> None:
-        nonlocal last_flush
-        if store is not None and unstored:
-            frame = pd.DataFrame(unstored)
-            for lw, part in frame.groupby(["local", "structure"], sort=False):
-                store.put_points(keys[lw], part.drop(columns=["local", "structure"])
-                                 .rename(columns={fld: "value"}))
+        """Write what is not stored yet, one law combination at a time (each leaves
+        ``unstored`` once written, so an interrupted flush is finished, not repeated)."""
+        nonlocal last_flush, stored
+        while store is not None and unstored:
+            lw, rows = next(iter(unstored.items()))
+            part = pd.DataFrame(rows).drop(columns=["local", "structure"])
+            stored += store.put_points(keys[lw], part.rename(columns={fld: "value"}))
+            del unstored[lw]
         unstored.clear()
         last_flush = time.monotonic()
 
     def finished(task: Any, rows: list[dict[str, Any]]) -> None:
+        unstored.setdefault((task[0].local, task[0].structure), []).extend(rows)
         done.update(((r["local"], r["structure"], r[fld]), r) for r in rows)
-        unstored.extend(rows)
         if time.monotonic() - last_flush > FLUSH_EVERY_S:
             flush()
         if progress:
@@ -119,8 +122,8 @@ def rigid_flexible(base: Any, over: str, values: Any, combos: Any = None, *,
                      else "in this process")
     except KeyboardInterrupt:
         flush()
-        ok = sum(r["status"] != "crashed" for r in done.values())
-        raise Interrupted(ok, len(vals) * len(scenarios), store is not None,
+        raise Interrupted(stored if store is not None else len(done),
+                          len(vals) * len(scenarios), store is not None,
                           unit="points") from None
     flush()
     rows = [done[(*lw, v)] for lw in scenarios for v in vals]
