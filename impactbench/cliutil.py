@@ -234,6 +234,13 @@ def add_execution_flags(p: argparse.ArgumentParser, *, yes: bool = True,
                        "(or sweep points)")
 
 
+def check_workers(workers: int | None) -> int | None:
+    """``--workers`` of the commands that can run in this process: None or >= 0."""
+    if workers is not None and workers < 0:
+        raise ValueError(f"workers = {workers}: must be >= 0 (0: in this process)")
+    return workers
+
+
 def _path(text: str):
     from pathlib import Path
 

@@ -10,7 +10,7 @@ import argparse
 import importlib
 from pathlib import Path
 
-from impactbench.cliutil import add_execution_flags
+from impactbench.cliutil import add_execution_flags, check_workers
 
 HELP = "write the reference papers' figures (PNG) into a directory"
 DEFAULT_OUT = Path("reports/figures")
@@ -49,8 +49,7 @@ def write_all(out_dir: Path, execution: dict | None = None) -> list[Path]:
 def main(args: argparse.Namespace) -> int:
     from impactbench.store import Store, default_path
 
-    if args.workers is not None and args.workers < 0:
-        raise ValueError(f"workers = {args.workers}: must be >= 0 (0: in this process)")
+    check_workers(args.workers)
     execution = {"store": Store(args.store or default_path()), "fresh": args.fresh,
                  "workers": args.workers, "scheduler": args.scheduler}
     for path in write_all(args.out, execution):

@@ -61,11 +61,11 @@ def default_baseline(config: Path) -> Path:
 
 def main(args: argparse.Namespace) -> int:
     from impactbench import gates  # here: `gate --help` stays light
+    from impactbench.cliutil import check_workers
     from impactbench.publish import check_file_target
     from impactbench.store import Store, default_path
 
-    if args.jobs is not None and args.jobs < 0:
-        raise ValueError(f"workers = {args.jobs}: must be >= 0 (0: in this process)")
+    check_workers(args.jobs)
     if args.baseline is not None and not args.baseline.is_file() and not args.update_baseline:
         raise ValueError(f"baseline = '{args.baseline}': no such file (omit --baseline for "
                          "the default, or add --update-baseline to create it)")

@@ -14,6 +14,7 @@ from pathlib import Path
 
 from impactbench.cliutil import (
     add_execution_flags,
+    check_workers,
     grid,
     number,
     print_json,
@@ -95,8 +96,7 @@ def sweep_main(args: argparse.Namespace) -> int:
     locals_ = (args.local,) if args.local else tuple(LOCAL_LAWS)
     structures = (args.structure,) if args.structure else tuple(STRUCTURAL_LAWS)
     combos = [(lo, st) for lo in locals_ for st in structures]
-    if args.workers is not None and args.workers < 0:
-        raise ValueError(f"workers = {args.workers}: must be >= 0 (0: in this process)")
+    check_workers(args.workers)
     from impactbench.store import Store, default_path
     from impactbench.sweeps import rigid_flexible
 

@@ -20,6 +20,7 @@ from pathlib import Path
 
 from impactbench.cliutil import (
     add_execution_flags,
+    check_workers,
     key_value,
     number,
     number_list,
@@ -140,8 +141,7 @@ def main(args: argparse.Namespace) -> int:
     store = Store(args.store or default_path())
     from impactbench.cluster import Runner
 
-    if args.workers is not None and args.workers < 0:
-        raise ValueError(f"workers = {args.workers}: must be >= 0 (0: in this process)")
+    check_workers(args.workers)
     try:
         _load_quietly(args.engine)
         with Runner(args.workers, args.scheduler, min_dispatch_s=DISPATCH_MIN_S) as runner:
