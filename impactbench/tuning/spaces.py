@@ -64,6 +64,7 @@ import numpy as np
 
 from impactbench.engines.base import RunSettings
 from impactbench.reference import validation as check
+from impactbench.reference.metrics import BALL_METRICS
 from impactbench.reference.scenarios import BallOnPlate
 from impactbench.tuning.names import (
     MUJOCO_VARIANTS,
@@ -74,6 +75,9 @@ from impactbench.tuning.names import (
 
 MUJOCO_DMAX = 0.95
 """solimp dmax of the tuned MuJoCo contact (MuJoCo's default); only dmin/dmax is tuned."""
+
+ALL_METRICS = frozenset(BALL_METRICS)
+"""What a compliant contact (a force law over penetration) can express: every ball metric."""
 
 LINEAR_LIMITS = (
     "a linear spring–damper's restitution and contact duration do not depend on the impact "
@@ -236,8 +240,7 @@ def mujoco_space(scenario: BallOnPlate, variant: str = "solref+solimp",
     ) if with_imp else LINEAR_LIMITS
     return Space(engine, variant if solref_form == "direct" else f"{variant} ({solref_form})",
                  tuple(params), tuple(p.clip(s) for p, s in zip(params, start, strict=True)),
-                 "tuned", frozenset({"restitution", "duration_s", "peak_force_n",
-                                     "max_penetration_m", "energy_loss_fraction"}),
+                 "tuned", ALL_METRICS,
                  limits, to_tuned, snippet, linear=not with_imp)
 
 
@@ -281,8 +284,7 @@ def pybullet_space(scenario: BallOnPlate, timestep_s: float | None = None) -> Sp
                 "combine as Bullet does: stiffness in series, damping summed)")
 
     return Space("pybullet", "stiffness+damping", params, (k0, max(d0, 1e-9)), "tuned",
-                 frozenset({"restitution", "duration_s", "peak_force_n", "max_penetration_m",
-                            "energy_loss_fraction"}),
+                 ALL_METRICS,
                  LINEAR_LIMITS, to_tuned, snippet, linear=True)
 
 
@@ -376,8 +378,7 @@ def drake_relaxation_space(scenario: BallOnPlate, timestep_s: float | None = Non
 
     return Space("drake", "stiffness+relaxation", params,
                  tuple(p.clip(s) for p, s in zip(params, (k0, 1e-3), strict=True)),
-                 "tuned", frozenset({"restitution", "duration_s", "peak_force_n",
-                                     "max_penetration_m", "energy_loss_fraction"}),
+                 "tuned", ALL_METRICS,
                  RELAXATION_LIMITS, to_tuned, snippet, linear=True)
 
 
@@ -409,8 +410,7 @@ def drake_space(scenario: BallOnPlate, timestep_s: float | None = None) -> Space
               "against the other",)
     return Space("drake", "stiffness+dissipation", params,
                  tuple(p.clip(s) for p, s in zip(params, (k0, max(d0, 1e-6)), strict=True)),
-                 "tuned", frozenset({"restitution", "duration_s", "peak_force_n",
-                                     "max_penetration_m", "energy_loss_fraction"}),
+                 "tuned", ALL_METRICS,
                  limits, to_tuned, snippet)
 
 

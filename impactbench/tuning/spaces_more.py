@@ -40,6 +40,7 @@ from impactbench.reference import validation as check
 from impactbench.reference.scenarios import BallOnPlate
 from impactbench.tuning.names import VARIANTS
 from impactbench.tuning.spaces import (
+    ALL_METRICS,
     LINEAR_LIMITS,
     RIGID_LIMITS,
     Parameter,
@@ -48,8 +49,6 @@ from impactbench.tuning.spaces import (
     _step_floor,
 )
 
-TIME_RESOLVED = frozenset({"restitution", "duration_s", "peak_force_n", "max_penetration_m",
-                           "energy_loss_fraction"})
 SAPIEN_DIFF_STEP = 2e-2
 """PhysX's float32 compliant contact: duration and peak force jitter by ~1e-3 (relative)
 between stiffnesses 0.1 % apart, so the polish differentiates over ~10 % of K (0.01 of u)."""
@@ -105,7 +104,7 @@ def sapien_space(scenario: BallOnPlate, variant: str = "compliant-stiffness",
     limits = ("PhysX's compliant contact is an undamped spring (SAPIEN exposes no contact "
               "damping): its restitution stays ≈ 1 whatever the stiffness", *LINEAR_LIMITS)
     return Space("sapien", "compliant-stiffness", (param,), (param.clip(k0),), "tuned",
-                 TIME_RESOLVED - {"restitution", "energy_loss_fraction"}, limits, to_tuned,
+                 ALL_METRICS - {"restitution", "energy_loss_fraction"}, limits, to_tuned,
                  snippet, linear=True, diff_step=SAPIEN_DIFF_STEP)
 
 
@@ -154,7 +153,7 @@ def newton_space(scenario: BallOnPlate, timestep_s: float | None = None) -> Spac
               "duration do not depend on the impact velocity and its peak force is ∝ V0, while "
               "Hunt–Crossley's restitution falls with b·V0 and its duration and peak force "
               "follow Hertz's V0^(−1/5) and V0^(6/5)",)
-    return Space("newton", "ke+kd", params, (k0, d0), "tuned", TIME_RESOLVED, limits, to_tuned,
+    return Space("newton", "ke+kd", params, (k0, d0), "tuned", ALL_METRICS, limits, to_tuned,
                  snippet, linear=True, diff_step=NEWTON_DIFF_STEP)
 
 
