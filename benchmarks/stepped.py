@@ -38,9 +38,9 @@ EXTRA_CASES = (
 
 def _bare(module: ModuleType, scenario: Any, mode: str, settings: RunSettings,
           steps: int) -> None:
-    params, _ = module.parameters(scenario, mode, settings)
-    dt = float(settings.timestep_s)
     ball = isinstance(scenario, BallOnPlate)
+    params, _ = module.parameters(scenario, mode, settings, ball)
+    dt = float(settings.timestep_s)
     law = None
     if mode == "injected":
         law = scenario.law() if ball else scenario.local_law()

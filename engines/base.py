@@ -8,17 +8,22 @@ Adding an engine (a checklist, in the manner of scipy's ``OdeSolver``):
 
 1. Write ``engines/<name>_adapter.py`` with a subclass of :class:`Adapter`; import the engine
    inside the module only (the registry imports the module only when the engine is used) and
-   raise :class:`EngineUnavailable` from ``_import_engine`` if it is missing.
-2. Set ``name``, ``pip`` (the install command) and implement ``version()``,
-   ``default_timestep_s()`` and ``_run()``.
-3. ``_run`` builds the scenario, steps it, and records every step from a little before first
+   raise :class:`EngineUnavailable` if it is missing.
+2. Set ``name``, ``pip`` (the install command) and implement ``version()``.
+3. Declare one :class:`Builder` per scenario the engine supports in :attr:`Adapter.builders`
+   (scenario name → the method that runs it, the customary step there and, where it differs
+   from :attr:`Adapter.modes`, the modes it implements there). A scenario without a builder
+   is ``unsupported`` with that reason; no adapter branches on scenario types. A builder
+   builds the scenario, steps it, and records every step from a little before first
    contact until the bodies have separated: time, penetration, penetration rate, the engine's
    normal force (force sample at t_k = the force acting over the step that starts at t_k),
    body velocities.
 4. Return a non-ok :class:`~impactbench.reference.record.Status` for physical outcomes (no_contact,
    tunneled, diverged, max_time, unsupported) instead of raising.
-5. Register the class in :data:`ENGINES` as ``"module:Class"`` and add a test module in
-   ``tests/engines/`` that ``importorskip``s the engine.
+5. Add one :class:`~impactbench.engines.registry.EngineSpec` to
+   :data:`~impactbench.engines.registry.BUILTIN` (adapter ``"module:Class"``, pip command and
+   extra, version distribution, tuning spaces, customary steps) and a test module in
+   ``tests/engines/`` that skips through ``tests.conftest.require_engine``.
 6. ``default`` and ``custom`` (the contract every adapter follows): ``default`` builds the
    scenario the way a user of the engine would with nothing but geometry, mass, the step,
    gravity and the scenario's own settings (zero friction), leaving every contact parameter at
@@ -76,9 +81,28 @@ from impactbench.engines.registry import (  # noqa: F401
     engine_names,
 )
 from impactbench.reference.record import ImpactRecord, Status
-from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
 
-Scenario = BallOnPlate | RigidFlexible
+Scenario = Any
+"""A scenario: a frozen dataclass with a class attribute ``name`` (its registry name), e.g.
+:class:`~impactbench.reference.scenarios.BallOnPlate`."""
+
+
+@dataclass(frozen=True)
+class Builder:
+    """How an adapter runs one scenario.
+
+    Attributes:
+        run: the adapter method (its name) that simulates and records the scenario,
+            ``(scenario, mode, settings) -> ImpactRecord``; or, for a builder a plug-in adds
+            to an engine, ``"module:function"`` called as ``function(adapter, scenario, mode,
+            settings)``.
+        timestep_s: the adapter's default step for the scenario (s).
+        modes: the modes implemented for this scenario (None: all of :attr:`Adapter.modes`).
+    """
+
+    run: str
+    timestep_s: float
+    modes: tuple[str, ...] | None = None
 
 
 class EngineUnavailable(RuntimeError):
@@ -102,8 +126,9 @@ class RunSettings:
         tuned: fitted native parameters for ``tuned`` mode (engine-specific keys).
         params: the user's engine parameters for ``custom`` mode (engine's own key names).
         tuned_for: the provenance of ``tuned`` (a tuned file's ``[provenance]``: engine,
-            scenario parameters, timestep). A ``tuned`` run of another scenario or timestep is
-            ``unsupported`` (:func:`impactbench.tuned.binding_mismatch`); None: not checked.
+            scenario parameters, timestep). The suite refuses a ``tuned`` run of another
+            scenario or timestep as ``unsupported`` before it reaches the adapter
+            (:func:`impactbench.evaluate.compare`); None: not checked.
         options: engine-specific extras (e.g. an integrator name), recorded in the metadata.
     """
 
@@ -124,11 +149,13 @@ class RunSettings:
 
 
 class Adapter(ABC):
-    """One engine. Subclasses implement ``version``, ``default_timestep_s`` and ``_run``."""
+    """One engine. Subclasses implement ``version`` and declare their :attr:`builders`."""
 
     name: ClassVar[str]
     modes: ClassVar[tuple[str, ...]] = ("native", "injected", "tuned")
     """The modes this adapter implements (a subset of :data:`MODES`)."""
+    builders: ClassVar[dict[str, Builder]] = {}
+    """Scenario name → :class:`Builder`: the scenarios this engine runs."""
     parameter_keys: ClassVar[tuple[str, ...]] = ()
     """The engine's own parameter names accepted in ``custom`` mode (``settings.params``)."""
     injection: ClassVar[str] = ""
@@ -143,13 +170,19 @@ class Adapter(ABC):
     def version(self) -> str:
         """The engine package's version string."""
 
-    @abstractmethod
-    def default_timestep_s(self, scenario: Scenario, mode: str) -> float:
-        """The adapter's default integration step (s) for this scenario and mode."""
+    def builder(self, scenario: Scenario) -> Builder | None:
+        """The builder of ``scenario``: the adapter's own, else one the scenario's class
+        brings for this engine (``engine_builders``, a plug-in's); None when neither."""
+        name = getattr(scenario, "name", type(scenario).__name__)
+        found = self.builders.get(name)
+        if found is None:
+            found = dict(getattr(type(scenario), "engine_builders", {})).get(self.name)
+        return found
 
-    @abstractmethod
-    def _run(self, scenario: Scenario, mode: str, settings: RunSettings) -> ImpactRecord:
-        """Simulate and record; may return a non-ok status record."""
+    def default_timestep_s(self, scenario: Scenario, mode: str) -> float | None:
+        """The adapter's default integration step (s) for this scenario (None: no builder)."""
+        found = self.builder(scenario)
+        return None if found is None else found.timestep_s
 
     def run(self, scenario: Scenario, mode: str = "native",
             settings: RunSettings | None = None) -> ImpactRecord:
@@ -167,26 +200,35 @@ class Adapter(ABC):
             return ImpactRecord.failed(
                 Status.UNSUPPORTED, f"{self.name} does not implement mode {mode!r} "
                 f"(it implements {', '.join(self.modes)})", engine=self.name, mode=mode)
+        found = self.builder(scenario)
+        name = getattr(scenario, "name", type(scenario).__name__)
+        if found is None:
+            return ImpactRecord.failed(
+                Status.UNSUPPORTED, f"{self.name} has no builder for scenario {name!r} (it "
+                f"runs {', '.join(self.builders) or 'none'})", engine=self.name, mode=mode)
+        if found.modes is not None and mode not in found.modes:
+            return ImpactRecord.failed(
+                Status.UNSUPPORTED, f"{mode} mode is implemented for "
+                f"{' and '.join(s for s, b in self.builders.items() if b.modes is None)} only",
+                engine=self.name, engine_version=self.version(), mode=mode,
+                timestep_s=settings.timestep_s or found.timestep_s)
         if mode == "injected" and getattr(scenario, "model", None) == "kelvin-voigt":
             return ImpactRecord.failed(
                 Status.UNSUPPORTED, "model 'kelvin-voigt' (unclipped) pulls the ball back "
                 "(F < 0): no engine contact can pull, and the metrics path measures contact "
                 "by F > 0; inject 'kelvin-voigt-clipped'", engine=self.name, mode=mode)
-        dt = settings.timestep_s or self.default_timestep_s(scenario, mode)
+        dt = settings.timestep_s or found.timestep_s
         if settings.timestep_s is None:
             from dataclasses import replace
 
             settings = replace(settings, timestep_s=dt)
-        if mode == "tuned" and settings.tuned_for is not None:
-            from impactbench.tuned import binding_mismatch
-
-            why = binding_mismatch(settings.tuned_for, self.name, scenario, dt)
-            if why:
-                return ImpactRecord.failed(Status.UNSUPPORTED, why, engine=self.name,
-                                           engine_version=self.version(), mode=mode,
-                                           timestep_s=dt)
         t0 = time.perf_counter()
-        rec = self._run(scenario, mode, settings)
+        if ":" in found.run:
+            module_name, _, attr = found.run.partition(":")
+            rec = getattr(importlib.import_module(module_name), attr)(self, scenario, mode,
+                                                                      settings)
+        else:
+            rec = getattr(self, found.run)(scenario, mode, settings)
         rec.meta.update(
             engine=self.name,
             engine_version=self.version(),

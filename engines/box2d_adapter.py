@@ -273,18 +273,18 @@ class Box2dAdapter(stepping.SteppedAdapter):
     def version(self) -> str:
         return str(_import_box2d().__version__)
 
-    def parameters(self, scenario: Scenario, mode: str, settings: RunSettings
+    def parameters(self, scenario: Scenario, mode: str, settings: RunSettings, ball: bool
                    ) -> tuple[dict[str, Any], dict[str, Any]]:
-        params, meta = parameters(scenario, mode, settings)
+        params, meta = parameters(scenario, mode, settings, ball)
         meta["build_constants"] = build_constants()
         return params, meta
 
 
-def parameters(scenario: Scenario, mode: str, settings: RunSettings
+def parameters(scenario: Scenario, mode: str, settings: RunSettings, ball: bool
                ) -> tuple[dict[str, Any], dict[str, Any]]:
-    """The complete Box2D parameter set for ``mode`` and the run's meta."""
+    """The complete Box2D parameter set for ``mode`` and the run's meta (``ball``: the
+    ball-on-plate scenario, else the rigid–flexible pair)."""
     defaults = engine_defaults()
-    ball = isinstance(scenario, BallOnPlate)
     rigid = {"contact": "rigid", "not_comparable": stepping.rigid_artefacts(ball)}
     if mode == "default":
         return dict(defaults), {**rigid, "engine_defaults": defaults}

@@ -261,16 +261,16 @@ class DartAdapter(stepping.SteppedAdapter):
     def version(self) -> str:
         return str(_import_dart().__version__)
 
-    def parameters(self, scenario: Scenario, mode: str, settings: RunSettings
+    def parameters(self, scenario: Scenario, mode: str, settings: RunSettings, ball: bool
                    ) -> tuple[dict[str, Any], dict[str, Any]]:
-        return parameters(scenario, mode, settings)
+        return parameters(scenario, mode, settings, ball)
 
 
-def parameters(scenario: Scenario, mode: str, settings: RunSettings
+def parameters(scenario: Scenario, mode: str, settings: RunSettings, ball: bool
                ) -> tuple[dict[str, Any], dict[str, Any]]:
-    """The complete DART parameter set for ``mode`` and the run's meta."""
+    """The complete DART parameter set for ``mode`` and the run's meta (``ball``: the
+    ball-on-plate scenario, else the rigid–flexible pair)."""
     defaults = engine_defaults()
-    ball = isinstance(scenario, BallOnPlate)
     rigid = {"contact": "rigid", "not_comparable": stepping.rigid_artefacts(ball)}
     neutral = {"plate_restitution_coeff": 1.0}  # the pair (product) has body 1's value
     if mode == "default":

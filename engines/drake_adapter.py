@@ -109,7 +109,14 @@ from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 import numpy as np
-from impactbench.engines.base import PIP, Adapter, EngineUnavailable, RunSettings, Scenario
+from impactbench.engines.base import (
+    PIP,
+    Adapter,
+    Builder,
+    EngineUnavailable,
+    RunSettings,
+    Scenario,
+)
 from impactbench.engines.common import NATIVE_REFERENCE_VELOCITY_M_S, Recorder, classify
 from impactbench.reference import validation as check
 from impactbench.reference.laws import LocalLaw, StructuralLaw, no_further_contact
@@ -549,6 +556,16 @@ class DrakeAdapter(Adapter):
     pip: ClassVar[str] = PIP["drake"]
     modes: ClassVar[tuple[str, ...]] = ("native", "injected", "tuned", "default", "custom")
     parameter_keys: ClassVar[tuple[str, ...]] = PARAMETER_KEYS
+    builders: ClassVar[dict[str, Builder]] = {
+        "ball-on-plate": Builder("run_ball", BALL_TIMESTEP_S),
+        "rigid-flexible": Builder("run_rigid_flexible", RIGID_FLEXIBLE_TIMESTEP_S,
+                                  modes=("native", "injected", "tuned")),
+    }
+    model_builders: ClassVar[dict[str, Callable[[Any, str, RunSettings], DrakeModel]]] = {
+        "ball-on-plate": build_ball,
+        "rigid-flexible": build_rigid_flexible,
+    }
+    """Scenario name → the function that builds its diagram (:meth:`build`)."""
 
     def __init__(self) -> None:
         self._import_engine()  # a missing pydrake raises EngineUnavailable here (the registry)
@@ -561,30 +578,31 @@ class DrakeAdapter(Adapter):
     def version(self) -> str:
         return _version()
 
-    def default_timestep_s(self, scenario: Scenario, mode: str) -> float:
-        if isinstance(scenario, BallOnPlate):
-            return BALL_TIMESTEP_S
-        return RIGID_FLEXIBLE_TIMESTEP_S
-
     def build(self, scenario: Scenario, mode: str, settings: RunSettings) -> DrakeModel:
         """The diagram the adapter steps (public for the benchmark's bare stepping loop)."""
-        if isinstance(scenario, BallOnPlate):
-            return build_ball(scenario, mode, settings)
-        return build_rigid_flexible(scenario, mode, settings)
+        name = getattr(scenario, "name", type(scenario).__name__)
+        if name not in self.model_builders:
+            raise ValueError(f"scenario = {name!r}: Drake builds "
+                             f"{', '.join(self.model_builders)}")
+        return self.model_builders[name](scenario, mode, settings)
 
-    def _run(self, scenario: Scenario, mode: str, settings: RunSettings) -> ImpactRecord:
+    def run_ball(self, scenario: BallOnPlate, mode: str, settings: RunSettings) -> ImpactRecord:
+        return self._run_with(_run_ball, scenario, mode, settings)
+
+    def run_rigid_flexible(self, scenario: RigidFlexible, mode: str, settings: RunSettings
+                           ) -> ImpactRecord:
+        return self._run_with(_run_rigid_flexible, scenario, mode, settings)
+
+    def _run_with(self, run: Callable[[DrakeModel, Any, RunSettings], ImpactRecord],
+                  scenario: Scenario, mode: str, settings: RunSettings) -> ImpactRecord:
+        """What every scenario shares: the tuned check, :meth:`build`, then ``run``."""
         if mode == "tuned" and not settings.tuned:
             return ImpactRecord.failed(
                 Status.UNSUPPORTED, "tuned mode needs tuned parameters "
                 "(point_stiffness_n_per_m, hunt_crossley_dissipation_s_per_m); none given")
-        if mode in ("default", "custom") and not isinstance(scenario, BallOnPlate):
-            return ImpactRecord.failed(
-                Status.UNSUPPORTED, f"{mode} mode is implemented for ball-on-plate only")
         model = self.build(scenario, mode, settings)
         with np.errstate(over="ignore", invalid="ignore"):  # a blow-up is a status, not noise
-            if isinstance(scenario, BallOnPlate):
-                return _run_ball(model, scenario, settings)
-            return _run_rigid_flexible(model, scenario, settings)
+            return run(model, scenario, settings)
 
 
 def _advance(model: DrakeModel, monitor: Callable[[Any], bool], t_cap: float

@@ -44,10 +44,10 @@ import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
-from impactbench.engines.base import Adapter, EngineUnavailable, RunSettings, Scenario
+from impactbench.engines.base import Adapter, Builder, EngineUnavailable, RunSettings
 from impactbench.engines.common import NATIVE_REFERENCE_VELOCITY_M_S, classify
 from impactbench.engines.mujoco_adapter import (
     BALL_TIMESTEP_S,
@@ -56,21 +56,21 @@ from impactbench.engines.mujoco_adapter import (
     PARAMETER_KEYS,
     RIGID_FLEXIBLE_TIMESTEP_S,
     SOLIMP,
-    _contact_time_scale_s,
-    _native_ball,
-    _native_or_tuned,
-    _set_contact,
     ball_end_finder,
     ball_mjcf,
+    contact_time_scale_s,
     custom_parameters,
     drive,
     engine_defaults,
     face_radius_m,
     hertz_duration_s,
     measured_diag_a,
+    native_ball,
+    native_or_tuned,
     rigid_flexible_end_finder,
     rigid_flexible_mjcf,
     rigid_flexible_record,
+    set_contact,
 )
 from impactbench.reference.models import KelvinVoigt
 from impactbench.reference.record import ImpactRecord, Status
@@ -228,11 +228,11 @@ def run_ball(s: BallOnPlate, mode: str, settings: RunSettings) -> ImpactRecord:
     if out_of_box:
         meta["engine_defaults"] = engine_defaults(model)
         if "solref" in user or "solimp" in user:
-            _set_contact(model, tuple(user.get("solref", model.geom_solref[1])),
+            set_contact(model, tuple(user.get("solref", model.geom_solref[1])),
                          tuple(user.get("solimp", model.geom_solimp[1])))
         meta.update(params=user, solref=[float(v) for v in model.geom_solref[1]],
                     solimp=[float(v) for v in model.geom_solimp[1]])
-        t_est = max(t_est, _contact_time_scale_s(meta["solref"], a, m, dt))
+        t_est = max(t_est, contact_time_scale_s(meta["solref"], a, m, dt))
     elif mode == "injected":
         injected = injected_parameters(s.law(), a)
         if injected is None:
@@ -240,18 +240,18 @@ def run_ball(s: BallOnPlate, mode: str, settings: RunSettings) -> ImpactRecord:
                 Status.UNSUPPORTED, "mjx: injected needs a power-law or linear contact law "
                 "(an arbitrary elastic function cannot run inside the compiled step)")
         control, params = "secant", injected
-        _set_contact(model, (0.0, 0.0), SOLIMP)
+        set_contact(model, (0.0, 0.0), SOLIMP)
         meta.update(law=s.model, solimp=list(SOLIMP))
     else:
         v_ref = float(settings.options.get("reference_velocity_m_s",
                                            NATIVE_REFERENCE_VELOCITY_M_S))
         k = d = 0.0
         if mode == "native":
-            sd = _native_ball(s.replace(velocity_m_s=v_ref), v_ref)
+            sd = native_ball(s.replace(velocity_m_s=v_ref), v_ref)
             k, d = sd.stiffness_n_per_m, sd.damping_ns_per_m
             t_est = sd.duration_s(m)
             meta.update(stiffness_n_per_m=k, damping_ns_per_m=d, reference_velocity_m_s=v_ref)
-        meta.update(_native_or_tuned(model, mode, settings, (-k * a, -d * a)))
+        meta.update(native_or_tuned(model, mode, settings, (-k * a, -d * a)))
     gap = GAP_STEPS * v0 * dt
     data.qpos[0], data.qvel[0] = gap, -v0
     cap = max(20.0 * t_est, DEFAULT_TIME_CAP_S) if out_of_box else 20.0 * t_est
@@ -290,7 +290,7 @@ def run_rigid_flexible(s: RigidFlexible, mode: str, settings: RunSettings) -> Im
     beta = s.beta_n_per_m3 if s.structure == "softening" else 0.0
     meta: dict[str, Any] = {"efc_diagA": a, "face_radius_m": face_radius_m(s),
                             "chunk_steps": RIGID_FLEXIBLE_CHUNK}
-    meta.update(_native_or_tuned(model, mode, settings, (-s.k1_n_per_m * a, 0.0)))
+    meta.update(native_or_tuned(model, mode, settings, (-s.k1_n_per_m * a, 0.0)))
     if mode == "native":
         meta.update(stiffness_n_per_m=s.k1_n_per_m, damping_ns_per_m=0.0)
     v1 = s.velocity_m_s
@@ -359,6 +359,12 @@ class MjxAdapter(Adapter):
                  "damping at the start state (Euler)")
     modes = ("native", "injected", "tuned", "default", "custom")
     parameter_keys = PARAMETER_KEYS
+    # every mode reaches both builders: run_rigid_flexible gives its own reasons for the
+    # rigid–flexible modes MJX does not run (injected, default, custom)
+    builders: ClassVar[dict[str, Builder]] = {
+        "ball-on-plate": Builder("run_ball", BALL_TIMESTEP_S),
+        "rigid-flexible": Builder("run_rigid_flexible", RIGID_FLEXIBLE_TIMESTEP_S),
+    }
 
     def version(self) -> str:
         from importlib.metadata import version
@@ -366,15 +372,18 @@ class MjxAdapter(Adapter):
         mujoco, jax, _ = _mjx()
         return f"{version('mujoco-mjx')} (mujoco {mujoco.__version__}, jax {jax.__version__})"
 
-    def default_timestep_s(self, scenario: Scenario, mode: str) -> float:
-        if isinstance(scenario, BallOnPlate):
-            return BALL_TIMESTEP_S
-        return RIGID_FLEXIBLE_TIMESTEP_S
-
-    def _run(self, scenario: Scenario, mode: str, settings: RunSettings) -> ImpactRecord:
+    def run_ball(self, scenario: BallOnPlate, mode: str, settings: RunSettings) -> ImpactRecord:
         if mode == "tuned" and settings.tuned is None:
-            return ImpactRecord.failed(
-                Status.UNSUPPORTED, "tuned mode needs a tuned-parameter file (none given)")
-        if isinstance(scenario, BallOnPlate):
-            return run_ball(scenario, mode, settings)
+            return _no_tuned_file()
+        return run_ball(scenario, mode, settings)
+
+    def run_rigid_flexible(self, scenario: RigidFlexible, mode: str, settings: RunSettings
+                           ) -> ImpactRecord:
+        if mode == "tuned" and settings.tuned is None:
+            return _no_tuned_file()
         return run_rigid_flexible(scenario, mode, settings)
+
+
+def _no_tuned_file() -> ImpactRecord:
+    return ImpactRecord.failed(
+        Status.UNSUPPORTED, "tuned mode needs a tuned-parameter file (none given)")

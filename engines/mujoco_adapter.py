@@ -87,10 +87,10 @@ import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Protocol
+from typing import Any, ClassVar, Protocol
 
 import numpy as np
-from impactbench.engines.base import Adapter, EngineUnavailable, RunSettings, Scenario
+from impactbench.engines.base import Adapter, Builder, EngineUnavailable, RunSettings
 from impactbench.engines.common import (
     NATIVE_REFERENCE_VELOCITY_M_S,
     SpringDamper,
@@ -434,7 +434,7 @@ def hertz_duration_s(scenario: BallOnPlate, velocity_m_s: float) -> float:
 
 
 @functools.lru_cache(maxsize=64)
-def _native_ball(scenario_at_v_ref: BallOnPlate, v_ref: float) -> SpringDamper:
+def native_ball(scenario_at_v_ref: BallOnPlate, v_ref: float) -> SpringDamper:
     """Cached native conversion: one reference solve per parameter set, not per velocity."""
     return native_ball_spring_damper(scenario_at_v_ref, v_ref)
 
@@ -445,7 +445,7 @@ def _new_model(mjcf: str) -> tuple[Any, Any]:
     return model, mujoco.MjData(model)
 
 
-def _set_contact(model: Any, solref: tuple[float, ...], solimp: tuple[float, ...]) -> None:
+def set_contact(model: Any, solref: tuple[float, ...], solimp: tuple[float, ...]) -> None:
     """The same solref/solimp on every geom, so MuJoCo's pair mixing keeps them as given."""
     model.geom_solref[:] = solref
     model.geom_solimp[:] = solimp
@@ -459,13 +459,13 @@ def _enable_override(model: Any) -> Any:
     return model.opt.o_solref
 
 
-def _native_or_tuned(model: Any, mode: str, settings: RunSettings,
+def native_or_tuned(model: Any, mode: str, settings: RunSettings,
                      native: tuple[float, ...]) -> dict[str, Any]:
     if mode == "tuned":
         solref, solimp = _tuned_parameters(settings.tuned or {})
     else:
         solref, solimp = native, SOLIMP
-    _set_contact(model, solref, solimp)
+    set_contact(model, solref, solimp)
     return {"solref": list(solref), "solimp": list(solimp)}
 
 
@@ -489,11 +489,11 @@ def run_ball(s: BallOnPlate, mode: str, settings: RunSettings) -> ImpactRecord:
     if out_of_box:
         meta["engine_defaults"] = engine_defaults(model)
         if "solref" in user or "solimp" in user:
-            _set_contact(model, tuple(user.get("solref", model.geom_solref[1])),
+            set_contact(model, tuple(user.get("solref", model.geom_solref[1])),
                          tuple(user.get("solimp", model.geom_solimp[1])))
         meta.update(params=user, solref=[float(v) for v in model.geom_solref[1]],
                     solimp=[float(v) for v in model.geom_solimp[1]])
-        t_est = max(t_est, _contact_time_scale_s(meta["solref"], a, m, dt))
+        t_est = max(t_est, contact_time_scale_s(meta["solref"], a, m, dt))
     elif mode == "injected":
         solref = _enable_override(model)
         law = s.law()  # the scenario's contact model (Hunt–Crossley family or Kelvin–Voigt)
@@ -511,13 +511,13 @@ def run_ball(s: BallOnPlate, mode: str, settings: RunSettings) -> ImpactRecord:
         v_ref = float(settings.options.get("reference_velocity_m_s",
                                            NATIVE_REFERENCE_VELOCITY_M_S))
         if mode == "native":
-            sd = _native_ball(s.replace(velocity_m_s=v_ref), v_ref)
+            sd = native_ball(s.replace(velocity_m_s=v_ref), v_ref)
             k, d = sd.stiffness_n_per_m, sd.damping_ns_per_m
             t_est = sd.duration_s(m)  # a linear contact's duration does not depend on V0
             meta.update(stiffness_n_per_m=k, damping_ns_per_m=d, reference_velocity_m_s=v_ref)
         else:
             k = d = 0.0
-        meta.update(_native_or_tuned(model, mode, settings, (-k * a, -d * a)))
+        meta.update(native_or_tuned(model, mode, settings, (-k * a, -d * a)))
     gap = GAP_STEPS * v0 * dt
     data.qpos[0], data.qvel[0] = gap, -v0
     cap = max(20.0 * t_est, DEFAULT_TIME_CAP_S) if out_of_box else 20.0 * t_est
@@ -540,7 +540,7 @@ def run_ball(s: BallOnPlate, mode: str, settings: RunSettings) -> ImpactRecord:
     return _mark_unstable(rec, out)
 
 
-def _contact_time_scale_s(solref: list[float], a: float, m: float, dt: float) -> float:
+def contact_time_scale_s(solref: list[float], a: float, m: float, dt: float) -> float:
     """A rough contact duration (s) of a solref, for chunk sizes only: 2·max(τ, 2·dt) for a
     positive time constant τ (MuJoCo's ``refsafe`` clamp), π·√(m/K) with K ≈ S/A for a
     direct (−S, −D)."""
@@ -597,7 +597,7 @@ def run_rigid_flexible(s: RigidFlexible, mode: str, settings: RunSettings) -> Im
         commit = law.update
         meta.update(law=s.local, solimp=list(SOLIMP))
     else:
-        meta.update(_native_or_tuned(model, mode, settings, (-s.k1_n_per_m * a, 0.0)))
+        meta.update(native_or_tuned(model, mode, settings, (-s.k1_n_per_m * a, 0.0)))
         if mode == "native":
             meta.update(stiffness_n_per_m=s.k1_n_per_m, damping_ns_per_m=0.0)
         if beta:
@@ -680,22 +680,27 @@ class MujocoAdapter(Adapter):
     parameter_keys = PARAMETER_KEYS
     injection = ("the law through MuJoCo's soft-contact solver: a direct solref scheduled each "
                  "step to the law's secant stiffness and damping at the start state (Euler)")
+    builders: ClassVar[dict[str, Builder]] = {
+        "ball-on-plate": Builder("run_ball", BALL_TIMESTEP_S),
+        "rigid-flexible": Builder("run_rigid_flexible", RIGID_FLEXIBLE_TIMESTEP_S,
+                                  modes=("native", "injected", "tuned")),
+    }
 
     def version(self) -> str:
         return str(_mujoco().__version__)
 
-    def default_timestep_s(self, scenario: Scenario, mode: str) -> float:
-        if isinstance(scenario, BallOnPlate):
-            return BALL_TIMESTEP_S
-        return RIGID_FLEXIBLE_TIMESTEP_S
-
-    def _run(self, scenario: Scenario, mode: str, settings: RunSettings) -> ImpactRecord:
+    def run_ball(self, scenario: BallOnPlate, mode: str, settings: RunSettings) -> ImpactRecord:
         if mode == "tuned" and settings.tuned is None:
-            return ImpactRecord.failed(
-                Status.UNSUPPORTED, "tuned mode needs a tuned-parameter file (none given)")
-        if isinstance(scenario, BallOnPlate):
-            return run_ball(scenario, mode, settings)
-        if mode in ("default", "custom"):
-            return ImpactRecord.failed(
-                Status.UNSUPPORTED, f"{mode} mode is implemented for ball-on-plate only")
+            return _no_tuned_file()
+        return run_ball(scenario, mode, settings)
+
+    def run_rigid_flexible(self, scenario: RigidFlexible, mode: str, settings: RunSettings
+                           ) -> ImpactRecord:
+        if mode == "tuned" and settings.tuned is None:
+            return _no_tuned_file()
         return run_rigid_flexible(scenario, mode, settings)
+
+
+def _no_tuned_file() -> ImpactRecord:
+    return ImpactRecord.failed(
+        Status.UNSUPPORTED, "tuned mode needs a tuned-parameter file (none given)")

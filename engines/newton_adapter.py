@@ -64,10 +64,10 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
-from impactbench.engines.base import Adapter, EngineUnavailable, RunSettings, Scenario
+from impactbench.engines.base import Adapter, Builder, EngineUnavailable, RunSettings
 from impactbench.engines.common import (
     NATIVE_REFERENCE_VELOCITY_M_S,
     SpringDamper,
@@ -432,20 +432,27 @@ class NewtonAdapter(Adapter):
                  "Featherstone's semi-implicit Euler")
     modes = ("native", "injected", "tuned", "default", "custom")
     parameter_keys = PARAMETER_KEYS
+    builders: ClassVar[dict[str, Builder]] = {
+        "ball-on-plate": Builder("run_ball", BALL_TIMESTEP_S),
+        "rigid-flexible": Builder("run_rigid_flexible", RIGID_FLEXIBLE_TIMESTEP_S),
+    }
 
     def version(self) -> str:
         wp, newton = _newton()
         return f"{newton.__version__} (warp {wp.__version__})"
 
-    def default_timestep_s(self, scenario: Scenario, mode: str) -> float:
-        if isinstance(scenario, BallOnPlate):
-            return BALL_TIMESTEP_S
-        return RIGID_FLEXIBLE_TIMESTEP_S
-
-    def _run(self, scenario: Scenario, mode: str, settings: RunSettings) -> ImpactRecord:
+    def run_ball(self, scenario: BallOnPlate, mode: str, settings: RunSettings) -> ImpactRecord:
         if mode == "tuned" and settings.tuned is None:
-            return ImpactRecord.failed(
-                Status.UNSUPPORTED, "tuned mode needs a tuned-parameter file (none given)")
-        if isinstance(scenario, BallOnPlate):
-            return run_ball(scenario, mode, settings)
+            return _no_tuned_file()
+        return run_ball(scenario, mode, settings)
+
+    def run_rigid_flexible(self, scenario: RigidFlexible, mode: str, settings: RunSettings
+                           ) -> ImpactRecord:
+        if mode == "tuned" and settings.tuned is None:
+            return _no_tuned_file()
         return run_rigid_flexible(scenario, mode, settings)
+
+
+def _no_tuned_file() -> ImpactRecord:
+    return ImpactRecord.failed(
+        Status.UNSUPPORTED, "tuned mode needs a tuned-parameter file (none given)")

@@ -101,9 +101,10 @@ from __future__ import annotations
 import functools
 import math
 import time
-from typing import Any
+from collections.abc import Callable
+from typing import Any, ClassVar
 
-from impactbench.engines.base import Adapter, EngineUnavailable, RunSettings, Scenario
+from impactbench.engines.base import Adapter, Builder, EngineUnavailable, RunSettings, Scenario
 from impactbench.engines.common import (
     NATIVE_REFERENCE_VELOCITY_M_S,
     Recorder,
@@ -382,14 +383,25 @@ class PybulletAdapter(Adapter):
     injection = ("the law through Bullet's soft contact: its secant stiffness and damping "
                  "scheduled each step, applied by Bullet's implicit (backward-Euler) contact "
                  "step")
+    builders: ClassVar[dict[str, Builder]] = {
+        "ball-on-plate": Builder("run_ball", BALL_DEFAULT_DT_S),
+        "rigid-flexible": Builder("run_rigid_flexible", RF_DEFAULT_DT_S,
+                                  modes=("native", "injected", "tuned")),
+    }
 
     def version(self) -> str:
         return _version()
 
-    def default_timestep_s(self, scenario: Scenario, mode: str) -> float:
-        return BALL_DEFAULT_DT_S if isinstance(scenario, BallOnPlate) else RF_DEFAULT_DT_S
+    def run_ball(self, scenario: BallOnPlate, mode: str, settings: RunSettings) -> ImpactRecord:
+        return self._run_with(_run_ball, scenario, mode, settings)
 
-    def _run(self, scenario: Scenario, mode: str, settings: RunSettings) -> ImpactRecord:
+    def run_rigid_flexible(self, scenario: RigidFlexible, mode: str, settings: RunSettings
+                           ) -> ImpactRecord:
+        return self._run_with(_run_flex, scenario, mode, settings)
+
+    def _run_with(self, run: Callable[..., ImpactRecord], scenario: Scenario, mode: str,
+                  settings: RunSettings) -> ImpactRecord:
+        """What every scenario shares: the injection option, the tuned check, the import."""
         injection = check.one_of("injection", settings.options.get("injection", "secant"),
                                  INJECTIONS)
         if mode == "tuned" and settings.tuned is None:
@@ -398,12 +410,7 @@ class PybulletAdapter(Adapter):
                 "contact_damping); none were given")
         p = _import_engine()
         dt = float(settings.timestep_s or self.default_timestep_s(scenario, mode))
-        if isinstance(scenario, BallOnPlate):
-            return _run_ball(p, scenario, mode, settings, dt, injection)
-        if mode in ("default", "custom"):
-            return ImpactRecord.failed(
-                Status.UNSUPPORTED, f"{mode} mode is implemented for ball-on-plate only")
-        return _run_flex(p, scenario, mode, settings, dt, injection)
+        return run(p, scenario, mode, settings, dt, injection)
 
 
 def _tuned_pair(tuned: dict[str, Any]) -> tuple[float, float]:
@@ -440,7 +447,7 @@ def _run_ball(p: Any, s: BallOnPlate, mode: str, settings: RunSettings, dt: floa
               injection: str) -> ImpactRecord:
     """Record the ball's impact; see the module docstring for the physics."""
     injected = mode == "injected"
-    meta: dict[str, Any] = {"scenario": "ball-on-plate"}
+    meta: dict[str, Any] = {"scenario": s.name}
     out_of_box = None
     if mode in ("default", "custom"):
         out_of_box = custom_parameters(settings.params or {}) if mode == "custom" else {}
@@ -522,7 +529,7 @@ def _run_flex(p: Any, s: RigidFlexible, mode: str, settings: RunSettings, dt: fl
     from impactbench.reference.laws import no_further_contact
 
     injected = mode == "injected"
-    meta: dict[str, Any] = {"scenario": "rigid-flexible"}
+    meta: dict[str, Any] = {"scenario": s.name}
     if mode == "tuned":
         k0, d0 = _tuned_pair(settings.tuned or {})
     elif injected:

@@ -119,10 +119,10 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from functools import lru_cache
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
-from impactbench.engines.base import Adapter, EngineUnavailable, RunSettings, Scenario
+from impactbench.engines.base import Adapter, Builder, EngineUnavailable, RunSettings, Scenario
 from impactbench.engines.common import NATIVE_REFERENCE_VELOCITY_M_S, classify
 from impactbench.reference import validation as check
 from impactbench.reference.laws import no_further_contact
@@ -339,31 +339,36 @@ class PymunkAdapter(Adapter):
     parameter_keys = PARAMETER_KEYS
     injection = ("cannot: pymunk's contacts are rigid impulses with no compliance; the law is "
                  "a penalty force (contact rejected) integrated by pymunk's drift–kick step")
+    builders: ClassVar[dict[str, Builder]] = {
+        "ball-on-plate": Builder("run_ball", 1e-6),
+        "rigid-flexible": Builder("run_rigid_flexible", 1e-5,
+                                  modes=("native", "injected", "tuned")),
+    }
 
     def version(self) -> str:
         return str(_import_pymunk().version)
 
-    def default_timestep_s(self, scenario: Scenario, mode: str) -> float:
-        return 1e-6 if isinstance(scenario, BallOnPlate) else 1e-5
+    def run_ball(self, scenario: BallOnPlate, mode: str, settings: RunSettings) -> ImpactRecord:
+        return self._run_with(ball_model, run_ball, scenario, mode, settings)
 
-    def _run(self, scenario: Scenario, mode: str, settings: RunSettings) -> ImpactRecord:
+    def run_rigid_flexible(self, scenario: RigidFlexible, mode: str, settings: RunSettings
+                           ) -> ImpactRecord:
+        return self._run_with(rigid_flexible_model, run_rigid_flexible, scenario, mode,
+                              settings)
+
+    def _run_with(self, build: Callable[..., tuple[Any, dict[str, Any]]],
+                  run: Callable[[Any, RunSettings, dict[str, Any]], ImpactRecord],
+                  scenario: Scenario, mode: str, settings: RunSettings) -> ImpactRecord:
+        """What every scenario shares: the tuned check, the step and the solver iterations,
+        then ``build(scenario, mode, settings, dt, iterations)`` and ``run``."""
         if mode == "tuned" and settings.tuned is None:
             return ImpactRecord.failed(
                 Status.UNSUPPORTED, "tuned mode needs settings.tuned = {'elasticity': e} "
                 "(no tuned-parameter file given)")
         dt = float(settings.timestep_s)  # Adapter.run fills the default
         iterations = _iterations(settings)
-        if isinstance(scenario, BallOnPlate):
-            model, meta = ball_model(scenario, mode, settings, dt, iterations)
-            return run_ball(model, settings, meta)
-        if mode in ("default", "custom"):
-            return ImpactRecord.failed(
-                Status.UNSUPPORTED, f"{mode} mode is implemented for ball-on-plate only")
-        if isinstance(scenario, RigidFlexible):
-            model, meta = rigid_flexible_model(scenario, mode, settings, dt, iterations)
-            return run_rigid_flexible(model, settings, meta)
-        raise ValueError(f"scenario = {type(scenario).__name__}: must be BallOnPlate or "
-                         f"RigidFlexible")
+        model, meta = build(scenario, mode, settings, dt, iterations)
+        return run(model, settings, meta)
 
 
 def _tuned_elasticity(settings: RunSettings) -> float:

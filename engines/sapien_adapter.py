@@ -345,9 +345,9 @@ class SapienAdapter(stepping.SteppedAdapter):
         sapien, _ = _import_sapien()
         return f"{sapien.__version__} (PhysX {_physx_version()})"
 
-    def parameters(self, scenario: Scenario, mode: str, settings: RunSettings
+    def parameters(self, scenario: Scenario, mode: str, settings: RunSettings, ball: bool
                    ) -> tuple[dict[str, Any], dict[str, Any]]:
-        return parameters(scenario, mode, settings)
+        return parameters(scenario, mode, settings, ball)
 
 
 def _physx_version() -> str:
@@ -355,11 +355,11 @@ def _physx_version() -> str:
     return str(getattr(px, "version", lambda: "?")())
 
 
-def parameters(scenario: Scenario, mode: str, settings: RunSettings
+def parameters(scenario: Scenario, mode: str, settings: RunSettings, ball: bool
                ) -> tuple[dict[str, Any], dict[str, Any]]:
-    """The complete PhysX parameter set for ``mode`` and the run's meta."""
+    """The complete PhysX parameter set for ``mode`` and the run's meta (``ball``: the
+    ball-on-plate scenario, else the rigid–flexible pair)."""
     defaults = engine_defaults()
-    ball = isinstance(scenario, BallOnPlate)
     if mode == "default":
         return dict(defaults), {"contact": "rigid", "engine_defaults": defaults,
                                 **_artefacts(defaults, ball)}

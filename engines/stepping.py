@@ -29,7 +29,7 @@ from abc import abstractmethod
 from collections.abc import Callable
 from typing import Any, ClassVar, Protocol
 
-from impactbench.engines.base import Adapter, RunSettings, Scenario
+from impactbench.engines.base import Adapter, Builder, RunSettings, Scenario
 from impactbench.engines.common import Recorder, classify
 from impactbench.reference.laws import StructuralLaw, no_further_contact
 from impactbench.reference.record import ImpactRecord, Status
@@ -236,34 +236,46 @@ class SteppedAdapter(Adapter):
     """
 
     modes = ("native", "injected", "tuned", "default", "custom")
+    builders: ClassVar[dict[str, Builder]] = {
+        "ball-on-plate": Builder("run_ball", 1e-6),
+        "rigid-flexible": Builder("run_pair", 1e-5),
+    }
     label: ClassVar[str]
     ball_model: ClassVar[Callable[..., SteppedModel]]
     pair_model: ClassVar[Callable[..., SteppedModel]]
 
     @abstractmethod
-    def parameters(self, scenario: Scenario, mode: str, settings: RunSettings
+    def parameters(self, scenario: Scenario, mode: str, settings: RunSettings, ball: bool
                    ) -> tuple[dict[str, Any], dict[str, Any]]:
-        """The complete engine parameter set for ``mode`` and the run's meta."""
+        """The complete engine parameter set for ``mode`` and the run's meta (``ball``: the
+        ball-on-plate scenario, else the rigid–flexible pair)."""
 
-    def default_timestep_s(self, scenario: Scenario, mode: str) -> float:
-        return 1e-6 if isinstance(scenario, BallOnPlate) else 1e-5
+    def run_ball(self, scenario: BallOnPlate, mode: str, settings: RunSettings) -> ImpactRecord:
+        refused = self._refused(mode, settings)
+        if refused is not None:
+            return refused
+        dt = float(settings.timestep_s)
+        params, meta = self.parameters(scenario, mode, settings, ball=True)
+        law = scenario.law() if mode == "injected" else None
+        model = self.ball_model(scenario, params, dt, law)
+        return run_ball(model, scenario, dt, settings.max_time_s, meta)
 
-    def _run(self, scenario: Scenario, mode: str, settings: RunSettings) -> ImpactRecord:
+    def run_pair(self, scenario: RigidFlexible, mode: str, settings: RunSettings
+                 ) -> ImpactRecord:
+        refused = self._refused(mode, settings)
+        if refused is not None:
+            return refused
+        dt = float(settings.timestep_s)
+        params, meta = self.parameters(scenario, mode, settings, ball=False)
+        law = scenario.local_law() if mode == "injected" else None
+        model = self.pair_model(scenario, params, dt, law)
+        threshold = getattr(law, "contact_threshold", None)
+        return run_pair(model, scenario, dt, settings.max_time_s, meta, threshold)
+
+    def _refused(self, mode: str, settings: RunSettings) -> ImpactRecord | None:
+        """``unsupported`` for tuned mode without tuned parameters (every scenario)."""
         if mode == "tuned" and settings.tuned is None:
             return ImpactRecord.failed(
                 Status.UNSUPPORTED, f"tuned mode needs settings.tuned ({self.label} parameter "
                 f"names: {', '.join(self.parameter_keys)}; no tuned-parameter file given)")
-        dt = float(settings.timestep_s)
-        params, meta = self.parameters(scenario, mode, settings)
-        law = None
-        if mode == "injected":
-            law = scenario.law() if isinstance(scenario, BallOnPlate) else scenario.local_law()
-        if isinstance(scenario, BallOnPlate):
-            model = self.ball_model(scenario, params, dt, law)
-            return run_ball(model, scenario, dt, settings.max_time_s, meta)
-        if isinstance(scenario, RigidFlexible):
-            model = self.pair_model(scenario, params, dt, law)
-            threshold = getattr(law, "contact_threshold", None)
-            return run_pair(model, scenario, dt, settings.max_time_s, meta, threshold)
-        raise ValueError(f"scenario = {type(scenario).__name__}: must be BallOnPlate or "
-                         f"RigidFlexible")
+        return None

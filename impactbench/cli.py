@@ -19,14 +19,13 @@ import sys
 from collections.abc import Sequence
 
 COMMAND_MODULES: tuple[str, ...] = (
-    # one line per subcommand module; keep this list sorted
-    "impactbench.commands.ball_on_plate",
+    # one line per subcommand module; keep this list sorted. Each scenario's own subcommands
+    # (reference NAME, sweep NAME) come from its spec's ``commands`` module.
     "impactbench.commands.calibrate",
     "impactbench.commands.figures",
     "impactbench.commands.gate",
     "impactbench.commands.history",
     "impactbench.commands.report",
-    "impactbench.commands.rigid_flexible",
     "impactbench.commands.run",
     "impactbench.commands.tune",
 )
@@ -85,7 +84,10 @@ def build_parser() -> argparse.ArgumentParser:
         group = top.add_parser(name, help=help_text, description=help_text)
         groups[name] = group.add_subparsers(dest="scenario", required=True, metavar="SCENARIO",
                                             parser_class=Parser)
-    for module in COMMAND_MODULES:
+    from impactbench import scenarios
+
+    own = tuple(s.commands for s in scenarios.specs() if s.commands)
+    for module in (*own, *COMMAND_MODULES):
         importlib.import_module(module).register(top, groups)
     return parser
 

@@ -3,12 +3,10 @@
 Schema (every key optional except where noted; defaults in ``impactbench/data/default.toml``):
 
 ``[report]`` title (str), engines (list of engine names), modes (list of native, injected,
-tuned); ``[ball_on_plate]`` velocities_m_s (list of m/s > 0), physical parameters of
-:class:`~impactbench.reference.scenarios.BallOnPlate` (mass_kg, stiffness, exponent,
-damping_s_per_m,
-radius_m, gravity_m_s2), ``[ball_on_plate.timestep_s]`` engine → s; ``[rigid_flexible]``
-velocities_m_s, local and structure (lists of law names), the physical parameters of
-:class:`~impactbench.reference.scenarios.RigidFlexible`, ``[rigid_flexible.timestep_s]``;
+tuned); one table per scenario (its spec's ``table``, e.g. ``[ball_on_plate]``): each of its
+axes as a list (``velocities_m_s`` in m/s > 0; categorical axes such as ``local`` and
+``structure`` as lists of names, defaulting to the spec's), any field of its dataclass
+(``mass_kg``, …) and ``[<table>.timestep_s]`` engine → s;
 ``[work_precision]`` velocities_m_s (two or more; ``velocity_m_s`` for one), timesteps_s, modes;
 ``[engines.<name>]`` the user's own engine parameters by the engine's names (the adapter's
 ``parameter_keys``, e.g. ``solref = [0.02, 1.0]``): each such engine gets a ``custom`` column;
@@ -22,7 +20,8 @@ tuned, custom), ``[practical.timesteps_s]`` engine → list of its customary ste
 run, not part of the config hash.
 
 A bad file raises ValueError with one line naming the key (``rigid_flexible.velocities_m_s``),
-the value and the rule. An empty velocity list drops that scenario.
+the value and the rule. An empty velocity list drops that scenario. The work-precision and
+practical studies run the first scenario whose spec lists them in ``studies``.
 """
 
 from __future__ import annotations
@@ -35,26 +34,37 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from impactbench import scenarios
 from impactbench.engines.registry import MODES, engine_names
-from impactbench.reference.laws import LOCAL_LAWS, STRUCTURAL_LAWS
-from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
 
 DEFAULT_CONFIG = Path(__file__).parent / "data" / "default.toml"
-
-_SCENARIO_TABLES = {"ball_on_plate": BallOnPlate, "rigid_flexible": RigidFlexible}
-_SCENARIO_NAMES = {"ball_on_plate": "ball-on-plate", "rigid_flexible": "rigid-flexible"}
 
 
 @dataclass(frozen=True)
 class ScenarioMatrix:
-    """One scenario's part of the matrix."""
+    """One scenario's part of the matrix: the values of each axis (their product are the
+    points), the engines' steps and the scenario fields set."""
 
     name: str
-    velocities_m_s: tuple[float, ...]
+    axes: tuple[tuple[str, tuple[Any, ...]], ...]
     timestep_s: dict[str, float]
     parameters: dict[str, Any]
-    local: tuple[str, ...] = ()
-    structure: tuple[str, ...] = ()
+
+    def values(self, axis: str) -> tuple[Any, ...]:
+        """The configured values of one axis (() when the scenario has no such axis)."""
+        return dict(self.axes).get(axis, ())
+
+    @property
+    def velocities_m_s(self) -> tuple[float, ...]:
+        return self.values("velocity_m_s")
+
+    def points(self) -> list[scenarios.Point]:
+        """Every point: the product of the axes' values, in axis order."""
+        import itertools
+
+        names = [a for a, _ in self.axes]
+        return [tuple(zip(names, combo, strict=True))
+                for combo in itertools.product(*(v for _, v in self.axes))]
 
 
 @dataclass(frozen=True)
@@ -150,36 +160,32 @@ def _timesteps(key: str, value: Any, engines: tuple[str, ...]) -> dict[str, floa
     return out
 
 
-def _scenario(table_name: str, table: dict[str, Any], engines: tuple[str, ...]
-              ) -> ScenarioMatrix:
-    cls = _SCENARIO_TABLES[table_name]
-    fields = set(cls.field_names()) - {"velocity_m_s", "local", "structure"}
-    allowed = {"velocities_m_s", "timestep_s"} | fields
-    if cls is RigidFlexible:
-        allowed |= {"local", "structure"}
-    _check_keys(table, allowed, f"{table_name}.")
-    velocities = _positive_list(f"{table_name}.velocities_m_s", table.get("velocities_m_s", []))
+def _scenario(spec: scenarios.ScenarioSpec, table: dict[str, Any],
+              engines: tuple[str, ...]) -> ScenarioMatrix:
+    name = spec.table
+    fields = set(spec.cls.field_names()) - set(spec.axis_names)
+    allowed = {"timestep_s"} | fields | {a.config_key for a in spec.axes}
+    _check_keys(table, allowed, f"{name}.")
     params = {k: table[k] for k in fields if k in table}
     try:
-        cls(**params)  # validates values (one line naming the field)
+        spec.cls(**params)  # validates values (one line naming the field)
     except ValueError as exc:
-        raise ValueError(f"{table_name}.{exc}") from None
+        raise ValueError(f"{name}.{exc}") from None
     except TypeError as exc:
-        raise ValueError(f"{table_name}: {exc}") from None
-    local = structure = ()
-    if cls is RigidFlexible:
-        local = _names(f"{table_name}.local", table.get("local", list(LOCAL_LAWS)),
-                       tuple(LOCAL_LAWS))
-        structure = _names(f"{table_name}.structure",
-                           table.get("structure", list(STRUCTURAL_LAWS)),
-                           tuple(STRUCTURAL_LAWS))
+        raise ValueError(f"{name}: {exc}") from None
+    axes = []
+    for a in spec.axes:
+        key = f"{name}.{a.config_key}"
+        if a.categorical:
+            axes.append((a.name, _names(key, table.get(a.config_key, list(a.defaults())),
+                                        a.allowed())))
+        else:
+            axes.append((a.name, _positive_list(key, table.get(a.config_key, []))))
     return ScenarioMatrix(
-        name=_SCENARIO_NAMES[table_name],
-        velocities_m_s=velocities,
-        timestep_s=_timesteps(f"{table_name}.timestep_s", table.get("timestep_s", {}), engines),
+        name=spec.name,
+        axes=tuple(axes),
+        timestep_s=_timesteps(f"{name}.timestep_s", table.get("timestep_s", {}), engines),
         parameters=params,
-        local=local,
-        structure=structure,
     )
 
 
@@ -241,8 +247,9 @@ def _practical(t: dict[str, Any]) -> Practical | None:
 
 def parse(data: dict[str, Any], source: str = "") -> ReportConfig:
     """Validate a parsed TOML document into a :class:`ReportConfig`."""
-    _check_keys(data, {"report", "ball_on_plate", "rigid_flexible", "work_precision",
-                       "engines", "tuned", "practical", "execution"}, "")
+    tables = {s.table: s for s in scenarios.specs()}
+    _check_keys(data, {"report", *tables, "work_precision", "engines", "tuned", "practical",
+                       "execution"}, "")
     for key, value in data.items():
         if not isinstance(value, dict):
             raise _fail(key, value, "must be a table")
@@ -254,9 +261,8 @@ def parse(data: dict[str, Any], source: str = "") -> ReportConfig:
     engines = _names("report.engines", report.get("engines", list(engine_names())),
                      engine_names())
     modes = _names("report.modes", report.get("modes", list(MODES)), MODES)
-    scenarios = tuple(
-        _scenario(name, data[name], engines) for name in _SCENARIO_TABLES if name in data
-    )
+    matrices = tuple(_scenario(spec, data[name], engines) for name, spec in tables.items()
+                     if name in data)
     wp = None
     if "work_precision" in data:
         t = data["work_precision"]
@@ -291,7 +297,7 @@ def parse(data: dict[str, Any], source: str = "") -> ReportConfig:
                         "--out)")
         tuned_files[e] = str(full)
     practical = _practical(data["practical"]) if "practical" in data else None
-    return ReportConfig(title, engines, modes, scenarios, wp, engine_params, tuned_files,
+    return ReportConfig(title, engines, modes, matrices, wp, engine_params, tuned_files,
                         practical, source=source, raw=data,
                         execution=_execution(data.get("execution", {})))
 

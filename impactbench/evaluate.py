@@ -10,40 +10,26 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from impactbench.engines.base import RunSettings, run_safely
+from impactbench.engines.base import (
+    EngineUnavailable,
+    RunSettings,
+    Scenario,
+    get_adapter,
+    run_safely,
+)
 from impactbench.reference import metrics
 from impactbench.reference.record import ImpactRecord, Status
-from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
-
-Scenario = BallOnPlate | RigidFlexible
-
-RIGID_FLEXIBLE_METRICS: tuple[str, ...] = (
-    "peak_force_n",
-    "pulse_width_s",
-    "contact_time_s",
-    "impulse_ns",
-    "impacts",
-)
-SCENARIO_METRICS: dict[str, tuple[str, ...]] = {
-    "ball-on-plate": metrics.BALL_METRICS,
-    "rigid-flexible": RIGID_FLEXIBLE_METRICS,
-}
+from impactbench.scenarios import spec_of
 
 
 def scenario_name(scenario: Scenario) -> str:
-    return "ball-on-plate" if isinstance(scenario, BallOnPlate) else "rigid-flexible"
+    """The registry name of a scenario object (its spec's)."""
+    return spec_of(scenario).name
 
 
 def reference_metrics(scenario: Scenario) -> dict[str, Any]:
     """The reference command's object for ``scenario`` (same keys as its ``--json``)."""
-    if isinstance(scenario, BallOnPlate):
-        from impactbench.reference import hunt_crossley
-
-        return dict(hunt_crossley.solve(scenario))
-    from impactbench.reference import two_dof
-
-    ref = two_dof.solve(scenario)
-    return {"status": str(ref["status"]), **{k: ref[k] for k in RIGID_FLEXIBLE_METRICS}}
+    return spec_of(scenario).reference_metrics(scenario)
 
 
 def record_metrics(rec: ImpactRecord, scenario: Scenario) -> dict[str, Any]:
@@ -53,7 +39,7 @@ def record_metrics(rec: ImpactRecord, scenario: Scenario) -> dict[str, Any]:
     ``rec.meta["not_comparable"]`` (metric → reason; e.g. a rigid contact's duration, which is
     one timestep by construction and says nothing about the physics).
     """
-    names = SCENARIO_METRICS[scenario_name(scenario)]
+    names = spec_of(scenario).metrics
     if rec.status not in (Status.OK, Status.MAX_TIME, Status.STRUCTURE_COLLAPSED):
         return {k: (0 if k == "impacts" else math.nan) for k in names}
     got = metrics.compute(rec)
@@ -69,7 +55,9 @@ def compare(engine: str, scenario: Scenario, mode: str,
     Returns the ``run --json`` object (status, engine, engine_version, mode, timestep_s,
     wall_s, the metrics, ``reference`` and ``rel_error``) and the engine's record.
     """
-    rec = run_safely(engine, scenario, mode, settings)
+    rec = _unbound(engine, scenario, mode, settings)
+    if rec is None:
+        rec = run_safely(engine, scenario, mode, settings)
     ref = reference if reference is not None else reference_metrics(scenario)
     got = record_metrics(rec, scenario)
     resolved = record_resolution(rec, scenario)
@@ -91,8 +79,7 @@ def compare(engine: str, scenario: Scenario, mode: str,
         "rel_error": {k: (metrics.relative_error(float(got[k]), float(ref[k]))
                           if resolved[k] else math.nan) for k in got},
     }
-    problem = (scenario.penetration_problem(float(ref.get("max_penetration_m", 0.0)))
-               if isinstance(scenario, BallOnPlate) else "")
+    problem = spec_of(scenario).problem(scenario, ref)
     if problem:  # the reference itself is outside its model: nothing to compare with
         out.update(status=str(Status.UNSUPPORTED), message=problem,
                    rel_error=dict.fromkeys(got, math.nan))
@@ -102,8 +89,34 @@ def compare(engine: str, scenario: Scenario, mode: str,
 def record_resolution(rec: ImpactRecord, scenario: Scenario) -> dict[str, bool]:
     """Per scenario metric: is it resolved in time (``impactbench.reference.metrics.resolved``;
     a step about as long as the contact leaves duration and peak force unresolved)?"""
-    names = SCENARIO_METRICS[scenario_name(scenario)]
+    names = spec_of(scenario).metrics
     if rec.status not in (Status.OK, Status.MAX_TIME, Status.STRUCTURE_COLLAPSED):
         return dict.fromkeys(names, True)
     flags = metrics.resolved(rec)
     return {k: flags.get(k, True) for k in names}
+
+
+def _unbound(engine: str, scenario: Scenario, mode: str,
+             settings: RunSettings | None) -> ImpactRecord | None:
+    """An ``unsupported`` record when a ``tuned`` run's parameters were fitted for another
+    engine, scenario or timestep (:func:`impactbench.tuned.binding_mismatch`); None when they
+    apply, when nothing is bound, or when the engine cannot run the case at all (the run
+    then reports why)."""
+    if mode != "tuned" or settings is None or settings.tuned_for is None:
+        return None
+    try:
+        adapter = get_adapter(engine)
+        builder = adapter.builder(scenario)
+        if builder is None or mode not in adapter.modes or (builder.modes is not None
+                                                            and mode not in builder.modes):
+            return None
+        from impactbench.tuned import binding_mismatch
+
+        dt = settings.timestep_s or builder.timestep_s
+        why = binding_mismatch(settings.tuned_for, engine, scenario, dt)
+        if not why:
+            return None
+        return ImpactRecord.failed(Status.UNSUPPORTED, why, engine=engine,
+                                   engine_version=adapter.version(), mode=mode, timestep_s=dt)
+    except EngineUnavailable:
+        return None

@@ -27,11 +27,11 @@ Gate file schema::
     [[gate]]                        # any number of gates
     engine = "mujoco"               # one name or a list (engines.base.ENGINES)
     mode = ["injected", "tuned"]    # one name or a list (engines.base.MODES)
-    scenario = "ball-on-plate"      # ball-on-plate | rigid-flexible
-    velocities_m_s = [1.0, 5.0]     # optional; ball: the paper's 0.5…5 m/s, rigid-flexible: 2 m/s
+    scenario = "ball-on-plate"      # a registered scenario (impactbench.scenarios)
+    velocities_m_s = [1.0, 5.0]     # optional; default: the scenario spec's gate velocities
     timesteps_s = [1e-6]            # optional; default: the adapter's default for scenario and mode
-    local = "linear"                # rigid-flexible only; one law or a list; default "linear"
-    structure = "linear"            # rigid-flexible only; one law or a list; default "linear"
+    local = "linear"                # a categorical axis of the scenario (rigid-flexible: local,
+    structure = "linear"            # structure); one value or a list; default its first value
     parameters = {m2_kg = 0.3}      # optional scenario fields beyond the papers' defaults
     baseline_margin = 0.5           # optional per-gate overrides of [defaults]
     baseline_floor = 1e-4
@@ -83,17 +83,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from impactbench import scenarios
 from impactbench.engines.registry import ENGINES, MODES
+from impactbench.matrix import Job, RunKey
 from impactbench.reference import validation as check
-from impactbench.reference.laws import LOCAL_LAWS, STRUCTURAL_LAWS
-from impactbench.reference.scenarios import PAPER_VELOCITIES_M_S, SCENARIOS, RigidFlexible
 
-METRICS_OF: dict[str, tuple[str, ...]] = {}  # filled below from impactbench.evaluate
-
-DEFAULT_VELOCITIES_M_S: dict[str, tuple[float, ...]] = {
-    "ball-on-plate": PAPER_VELOCITIES_M_S,
-    "rigid-flexible": (RigidFlexible().velocity_m_s,),
-}
 DEFAULT_MARGIN = 0.5
 DEFAULT_FLOOR = 1e-8
 
@@ -103,53 +97,17 @@ MARKS: tuple[str, ...] = (PASS, BETTER, WORSE, FAIL, NEW_FAILURE, NOT_COMPARABLE
 FAILING: frozenset[str] = frozenset({WORSE, FAIL, NEW_FAILURE})
 NOT_COMPARABLE_STATUSES: frozenset[str] = frozenset({"unavailable", "unsupported"})
 
-GATE_KEYS = ("engine", "mode", "scenario", "velocities_m_s", "timesteps_s", "local",
-             "structure", "parameters", "tolerance", "baseline_margin", "baseline_floor")
-FIXED_FIELDS = ("velocity_m_s", "local", "structure")
-"""Scenario fields a gate sets through its own keys, not through ``parameters``."""
+FIXED_KEYS = ("engine", "mode", "scenario", "velocities_m_s", "timesteps_s", "parameters",
+              "tolerance", "baseline_margin", "baseline_floor")
 DEFAULT_KEYS = ("baseline_margin", "baseline_floor")
 
 
-def _metrics_of() -> dict[str, tuple[str, ...]]:
-    if not METRICS_OF:
-        from impactbench.evaluate import SCENARIO_METRICS
-
-        METRICS_OF.update(SCENARIO_METRICS)
-    return METRICS_OF
-
-
-# ----------------------------------------------------------------------------- data model
-
-
-@dataclass(frozen=True, order=True)
-class RunKey:
-    """One engine run: everything that determines its record."""
-
-    engine: str
-    mode: str
-    scenario: str
-    velocity_m_s: float
-    timestep_s: float | None  # None: the adapter's default could not be resolved here
-    local: str = ""
-    structure: str = ""
-    parameters: tuple[tuple[str, float], ...] = ()
-    """Scenario fields that differ from the papers' defaults, sorted by name."""
-
-    @property
-    def label(self) -> str:
-        laws = f"-{self.local}-{self.structure}" if self.scenario == "rigid-flexible" else ""
-        params = "".join(f"-{k}{v:g}" for k, v in self.parameters)
-        dt = "default" if self.timestep_s is None else f"{self.timestep_s:g}"
-        return (f"{self.engine}-{self.mode}-{self.scenario}{laws}{params}"
-                f"-v{self.velocity_m_s:g}-dt{dt}")
-
-    def build_scenario(self) -> Any:
-        """The scenario object (papers' defaults, these parameters, velocity and laws)."""
-        kwargs: dict[str, Any] = dict(self.parameters, velocity_m_s=self.velocity_m_s)
-        if self.scenario == "rigid-flexible":
-            kwargs.update(local=self.local, structure=self.structure)
-            return RigidFlexible(**kwargs)
-        return SCENARIOS[self.scenario](**kwargs)
+def gate_keys() -> tuple[str, ...]:
+    """The keys a ``[[gate]]`` may have: the fixed ones and every scenario's categorical axes
+    (``local``, ``structure``) and further numeric axes (their config keys)."""
+    extra = [a.name if a.categorical else a.config_key for s in scenarios.specs()
+             for a in s.axes]
+    return tuple(dict.fromkeys([*FIXED_KEYS[:5], *extra, *FIXED_KEYS[5:]]))
 
 
 @dataclass(frozen=True)
@@ -260,19 +218,19 @@ def _numbers(value: Any, field_name: str) -> list[float]:
     return [check.positive(field_name, v) for v in items]
 
 
-def _parameters(value: Any, scenario: str) -> tuple[tuple[str, float], ...]:
+def _parameters(value: Any, spec: scenarios.ScenarioSpec) -> tuple[tuple[str, float], ...]:
     """A gate's ``parameters`` table, validated by building the scenario with them."""
     if not isinstance(value, dict) or not value:
         raise ValueError(f"parameters = {value!r}: must be a non-empty table of scenario "
                          "field = number")
-    names = [f for f in SCENARIOS[scenario].field_names() if f not in FIXED_FIELDS]
+    names = [f for f in spec.cls.field_names() if f not in spec.axis_names]
     out = []
     for key, number in sorted(value.items()):
         check.one_of("parameters key", key, tuple(names))
         if isinstance(number, bool) or not isinstance(number, int | float):
             raise ValueError(f"parameters.{key} = {number!r}: must be a number")
         out.append((key, float(number)))
-    SCENARIOS[scenario](**dict(out))  # the scenario's own validation (one-line ValueError)
+    spec.cls(**dict(out))  # the scenario's own validation (one-line ValueError)
     return tuple(out)
 
 
@@ -281,7 +239,8 @@ def _default_timestep(engine: str, mode: str, scenario: Any) -> float | None:
     try:
         from impactbench.engines.base import get_adapter
 
-        return float(get_adapter(engine).default_timestep_s(scenario, mode))
+        dt = get_adapter(engine).default_timestep_s(scenario, mode)
+        return None if dt is None else float(dt)
     except Exception:
         return None
 
@@ -293,10 +252,11 @@ def _expand_gate(n: int, gate: Mapping[str, Any], defaults: Mapping[str, float],
     def fail(key: tuple[str, ...], exc: ValueError) -> ValueError:
         return ValueError(f"line {where('gate', n, *key)}: gate {n}: {exc}")
 
+    keys = gate_keys()
     for key in gate:
-        if key not in GATE_KEYS:
+        if key not in keys:
             raise fail((key,), ValueError(
-                f"key {key!r}: unknown; must be one of {', '.join(GATE_KEYS)}"))
+                f"key {key!r}: unknown; must be one of {', '.join(keys)}"))
     for key in ("engine", "mode", "scenario", "tolerance"):
         if key not in gate:
             raise fail((), ValueError(f"{key}: missing (required in every [[gate]])"))
@@ -309,39 +269,40 @@ def _expand_gate(n: int, gate: Mapping[str, Any], defaults: Mapping[str, float],
     except ValueError as exc:
         raise fail(("mode",), exc) from None
     try:
-        scenario = check.one_of("scenario", gate["scenario"], tuple(SCENARIOS))
+        scenario = check.one_of("scenario", gate["scenario"], scenarios.names())
     except ValueError as exc:
         raise fail(("scenario",), exc) from None
-    velocities: list[float] = list(DEFAULT_VELOCITIES_M_S[scenario])
+    spec = scenarios.get(scenario)
     timesteps: list[float | None] = [None]
-    try:
-        if "velocities_m_s" in gate:
-            velocities = _numbers(gate["velocities_m_s"], "velocities_m_s")
-    except ValueError as exc:
-        raise fail(("velocities_m_s",), exc) from None
     try:
         if "timesteps_s" in gate:
             timesteps = list(_numbers(gate["timesteps_s"], "timesteps_s"))
     except ValueError as exc:
         raise fail(("timesteps_s",), exc) from None
-    laws: list[tuple[str, str]] = [("", "")]
-    for key in ("local", "structure"):
-        if key in gate and scenario != "rigid-flexible":
-            raise fail((key,), ValueError(f"{key} = {gate[key]!r}: only for rigid-flexible"))
-    if scenario == "rigid-flexible":
+    own = {a.name if a.categorical else a.config_key for a in spec.axes}
+    for key in gate:
+        if key not in FIXED_KEYS and key not in own:
+            raise fail((key,), ValueError(f"{key} = {gate[key]!r}: not an axis of {scenario} "
+                                          f"(its axes: {', '.join(sorted(own))})"))
+    axis_values: list[tuple[str, list[Any]]] = []
+    for a in spec.axes:
+        key = a.name if a.categorical else a.config_key
         try:
-            locals_ = _names(gate.get("local", "linear"), "local", LOCAL_LAWS)
+            if a.categorical:
+                values = _names(gate.get(key, a.defaults()[0]), key, a.allowed())
+            elif key in gate:
+                values = _numbers(gate[key], key)
+            elif a.name == "velocity_m_s":
+                values = list(spec.gate_velocities_m_s)
+            else:
+                raise ValueError(f"{key}: missing (required for {scenario})")
         except ValueError as exc:
-            raise fail(("local",), exc) from None
-        try:
-            structures = _names(gate.get("structure", "linear"), "structure", STRUCTURAL_LAWS)
-        except ValueError as exc:
-            raise fail(("structure",), exc) from None
-        laws = [(lo, st) for lo in locals_ for st in structures]
+            raise fail((key,), exc) from None
+        axis_values.append((a.name, values))
     params: tuple[tuple[str, float], ...] = ()
     if "parameters" in gate:
         try:
-            params = _parameters(gate["parameters"], scenario)
+            params = _parameters(gate["parameters"], spec)
         except ValueError as exc:
             raise fail(("parameters",), exc) from None
     margins = dict(defaults)
@@ -355,7 +316,7 @@ def _expand_gate(n: int, gate: Mapping[str, Any], defaults: Mapping[str, float],
     if not isinstance(tolerance, dict) or not tolerance:
         raise fail(("tolerance",), ValueError(
             "tolerance: must be a non-empty table of metric = tolerated |relative error|"))
-    metrics = _metrics_of()[scenario]
+    metrics = spec.metrics
     tol: dict[str, float] = {}
     for metric, value in tolerance.items():
         try:
@@ -365,19 +326,22 @@ def _expand_gate(n: int, gate: Mapping[str, Any], defaults: Mapping[str, float],
             raise fail(("tolerance", metric), exc) from None
     line = where("gate", n)
     out = []
+    import itertools
+
+    names = [a for a, _ in axis_values]
+    points = [tuple(zip(names, combo, strict=True))
+              for combo in itertools.product(*(v for _, v in axis_values))]
     for engine in engines:
         for mode in modes:
-            for local, structure in laws:
-                for v in velocities:
-                    for dt in timesteps:
-                        run = RunKey(engine, mode, scenario, v, dt, local, structure, params)
-                        if dt is None:
-                            dt = _default_timestep(engine, mode, run.build_scenario())
-                            run = RunKey(engine, mode, scenario, v, dt, local, structure,
-                                         params)
-                        out.extend(Check(run, m, t, margins["baseline_margin"],
-                                         margins["baseline_floor"], n, line)
-                                   for m, t in tol.items())
+            for point in points:
+                for dt in timesteps:
+                    run = RunKey(engine, scenario, point, mode, dt, params)
+                    if dt is None:
+                        dt = _default_timestep(engine, mode, run.build_scenario())
+                        run = RunKey(engine, scenario, point, mode, dt, params)
+                    out.extend(Check(run, m, t, margins["baseline_margin"],
+                                     margins["baseline_floor"], n, line)
+                               for m, t in tol.items())
     return out
 
 
@@ -437,18 +401,15 @@ def load_gates(path: str | Path) -> GateFile:
 
 
 def plan(checks: Iterable[Check]) -> list[RunKey]:
-    """The distinct engine runs the checks need (rigid–flexible first: they take longest)."""
+    """The distinct engine runs the checks need, in a stable order."""
     runs = {c.run for c in checks}
-    return sorted(runs, key=lambda r: (r.scenario != "rigid-flexible", r.engine, r.mode,
-                                        r.local, r.structure, r.velocity_m_s,
-                                        r.timestep_s or 0.0))
+    return sorted(runs, key=lambda r: (r.engine, r.scenario, r.mode, r.point,
+                                        r.timestep_s or 0.0, r.parameters))
 
 
-def _job(run: RunKey) -> Any:
-    from impactbench.matrix import Job
-
-    return Job("gate", run.engine, run.scenario, run.mode, run.velocity_m_s, run.timestep_s,
-               run.parameters, run.local, run.structure)
+def _job(run: RunKey) -> Job:
+    return Job(run.engine, run.scenario, run.point, run.mode, run.timestep_s, run.parameters,
+               run.params, run.tuned_file, study="gate")
 
 
 def execute(runs: Iterable[RunKey], jobs: int | None = None,

@@ -19,59 +19,99 @@ from typing import Any
 
 import numpy as np
 
+from impactbench import scenarios
 from impactbench.config import ReportConfig
-from impactbench.evaluate import SCENARIO_METRICS, compare, reference_metrics
-from impactbench.params import SCENARIO_CLASSES
+from impactbench.evaluate import compare, reference_metrics
+from impactbench.scenarios import Point
 
 HISTORY_POINTS = 1500
 """Histories returned for plots are thinned to about this many samples."""
 
 
-@dataclass(frozen=True)
-class Job:
-    """One engine run. ``study`` is ``matrix`` (headline tables) or ``work_precision``."""
+@dataclass(frozen=True, order=True)
+class RunKey:
+    """One engine run: everything that determines its record (the matrix's, the gates', the
+    store's and the tuner's one key).
 
-    study: str
+    Attributes:
+        engine, scenario, mode: registry names.
+        point: the scenario's axes for this run (``(("velocity_m_s", 2.0),)``).
+        timestep_s: the step (s); None: the adapter's default for the scenario.
+        parameters: scenario fields that differ from the scenario's defaults, sorted by name.
+        params: ``custom``: the user's engine parameters; ``tuned``: the fixed settings
+            (variant) that select the packaged tuned file (e.g. Drake's discrete approximation).
+        tuned_file: ``tuned``: a user's tuned file instead of the packaged one.
+    """
+
     engine: str
     scenario: str
+    point: Point
     mode: str
-    velocity_m_s: float
     timestep_s: float | None
     parameters: tuple[tuple[str, Any], ...] = ()
-    local: str = ""
-    structure: str = ""
-    keep_history: bool = False
     params: tuple[tuple[str, Any], ...] = ()
-    """``custom``: the user's engine parameters; ``tuned``: the fixed settings (variant) that
-    select the packaged tuned file (e.g. Drake's discrete approximation)."""
     tuned_file: str = ""
-    """``tuned``: a user's tuned file (config ``[tuned]``) instead of the packaged one."""
 
     @property
-    def id(self) -> str:
-        laws = f"/{self.local}/{self.structure}" if self.local else ""
-        dt = f"{self.timestep_s:.3e}" if self.timestep_s else "default"
-        params = "".join(f"/{k}={v!r}" for k, v in self.parameters)  # ids must be unique
-        return (f"{self.study}/{self.scenario}{laws}/v{self.velocity_m_s:09.4f}/"
-                f"{self.engine}/{self.mode}{self.variant and '[' + self.variant + ']'}/dt{dt}"
-                f"{params}")
+    def spec(self) -> scenarios.ScenarioSpec:
+        return scenarios.get(self.scenario)
+
+    def get(self, axis: str, default: Any = None) -> Any:
+        """The value of one axis of the point (``velocity_m_s``)."""
+        return dict(self.point).get(axis, default)
+
+    @property
+    def velocity_m_s(self) -> float:
+        """The impact velocity of the point (m/s; NaN for a scenario without one)."""
+        return float(self.get("velocity_m_s", math.nan))
 
     @property
     def variant(self) -> str:
-        """The parameters as text (``solref=[0.02, 1.0]``), '' when none."""
+        """The engine parameters as text (``solref=[0.02, 1.0]``), '' when none."""
         from impactbench.config import thawed
 
         return ", ".join(f"{k}={v}" for k, v in thawed(self.params).items())
 
-    def build_scenario(self):
-        kwargs = dict(self.parameters, velocity_m_s=self.velocity_m_s)
-        if self.local:
-            kwargs.update(local=self.local, structure=self.structure)
-        return SCENARIO_CLASSES[self.scenario](**kwargs)
+    @property
+    def label(self) -> str:
+        """``mujoco-injected-ball-on-plate-v1-dt1e-06`` (gate names, baseline keys)."""
+        spec = self.spec
+        params = "".join(f"-{k}{v:g}" for k, v in self.parameters)
+        dt = "default" if self.timestep_s is None else f"{self.timestep_s:g}"
+        return (f"{self.engine}-{self.mode}-{self.scenario}{spec.point_label(self.point)}"
+                f"{params}{spec.numeric_label(self.point)}-dt{dt}")
+
+    def build_scenario(self) -> Any:
+        """The scenario object (its defaults, these fields, this point)."""
+        return self.spec.build(self.point, self.parameters)
 
     @property
     def reference_key(self) -> tuple:
-        return (self.scenario, self.velocity_m_s, self.local, self.structure, self.parameters)
+        return (self.scenario, self.point, self.parameters)
+
+
+@dataclass(frozen=True)
+class Job(RunKey):
+    """One engine run of a report. ``study`` is ``matrix`` (headline tables),
+    ``work_precision`` or ``practical``; ``keep_history`` keeps its thinned force history."""
+
+    study: str = "matrix"
+    keep_history: bool = False
+
+    @property
+    def id(self) -> str:
+        dt = f"{self.timestep_s:.3e}" if self.timestep_s else "default"
+        params = "".join(f"/{k}={v!r}" for k, v in self.parameters)  # ids must be unique
+        point = self.spec.point_id(self.point)
+        return (f"{self.study}/{self.scenario}{point}/"
+                f"{self.engine}/{self.mode}{self.variant and '[' + self.variant + ']'}/dt{dt}"
+                f"{params}")
+
+    @property
+    def key(self) -> RunKey:
+        """The run without the report's bookkeeping."""
+        return RunKey(self.engine, self.scenario, self.point, self.mode, self.timestep_s,
+                      self.parameters, self.params, self.tuned_file)
 
 
 @dataclass
@@ -125,14 +165,13 @@ def execute_item(item: tuple[Job, dict[str, Any] | None, Any]) -> JobResult:
 
 
 def plan(config: ReportConfig, engines: Iterable[str] | None = None) -> list[Job]:
-    """All jobs of a config: the matrix, then the work-precision study."""
+    """All jobs of a config: the matrix, then the practical and work-precision studies."""
     from impactbench.tuned import tuned_path
 
     engines = tuple(engines if engines is not None else config.engines)
     jobs: list[Job] = []
     for sm in config.scenarios:
         params = tuple(sorted(sm.parameters.items()))
-        laws = [(lo, st) for lo in sm.local for st in sm.structure] or [("", "")]
         for engine in engines:
             modes = [m for m in config.modes
                      if m != "tuned" or tuned_path(engine, sm.name).is_file()
@@ -143,35 +182,39 @@ def plan(config: ReportConfig, engines: Iterable[str] | None = None) -> list[Job
                 if mode == "custom" and engine not in config.engine_params:
                     continue  # custom needs the user's parameters ([engines.<name>])
                 user = config.engine_params.get(engine, ()) if mode == "custom" else ()
-                for v in sm.velocities_m_s:
-                    for lo, st in laws:
-                        jobs.append(Job("matrix", engine, sm.name, mode, v,
-                                        sm.timestep_s.get(engine), params, lo, st,
-                                        keep_history=True, params=user,
-                                        tuned_file=config.tuned_files.get(engine, "")
-                                        if mode == "tuned" else ""))
-    ball = next((s for s in config.scenarios if s.name == "ball-on-plate"), None)
-    ball_params = tuple(sorted(ball.parameters.items())) if ball else ()
-    jobs += _practical_jobs(config, engines, ball_params)
+                tuned_file = config.tuned_files.get(engine, "") if mode == "tuned" else ""
+                for point in sm.points():
+                    jobs.append(Job(engine, sm.name, point, mode, sm.timestep_s.get(engine),
+                                    params, user, tuned_file, study="matrix",
+                                    keep_history=True))
+    jobs += _practical_jobs(config, engines)
     wp = config.work_precision
     if wp is not None:
+        scenario, params = _study_scenario(config, "work_precision")
         for engine in engines:
             for mode in wp.modes:
                 for v in wp.velocities_m_s:
                     for dt in wp.timesteps_s:
-                        jobs.append(Job("work_precision", engine, "ball-on-plate", mode,
-                                        v, dt, ball_params))
+                        jobs.append(Job(engine, scenario, (("velocity_m_s", v),), mode, dt,
+                                        params, study="work_precision"))
     return jobs
 
 
-def _practical_jobs(config: ReportConfig, engines: tuple[str, ...],
-                    ball_params: tuple) -> list[Job]:
+def _study_scenario(config: ReportConfig, study: str) -> tuple[str, tuple]:
+    """The scenario a single-scenario study runs, and its configured fields."""
+    name = scenarios.for_study(study).name
+    sm = next((s for s in config.scenarios if s.name == name), None)
+    return name, tuple(sorted(sm.parameters.items())) if sm else ()
+
+
+def _practical_jobs(config: ReportConfig, engines: tuple[str, ...]) -> list[Job]:
     """The "at practical timesteps" study: per engine and customary step, the configured
     modes (default, native, tuned, custom with the user's [engines] table) and, per variant,
     custom (default plus the variant) and tuned (the file fitted with it)."""
     pr = config.practical
     if pr is None:
         return []
+    scenario, params = _study_scenario(config, "practical")
     jobs = []
     for engine in engines:
         variants = pr.variants.get(engine, ())
@@ -187,15 +230,15 @@ def _practical_jobs(config: ReportConfig, engines: tuple[str, ...],
             if "tuned" in pr.modes:
                 runs.append(("tuned", variant))
         for dt in pr.timesteps_s.get(engine, ()):
-            for mode, params in runs:
+            for mode, variant_params in runs:
                 for v in pr.velocities_m_s:
-                    jobs.append(Job("practical", engine, "ball-on-plate", mode, v, dt,
-                                    ball_params, params=params))
+                    jobs.append(Job(engine, scenario, (("velocity_m_s", v),), mode, dt, params,
+                                    variant_params, study="practical"))
     return jobs
 
 
 def _crashed(job: Job, why: str, reference: dict[str, Any]) -> JobResult:
-    names = SCENARIO_METRICS[job.scenario]
+    names = job.spec.metrics
     run = {"status": "crashed", "message": why, "engine": job.engine, "engine_version": "",
            "mode": job.mode, "timestep_s": job.timestep_s, "wall_s": math.nan,
            **{k: math.nan for k in names}, "reference": reference,
@@ -290,8 +333,9 @@ def run_jobs(jobs: list[Job], workers: int | None = None,
             group.insert(0, job)
         else:
             group.append(job)
+    # the longest runs first (by estimated steps), so that they do not finish last alone
     pending = sorted((g[0] for g in twins.values()),
-                     key=lambda j: (j.scenario != "rigid-flexible", j.id))
+                     key=lambda j: (-estimated_steps(j, references[j.reference_key]), j.id))
     if not yes:
         from impactbench.cliutil import check_cost
 
@@ -303,7 +347,7 @@ def run_jobs(jobs: list[Job], workers: int | None = None,
     def flush() -> None:
         nonlocal last_flush
         if store is not None and unstored:
-            store.put((keys[r.job.id], inputs[r.job.id], vars(r.job), r.run, r.history)
+            store.put((keys[r.job.id], inputs[r.job.id], r.job, r.run, r.history)
                       for r in unstored)
         unstored.clear()
         last_flush = time.monotonic()
@@ -340,19 +384,22 @@ def run_jobs(jobs: list[Job], workers: int | None = None,
 
 
 def tidy(results: list[JobResult]) -> list[dict[str, Any]]:
-    """One row per run and metric (DESIGN.md's columns, plus study and laws)."""
+    """One row per run and metric (DESIGN.md's columns, plus study and the point's axes:
+    every registered scenario's, each once — categorical ones after ``scenario``, numeric
+    ones after ``mode``; a scenario without an axis leaves it "" or NaN)."""
+    cats, nums = scenarios.point_columns()
     rows = []
     for r in results:
         j, run = r.job, r.run
-        for metric in SCENARIO_METRICS[j.scenario]:
+        point = dict(j.point)
+        for metric in j.spec.metrics:
             rows.append({
                 "study": j.study,
                 "scenario": j.scenario,
-                "local": j.local,
-                "structure": j.structure,
+                **{c: point.get(c, "") for c in cats},
                 "engine": j.engine,
                 "mode": j.mode,
-                "velocity_m_s": j.velocity_m_s,
+                **{c: point.get(c, math.nan) for c in nums},
                 "timestep_s": run.get("timestep_s"),
                 "metric": metric,
                 "value": run.get(metric),

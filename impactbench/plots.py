@@ -131,18 +131,18 @@ def hysteresis(histories: Mapping[tuple[str, str], History], reference: History,
 
 
 def restitution_vs_velocity(df: pd.DataFrame, damping_s_per_m: float, how: str,
-                            path: Path, scenario: Any = None) -> Path:
-    """The reference curve k(b·V0) with every engine's measured points. With ``scenario``
-    (a BallOnPlate) of a contact model set from a nominal restitution, that model's exact
-    curve instead (:func:`impactbench.reference.zoo.sweep`)."""
+                            path: Path, scenario: Any) -> Path:
+    """The reference curve k(b·V0) with every engine's measured points of ``scenario``'s
+    rows (a BallOnPlate). When its contact model is set from a nominal restitution, that
+    model's exact curve instead (:func:`impactbench.reference.zoo.sweep`)."""
     from impactbench.reference.hunt_crossley import restitution
 
-    rows = df[(df.study == "matrix") & (df.scenario == "ball-on-plate")
+    rows = df[(df.study == "matrix") & (df.scenario == scenario.name)
               & (df.metric == "restitution")]
     vmax = max(float(rows.velocity_m_s.max()) if len(rows) else 5.0, 1.0) * 1.1
     v = np.linspace(0.0, vmax, 300)
     fig, ax = plt.subplots(figsize=(7, 4.2))
-    if scenario is not None and scenario.nominal_restitution is not None:
+    if scenario.nominal_restitution is not None:
         from impactbench.reference.zoo import sweep
 
         ax.plot(v[1:], sweep(scenario, v[1:])["restitution"], color="black", lw=2,
@@ -166,11 +166,12 @@ def restitution_vs_velocity(df: pd.DataFrame, damping_s_per_m: float, how: str,
     return _save(fig, path)
 
 
-def _point_label(row) -> str:
-    v = f"{row.velocity_m_s:g} m/s"
-    if row.scenario == "rigid-flexible":
-        return f"{row.local}\n{row.structure}\n{v}"
-    return v
+def _point_label(row, spec) -> str:
+    """A heatmap column's label: the categorical axes, one per line, then the numbers."""
+    parts = [str(getattr(row, a.name)) for a in spec.axes if a.categorical]
+    parts += [f"{getattr(row, a.name):g}" + (" m/s" if a.name == "velocity_m_s" else "")
+              for a in spec.axes if not a.categorical]
+    return "\n".join(parts)
 
 
 def _error_text(err: float) -> str:
@@ -180,17 +181,18 @@ def _error_text(err: float) -> str:
     return f"{pct:+.0f}%" if abs(pct) >= 10 else f"{pct:+.2g}%"
 
 
-def error_heatmap(df: pd.DataFrame, scenario: str, metric_names: tuple[str, ...], how: str,
-                  path: Path) -> Path:
+def error_heatmap(df: pd.DataFrame, spec: Any, how: str, path: Path) -> Path:
     """|relative error| per (engine, mode) row and scenario point column, one panel per
     metric; each cell annotated with the signed error (or the run's status). The colour scale
     is logarithmic over the true range of the nonzero errors shown (exact zeros take its
-    lowest colour), with the 1 % and 5 % bands marked on the colour bar."""
-    rows = df[(df.study == "matrix") & (df.scenario == scenario)
+    lowest colour), with the 1 % and 5 % bands marked on the colour bar. ``spec``: the
+    scenario's :class:`~impactbench.scenarios.ScenarioSpec` (its headline metrics and axes)."""
+    metric_names = spec.headline
+    rows = df[(df.study == "matrix") & (df.scenario == spec.name)
               & df.metric.isin(metric_names)].copy()
-    rows["col"] = [_point_label(r) for r in rows.itertuples()]
+    rows["col"] = [_point_label(r, spec) for r in rows.itertuples()]
     rows["row"] = rows.engine + " " + rows["mode"]
-    order = rows.sort_values(["local", "structure", "velocity_m_s"])
+    order = rows.sort_values(list(spec.axis_names))
     cols = list(dict.fromkeys(order.col))
     index = sorted(rows.row.unique(), key=lambda r: _order(*r.split(" ", 1)))
     err = np.abs(pd.to_numeric(rows.rel_error, errors="coerce").to_numpy(dtype=float))
@@ -204,7 +206,7 @@ def error_heatmap(df: pd.DataFrame, scenario: str, metric_names: tuple[str, ...]
     cmap = plt.get_cmap("RdYlGn_r").with_extremes(bad="#e6e6e6")
     n_rows, n_cols = len(index), len(cols)
     heights = [0.28 * n_rows + 0.45] * len(metric_names)
-    label_h = 0.5 if scenario == "rigid-flexible" else 0.25
+    label_h = 0.25 * min(len(spec.axes), 2)
     fig_w = max(7.5, 0.8 * n_cols + 3.4)
     fig_h = sum(heights) + label_h * len(metric_names) + 0.9
     fig, axes = plt.subplots(len(metric_names), 1, figsize=(fig_w, fig_h), squeeze=False,
@@ -245,7 +247,7 @@ def error_heatmap(df: pd.DataFrame, scenario: str, metric_names: tuple[str, ...]
             cb.ax.axhline(bound, color="black", lw=1.2)
             cb.ax.text(-0.15, bound, f"{100 * bound:g} %", fontsize=7, va="center", ha="right",
                        transform=cb.ax.get_yaxis_transform())
-    fig.suptitle(f"Relative error against the reference, {scenario}\n"
+    fig.suptitle(f"Relative error against the reference, {spec.name}\n"
                  + "\n".join(textwrap.wrap(how, 110)), fontsize=9)
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -302,15 +304,8 @@ def work_precision(df: pd.DataFrame, metric_names: tuple[str, ...], how: str,
 
 def reference_history_for(scenario) -> dict[str, np.ndarray]:
     """The reference's time history for plotting (thinned like the engines')."""
-    from impactbench.evaluate import scenario_name
+    from impactbench.scenarios import spec_of
 
-    if scenario_name(scenario) == "ball-on-plate":
-        from impactbench.reference import hunt_crossley
-
-        rec = hunt_crossley.history(scenario)
-    else:
-        from impactbench.reference import two_dof
-
-        rec = two_dof.simulate(scenario)
+    rec = spec_of(scenario).history(scenario)
     return {"time_s": rec.time_s, "normal_force_n": rec.normal_force_n,
             "penetration_m": rec.penetration_m}

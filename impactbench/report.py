@@ -21,17 +21,18 @@ from typing import Any
 import pandas as pd
 
 from impactbench import config as config_mod
-from impactbench import plots, practical
+from impactbench import plots, practical, scenarios
 from impactbench.cliutil import progress_bar
-from impactbench.evaluate import SCENARIO_METRICS
 from impactbench.matrix import Interrupted, JobResult, plan, run_jobs, tidy
-from impactbench.reference.scenarios import BallOnPlate
 from impactbench.report_render import ReportContext, render_documents
-from impactbench.report_sections import HEADLINE, SECTIONS, TITLES
+from impactbench.report_sections import sections
 
-SORT_COLUMNS = ["study", "scenario", "local", "structure", "velocity_m_s", "engine", "mode",
-                "params",
-                "timestep_s", "metric"]
+
+def sort_columns() -> list[str]:
+    """The order of results rows: study, scenario, the point's axes, engine, mode, …"""
+    cats, nums = scenarios.point_columns()
+    return ["study", "scenario", *cats, *nums, "engine", "mode", "params", "timestep_s",
+            "metric"]
 
 
 @dataclass
@@ -77,7 +78,7 @@ def _library_versions() -> dict[str, str]:
     return out
 
 
-def _dt_text(runs: list[JobResult]) -> str:
+def timestep_text(runs: list[JobResult]) -> str:
     """``dt = 1e-06 s`` when every run used one step, else per engine."""
     steps: dict[str, set[float]] = {}
     for r in runs:
@@ -92,7 +93,7 @@ def _dt_text(runs: list[JobResult]) -> str:
                               for e, ts in sorted(steps.items()))
 
 
-def _modes_text(runs: list[JobResult]) -> str:
+def modes_text(runs: list[JobResult]) -> str:
     from impactbench.engines.base import MODES
 
     present = {r.job.mode for r in runs}
@@ -104,8 +105,6 @@ def _figures(ctx: ReportContext) -> None:
 
     Groups: ``heatmap:<scenario>``, ``history:<scenario>``, ``extra:<scenario>``,
     ``work_precision``. Each caption names scenario, modes, timesteps and velocities."""
-    from impactbench.params import SCENARIO_CLASSES
-
     cfg, df, fig_dir = ctx.cfg, ctx.df, ctx.fig_dir
     matrix_runs = [r for r in ctx.results if r.job.study == "matrix"]
     # a rigid contact's impulse/dt is no force history: leave such runs out of F(t) and F–x
@@ -114,77 +113,72 @@ def _figures(ctx: ReportContext) -> None:
     groups: dict[tuple, list[JobResult]] = {}
     for r in drawable:
         groups.setdefault(r.job.reference_key, []).append(r)
-    ball_loops = []
-    # by scenario, law pair, then velocity (numerically)
-    for key, runs in sorted(groups.items(), key=lambda kv: (kv[0][0], kv[0][2], kv[0][3],
-                                                           kv[0][1])):
-        scenario, v, local, structure, params = key
-        sc = SCENARIO_CLASSES[scenario](**dict(params), velocity_m_s=v,
-                                        **({"local": local, "structure": structure}
-                                           if local else {}))
-        ref = plots.reference_history_for(sc)
+    loops: dict[str, list] = {}
+    # by scenario, then by point: categorical axes first, numbers numerically
+    for key, runs in sorted(groups.items(), key=lambda kv: _point_order(kv[0])):
+        scenario, point, params = key
+        spec = scenarios.get(scenario)
+        ref = plots.reference_history_for(spec.build(point, params))
         hist = {(r.job.engine, r.job.mode): r.history for r in runs}
-        how = f"{_modes_text(runs)}; {_dt_text(runs)}"
-        if scenario == "ball-on-plate":
-            title = f"Ball on plate, V0 = {v:g} m/s"
-            path = plots.force_time(hist, ref, title, how,
-                                    fig_dir / f"report_force_ball_v{v:g}.png")
-            ctx.add_figure(path, f"F(t), {title}; {how}", f"history:{scenario}")
-            ball_loops.append((title, how, v, hist, ref))
-        else:
-            title = f"Rigid–flexible {local}/{structure}, v1 = {v:g} m/s"
-            path = plots.force_time(hist, ref, title, how,
-                                    fig_dir / f"report_force_rf_{local}_{structure}_v{v:g}.png",
-                                    1e-3, "ms")
-            ctx.add_figure(path, f"F(t), {title}; {how}", f"history:{scenario}")
-    for title, how, v, hist, ref in ball_loops:
-        path = plots.hysteresis(hist, ref, title, how,
-                                fig_dir / f"report_hysteresis_ball_v{v:g}.png")
-        ctx.add_figure(path, f"F–x loop, {title}; {how}", "history:ball-on-plate")
-    for scenario in ("ball-on-plate", "rigid-flexible"):
-        runs = [r for r in matrix_runs if r.job.scenario == scenario]
+        how = f"{modes_text(runs)}; {timestep_text(runs)}"
+        title = point_title(spec, point)
+        unit, label = spec.history_unit
+        path = plots.force_time(hist, ref, title, how,
+                                fig_dir / f"report_force_{spec.figure_name(point)}.png",
+                                unit, label)
+        ctx.add_figure(path, f"F(t), {title}; {how}", f"history:{scenario}")
+        loops.setdefault(scenario, []).append((title, how, point, hist, ref))
+    for spec in scenarios.specs():
+        runs = [r for r in matrix_runs if r.job.scenario == spec.name]
+        if spec.report_figures:
+            scenarios.load(spec.report_figures)(ctx, spec, runs, loops.get(spec.name, []))
         if not runs:
             continue
         vs = ", ".join(f"{v:g}" for v in sorted({r.job.velocity_m_s for r in runs}))
-        what = "V0" if scenario == "ball-on-plate" else "v1"
-        how = f"{what} = {vs} m/s; {_modes_text(runs)}; {_dt_text(runs)}"
-        name = f"report_error_heatmap_{scenario.replace('-', '_')}.png"
-        path = plots.error_heatmap(df, scenario, HEADLINE[scenario], how, fig_dir / name)
-        ctx.add_figure(path, f"|relative error| per engine and mode, {TITLES[scenario]}; {how}",
-                       f"heatmap:{scenario}")
-        if scenario == "ball-on-plate":
-            b = cfg_parameter(cfg, scenario, "damping_s_per_m")
-            sm = next((s for s in cfg.scenarios if s.name == scenario), None)
-            model = BallOnPlate(**(sm.parameters if sm is not None else {}))
-            path = plots.restitution_vs_velocity(df, b, how,
-                                                 fig_dir / "report_restitution_vs_velocity.png",
-                                                 scenario=model)
-            ctx.add_figure(path, f"Restitution against V0, ball on plate; {how}",
-                           f"extra:{scenario}")
+        how = f"{spec.velocity_symbol} = {vs} m/s; {modes_text(runs)}; {timestep_text(runs)}"
+        name = f"report_error_heatmap_{spec.name.replace('-', '_')}.png"
+        path = plots.error_heatmap(df, spec, how, fig_dir / name)
+        ctx.add_figure(path, f"|relative error| per engine and mode, {spec.title}; {how}",
+                       f"heatmap:{spec.name}")
     wp = [r for r in ctx.results if r.job.study == "work_precision"]
     if wp:
+        spec = scenarios.get(wp[0].job.scenario)
         vs = ", ".join(f"{v:g}" for v in sorted({r.job.velocity_m_s for r in wp}))
-        how = f"V0 = {vs} m/s; {_modes_text(wp)}; {_dt_text(wp)}"
-        path = plots.work_precision(df, HEADLINE["ball-on-plate"], how,
+        how = f"{spec.velocity_symbol} = {vs} m/s; {modes_text(wp)}; {timestep_text(wp)}"
+        path = plots.work_precision(df, spec.headline, how,
                                     fig_dir / "report_work_precision.png")
-        ctx.add_figure(path, f"Work–precision, ball on plate; {how}", "work_precision")
+        ctx.add_figure(path, f"Work–precision, {spec.title.lower()}; {how}", "work_precision")
     pr = [r for r in ctx.results if r.job.study == "practical"]
     if pr:
-        b = cfg_parameter(cfg, "ball-on-plate", "damping_s_per_m")
-        how = f"{_modes_text(pr)}; {_dt_text(pr)}"
+        spec = scenarios.get(pr[0].job.scenario)
+        b = cfg_parameter(cfg, spec.name, "damping_s_per_m")
+        how = f"{modes_text(pr)}; {timestep_text(pr)}"
         path = practical.plot(df, b, how, fig_dir / "report_practical_restitution.png")
-        ctx.add_figure(path, f"Restitution at practical timesteps, ball on plate; {how}",
-                       "practical")
+        ctx.add_figure(path, f"Restitution at practical timesteps, {spec.title.lower()}; "
+                       f"{how}", "practical")
+
+
+def point_title(spec: scenarios.ScenarioSpec, point: scenarios.Point) -> str:
+    """``Ball on plate, V0 = 2 m/s`` or ``Rigid–flexible linear/linear, v1 = 2 m/s``."""
+    text = spec.point_text(point)
+    cats = any(a.categorical for a in spec.axes)
+    return f"{spec.title} {text}" if cats else f"{spec.title}, {text}"
+
+
+def _point_order(key: tuple) -> tuple:
+    scenario, point, _ = key
+    spec = scenarios.get(scenario)
+    values = dict(point)
+    return (scenario, tuple(str(values[a.name]) for a in spec.axes if a.categorical),
+            tuple(float(values[a.name]) for a in spec.axes if not a.categorical))
 
 
 def cfg_parameter(cfg: config_mod.ReportConfig, scenario: str, name: str) -> Any:
     """A physical parameter of a scenario: the config's value, else the scenario default."""
-    from impactbench.params import SCENARIO_CLASSES
-
     sm = next((s for s in cfg.scenarios if s.name == scenario), None)
     if sm is not None and name in sm.parameters:
         return sm.parameters[name]
-    return getattr(SCENARIO_CLASSES[scenario](), name)
+    return getattr(scenarios.get(scenario).cls(), name)
 
 
 def render(out_dir: Path, cfg: config_mod.ReportConfig, df: pd.DataFrame,
@@ -204,7 +198,7 @@ def render(out_dir: Path, cfg: config_mod.ReportConfig, df: pd.DataFrame,
     engines = ", ".join(f"{k} {v}" for k, v in meta.get("engines", {}).items())
     intro = (f"Generated by `impactbench report` at commit `{meta.get('commit', 'unknown')}` "
              f"from {meta.get('config') or 'an inline config'}. Engines: {engines}.")
-    docs = render_documents(ctx, SECTIONS, cfg.title, intro)
+    docs = render_documents(ctx, sections(), cfg.title, intro)
     paths = [out_dir / "README.md", out_dir / "index.html"]
     paths[0].write_text(docs["md"])
     paths[1].write_text(docs["html"])
@@ -224,16 +218,16 @@ def owned_by_report(rel: Path) -> bool:
 def scenario_parameters(cfg: config_mod.ReportConfig) -> list[dict[str, Any]]:
     """Every scenario of the config with all its physical parameters (SI; the config's
     values over the defaults), velocities, laws and timesteps — what metadata.json records."""
-    from impactbench.params import SCENARIO_CLASSES
-
     out = []
     for sm in cfg.scenarios:
-        physics = SCENARIO_CLASSES[sm.name](**sm.parameters).to_dict()
-        for key in ("velocity_m_s", "local", "structure"):
+        spec = scenarios.get(sm.name)
+        physics = spec.build(parameters=sm.parameters).to_dict()
+        for key in spec.axis_names:
             physics.pop(key, None)
-        out.append({"scenario": sm.name, "velocities_m_s": list(sm.velocities_m_s),
-                    "parameters": physics, "local": list(sm.local),
-                    "structure": list(sm.structure), "timestep_s": dict(sm.timestep_s)})
+        entry: dict[str, Any] = {"scenario": sm.name}
+        for a in spec.axes:
+            entry[a.config_key] = list(sm.values(a.name))
+        out.append({**entry, "parameters": physics, "timestep_s": dict(sm.timestep_s)})
     wp = cfg.work_precision
     if wp is not None:
         out.append({"scenario": "work_precision", "velocities_m_s": [wp.velocity_m_s],
@@ -258,9 +252,10 @@ def build(cfg: config_mod.ReportConfig, out_dir: Path, *, engines: list[str] | N
     with publish.writer_lock(out_dir):
         jobs = plan(cfg, engines)
         if not jobs:
+            tables = " or ".join(f"[{s.table}]" for s in scenarios.specs())
             raise ValueError(f"config {cfg.source or '<inline>'}: nothing to run (no "
-                             "[ball_on_plate] or [rigid_flexible] velocities_m_s, or no "
-                             "[work_precision] timesteps_s); see impactbench/data/default.toml")
+                             f"{tables} velocities_m_s, or no [work_precision] timesteps_s); "
+                             "see impactbench/data/default.toml")
         update, close = progress_bar(len(jobs)) if show_progress else ((lambda n: None),
                                                                         (lambda: None))
         try:
@@ -331,7 +326,7 @@ def _write(cfg: config_mod.ReportConfig, out_dir: Path, results: list[JobResult]
     the rendering would give the same bytes."""
     df = pd.DataFrame(tidy(results))
     if not df.empty:
-        df = df.sort_values(SORT_COLUMNS, kind="stable").reset_index(drop=True)
+        df = df.sort_values(sort_columns(), kind="stable").reset_index(drop=True)
     engine_versions = {}
     for r in results:
         if r.run.get("engine_version"):
@@ -346,7 +341,7 @@ def _write(cfg: config_mod.ReportConfig, out_dir: Path, results: list[JobResult]
         "platform": platform.platform(),
         "engines": dict(sorted(engine_versions.items())),
         "libraries": _library_versions(),
-        "metrics_per_scenario": {k: list(v) for k, v in SCENARIO_METRICS.items()},
+        "metrics_per_scenario": {k: list(v) for k, v in scenarios.metric_names().items()},
         "runs": [{"id": r.job.id, "status": r.run["status"], "wall_s": r.run.get("wall_s"),
                   "timestep_s": r.run.get("timestep_s"), "stored": r.cached}
                  for r in results],

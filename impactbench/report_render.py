@@ -11,7 +11,7 @@ bound to the Markdown macros (``templates/md.j2``) and then to the HTML macros
 (``page.md.j2``, ``page.html.j2``) add the title, the table of contents and the style.
 
 To add a section: write ``templates/sections/NAME.j2``, a data function, and put
-``Section("NAME", "Title", data)`` in :data:`impactbench.report_sections.SECTIONS`.
+``Section("NAME", "Title", data)`` in :func:`impactbench.report_sections.sections`.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """The report's sections: one data function per template in ``templates/sections/``.
 
-:data:`SECTIONS` is the report in reading order. Each data function takes the
+:func:`sections` is the report in reading order. Each data function takes the
 :class:`~impactbench.report_render.ReportContext` and returns the dict its template reads, or
 ``None`` to leave the section out. Relative errors are signed, (engine − reference)/|reference|.
 """
@@ -14,6 +14,7 @@ from typing import Any
 
 import pandas as pd
 
+from impactbench import scenarios
 from impactbench.engines.base import MODES, PIP
 from impactbench.report_render import (
     BANDS,
@@ -25,12 +26,6 @@ from impactbench.report_render import (
     band,
 )
 
-SCENARIOS = ("ball-on-plate", "rigid-flexible")
-TITLES = {"ball-on-plate": "Ball on plate", "rigid-flexible": "Rigid–flexible"}
-HEADLINE = {
-    "ball-on-plate": ("restitution", "duration_s", "peak_force_n"),
-    "rigid-flexible": ("peak_force_n", "pulse_width_s", "impulse_ns", "impacts"),
-}
 LABELS = {"restitution": "restitution", "duration_s": "duration", "peak_force_n": "peak force",
           "pulse_width_s": "pulse width", "impulse_ns": "impulse", "impacts": "impacts",
           "contact_time_s": "contact time", "max_penetration_m": "max penetration",
@@ -38,8 +33,10 @@ LABELS = {"restitution": "restitution", "duration_s": "duration", "peak_force_n"
 UNITS = {"restitution": "–", "duration_s": "s", "peak_force_n": "N", "pulse_width_s": "s",
          "impulse_ns": "N·s", "impacts": "count", "contact_time_s": "s",
          "max_penetration_m": "m", "energy_loss_fraction": "–"}
-RUN_KEYS = ["study", "scenario", "local", "structure", "velocity_m_s", "engine", "mode",
-            "timestep_s"]
+def run_keys() -> list[str]:
+    """The columns that identify one run in the tidy table."""
+    cats, nums = scenarios.point_columns()
+    return ["study", "scenario", *cats, *nums, "engine", "mode", "timestep_s"]
 
 
 # ----------------------------------------------------------------------------- formatting
@@ -54,16 +51,10 @@ def format_error(err: float) -> str:
     return f"{text} %".replace("-", "−")
 
 
-def point_keys(scenario: str) -> list[str]:
-    return ["local", "structure", "velocity_m_s"] if scenario == "rigid-flexible" \
-        else ["velocity_m_s"]
-
-
 def point_label(row: Any) -> str:
     """``V0 = 1 m/s`` (ball) or ``elastoplastic/linear, v1 = 2 m/s`` (rigid–flexible)."""
-    if row.scenario == "rigid-flexible":
-        return f"{row.local}/{row.structure}, v1 = {row.velocity_m_s:g} m/s"
-    return f"V0 = {row.velocity_m_s:g} m/s"
+    spec = scenarios.get(row.scenario)
+    return spec.point_text({a.name: getattr(row, a.name) for a in spec.axes})
 
 
 def timestep_text(rows: pd.DataFrame) -> str:
@@ -95,7 +86,7 @@ def value_cell(row: Any) -> Cell:
 
 def _runs(rows: pd.DataFrame) -> pd.DataFrame:
     """One row per run (the tidy table has one per run and metric)."""
-    return rows.drop_duplicates(RUN_KEYS)
+    return rows.drop_duplicates(run_keys())
 
 
 def _status_counts(runs: pd.DataFrame) -> str:
@@ -127,7 +118,8 @@ def verdict(rows: pd.DataFrame, scenario: str) -> str:
         if (runs.status == status).all() and status == "unavailable":
             return "The engine is not installed here."
         return f"No run gave numbers ({_status_counts(runs)})."
-    found = [(m, *worst(rows, m)) for m in HEADLINE[scenario] if m != "impacts"]
+    headline = scenarios.get(scenario).headline
+    found = [(m, *worst(rows, m)) for m in headline if m != "impacts"]
     measured = [(m, e, r) for m, e, r in found if math.isfinite(e)]
     missing = [LABELS[m] for m, e, _ in found if not math.isfinite(e)]
     parts = []
@@ -144,7 +136,7 @@ def verdict(rows: pd.DataFrame, scenario: str) -> str:
             parts.append(f"{word}: {LABELS[m]} {format_error(e)} at {point_label(r)}{tail}")
     if missing:
         parts.append(f"{' and '.join(missing)} not comparable")
-    if "impacts" in HEADLINE[scenario]:
+    if "impacts" in headline:
         counts = rows[(rows.metric == "impacts") & (rows.status == "ok")]
         wrong = counts[pd.to_numeric(counts.rel_error, errors="coerce").fillna(1) != 0]
         if len(wrong):
@@ -162,11 +154,12 @@ def scoreboard(ctx: ReportContext) -> dict[str, Any] | None:
     if m.empty:
         return None
     tables = []
-    for scenario in SCENARIOS:
+    for spec in scenarios.specs():
+        scenario = spec.name
         s = m[m.scenario == scenario]
         if s.empty:
             continue
-        metrics = HEADLINE[scenario]
+        metrics = spec.headline
         rows = []
         for engine in ctx.engines:
             e = s[s.engine == engine]
@@ -190,7 +183,7 @@ def scoreboard(ctx: ReportContext) -> dict[str, Any] | None:
                 cells.append(Cell(verdict(g, scenario), wrap=True))
                 rows.append(cells)
         columns = ["engine", "mode", *[LABELS[x] for x in metrics], "runs ok", "in one sentence"]
-        tables.append({"title": f"Scoreboard: {TITLES[scenario].lower()}",
+        tables.append({"title": f"Scoreboard: {spec.title.lower()}",
                        "table": Table(columns, rows, text_columns=2, marks=True,
                                       prose_columns=1)})
     legend = ", ".join(f"{name}: {words}" for name, _, words in BANDS)
@@ -203,10 +196,10 @@ def scoreboard(ctx: ReportContext) -> dict[str, Any] | None:
 def scenario_tables(ctx: ReportContext, scenario: str) -> list[dict[str, Any]]:
     """Per engine: rows = scenario point × (reference, modes), columns = headline metrics."""
     s = ctx.matrix[ctx.matrix.scenario == scenario]
-    keys = point_keys(scenario)
-    metrics = HEADLINE[scenario]
-    key_columns = ["local", "structure", "v1 (m/s)"] if scenario == "rigid-flexible" \
-        else ["V0 (m/s)"]
+    spec = scenarios.get(scenario)
+    keys = list(spec.axis_names)
+    metrics = spec.headline
+    key_columns = [a.column for a in spec.axes]
     columns = [*key_columns, "run", *[f"{LABELS[x]} ({UNITS[x]})" for x in metrics]]
     out = []
     for engine in ctx.engines:
@@ -246,19 +239,18 @@ def scenario_section(scenario: str, ctx: ReportContext) -> dict[str, Any] | None
     s = ctx.matrix[ctx.matrix.scenario == scenario] if not ctx.matrix.empty else ctx.matrix
     if s.empty:
         return None
+    spec = scenarios.get(scenario)
     v = sorted(set(s.velocity_m_s))
-    what = ("the steel ball on a massive plate, Hunt–Crossley closed form"
-            if scenario == "ball-on-plate"
-            else "a rigid body on a flexible body (2-DOF), event-driven reference")
     points = f"{len(v)} velocit{'y' if len(v) == 1 else 'ies'} " \
              f"({', '.join(f'{x:g}' for x in v)} m/s)"
-    if scenario == "rigid-flexible":
-        laws = sorted(set(zip(s.local, s.structure, strict=True)))
-        points += f" × {len(laws)} law pairs (local/structure: " \
-                  + ", ".join(f"{lo}/{st}" for lo, st in laws) + ")"
+    cats = [a.name for a in spec.axes if a.categorical]
+    if cats:
+        combos = sorted(set(zip(*(s[c] for c in cats), strict=True)))
+        points += f" × {len(combos)} law pairs ({'/'.join(cats)}: " \
+                  + ", ".join("/".join(c) for c in combos) + ")"
     return {
-        "intro": f"{TITLES[scenario]}: {what}; {points}. Each cell: the engine's value and its "
-                 "signed relative error against the reference; a word is the run's status.",
+        "intro": f"{spec.title}: {spec.summary}; {points}. Each cell: the engine's value and "
+                 "its signed relative error against the reference; a word is the run's status.",
         "heatmaps": ctx.figures_in(f"heatmap:{scenario}"),
         "engines": scenario_tables(ctx, scenario),
         "figures": ctx.figures_in(f"history:{scenario}"),
@@ -284,15 +276,6 @@ def _judge(err: float) -> str:
     return {"good": "faithful", "fair": "noticeably off", "poor": "far off"}[band(err)]
 
 
-NATIVE_MAPPING = {
-    ("ball-on-plate", ""): "a linear spring–damper matched to the reference at 1 m/s",
-    ("ball-on-plate", "pymunk"): "a rigid contact with the reference restitution at 1 m/s",
-    ("rigid-flexible", ""): "a linear, undamped k1 contact, which cannot yield or fail",
-    ("rigid-flexible", "pymunk"): "a rigid, perfectly elastic contact with e = 1, which has "
-                                  "no stiffness k1 at all",
-}
-
-
 def injection_line(engine: str) -> str:
     """The adapter's one-line statement of what injected mode means in it (``""`` if the
     adapter cannot be loaded here)."""
@@ -315,12 +298,12 @@ def interpretation(df: pd.DataFrame, engine: str) -> str:
                "`unavailable`."
     parts = [f"**{engine} {version}**."]
     how = injection_line(engine)
-    for scenario, metric_names in HEADLINE.items():
-        s = rows[rows.scenario == scenario]
+    for spec in scenarios.specs():
+        s = rows[rows.scenario == spec.name]
         if s.empty:
             continue
-        label = TITLES[scenario]
-        names = [m for m in metric_names if m != "impacts"]
+        label = spec.title
+        names = [m for m in spec.headline if m != "impacts"]
         inj, nat = s[s["mode"] == "injected"], s[s["mode"] == "native"]
         inj_w = max((abs(worst(inj, m)[0]) for m in names), default=math.nan)
         nat_w = max((abs(worst(nat, m)[0]) for m in names), default=math.nan)
@@ -341,7 +324,7 @@ def interpretation(df: pd.DataFrame, engine: str) -> str:
                 owner = "the gap is the contact model's, not the integrator's"
             else:
                 owner = "comparable to injected mode, so the time stepping dominates"
-            mapping = NATIVE_MAPPING.get((scenario, engine), NATIVE_MAPPING[(scenario, "")])
+            mapping = spec.native.get(engine) or spec.native.get("", "mapped parameters")
             parts.append(f"Native mode (its own contact, {mapping}): "
                          f"{_worst_text(nat, names) or 'none measured'}"
                          + (f"; {owner}." if owner else "."))
@@ -414,17 +397,16 @@ PARAMETER_TEXT = {
 
 def parameters(ctx: ReportContext) -> dict[str, Any] | None:
     """The physical parameters of every scenario of the config (SI), and its timesteps."""
-    from impactbench.params import SCENARIO_CLASSES, SCENARIO_FLAGS
-
     out = []
     for sm in ctx.cfg.scenarios:
         if not sm.velocities_m_s:
             continue
-        flags = {f: text for f, text in SCENARIO_FLAGS[sm.name].values()}
-        sc = SCENARIO_CLASSES[sm.name](**sm.parameters)
+        spec = scenarios.get(sm.name)
+        flags = {f.field: f.help for f in spec.flags}
+        sc = spec.build(parameters=sm.parameters)
         rows = []
         for name, value in sc.to_dict().items():
-            if name in ("velocity_m_s", "local", "structure"):
+            if name in spec.axis_names:
                 continue
             text = flags.get(name) or PARAMETER_TEXT.get(name, "")
             changed = " (set by the config)" if name in sm.parameters else ""
@@ -434,14 +416,15 @@ def parameters(ctx: ReportContext) -> dict[str, Any] | None:
         rows.append([Cell("`velocities_m_s`"),
                      Cell(", ".join(f"{v:g}" for v in sm.velocities_m_s)),
                      Cell("impact velocities of the matrix (m/s)")])
-        if sm.local:
-            rows.append([Cell("`local` × `structure`"),
-                         Cell(", ".join(sm.local) + " × " + ", ".join(sm.structure)),
+        cats = [a for a in spec.axes if a.categorical]
+        if cats:
+            rows.append([Cell(" × ".join(f"`{a.name}`" for a in cats)),
+                         Cell(" × ".join(", ".join(sm.values(a.name)) for a in cats)),
                          Cell("contact and structural laws")])
         for engine, dt in sorted(sm.timestep_s.items()):
             rows.append([Cell(f"`timestep_s.{engine}`"), Cell(f"{dt:g}"),
                          Cell("integration step (s)")])
-        out.append({"title": TITLES[sm.name],
+        out.append({"title": spec.title,
                     "table": parameter_table(rows)})
     wp = ctx.cfg.work_precision
     if wp is not None:
@@ -488,7 +471,8 @@ def contact_models(ctx: ReportContext) -> dict[str, Any] | None:
     path = zoo.figure(ctx.fig_dir / "report_zoo_restitution.png")
     fig = ctx.add_figure(path, "Effective against nominal restitution of every contact "
                          "model (exact)", group="contact_models")
-    ball = next((s for s in ctx.cfg.scenarios if s.name == "ball-on-plate"), None)
+    name = scenarios.for_study("tuning").name
+    ball = next((s for s in ctx.cfg.scenarios if s.name == name), None)
     params = dict(ball.parameters) if ball is not None else {}
     model = params.get("model", "hunt-crossley")
     e = params.get("nominal_restitution")
@@ -520,7 +504,8 @@ def tuning_caption(engine: str) -> str:
     text = (f"Tuning residuals, {engine}, ball on plate: relative error per velocity and "
             "metric, closed-form start against the fit")
     try:
-        prov = (load_tuned_file(tuned_path(engine, "ball-on-plate")) or {}).get("provenance", {})
+        scenario = scenarios.for_study("tuning").name
+        prov = (load_tuned_file(tuned_path(engine, scenario)) or {}).get("provenance", {})
     except ValueError:
         prov = {}
     if prov:
@@ -566,19 +551,21 @@ def practical_section(ctx: ReportContext) -> dict[str, Any] | None:
     return section(ctx)
 
 
-SECTIONS: list[Section] = [
-    Section("scoreboard", "Scoreboard", scoreboard),
-    Section("how_to_read", "How to read it", how_to_read),
-    Section("scenario", TITLES["ball-on-plate"], partial(scenario_section, "ball-on-plate")),
-    Section("scenario", TITLES["rigid-flexible"], partial(scenario_section, "rigid-flexible")),
-    Section("practical", "At practical timesteps", practical_section),
-    Section("work_precision", "Work–precision", work_precision),
-    Section("meaning", "What this means", meaning),
-    Section("contact_models", "Contact models: nominal against effective restitution",
-            contact_models),
-    Section("failed_runs", "Failed runs", failed_runs),
-    Section("parameters", "Physical parameters", parameters),
-    Section("figure_index", "Index of figures", figure_index),
-    Section("files", "Files and provenance", files),
-]
-"""The report in reading order. Insert a :class:`Section` here to add one."""
+def sections() -> list[Section]:
+    """The report in reading order: one section per registered scenario after the
+    scoreboard. Insert a :class:`Section` here to add one."""
+    return [
+        Section("scoreboard", "Scoreboard", scoreboard),
+        Section("how_to_read", "How to read it", how_to_read),
+        *(Section("scenario", spec.title, partial(scenario_section, spec.name))
+          for spec in scenarios.specs()),
+        Section("practical", "At practical timesteps", practical_section),
+        Section("work_precision", "Work–precision", work_precision),
+        Section("meaning", "What this means", meaning),
+        Section("contact_models", "Contact models: nominal against effective restitution",
+                contact_models),
+        Section("failed_runs", "Failed runs", failed_runs),
+        Section("parameters", "Physical parameters", parameters),
+        Section("figure_index", "Index of figures", figure_index),
+        Section("files", "Files and provenance", files),
+    ]

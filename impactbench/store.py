@@ -41,16 +41,12 @@ from functools import cache
 from pathlib import Path
 from typing import Any
 
+from impactbench.engines.registry import SPECS, is_builtin
+
 STORE_ENV = "IMPACTBENCH_STORE"
 LOCK_WAIT_S = 30.0
 """How long to wait for another process to release the store file."""
 
-_ENGINE_DISTRIBUTIONS = {"mujoco": ("mujoco", "mujoco"), "pybullet": ("pybullet", "pybullet"),
-                         "pymunk": ("pymunk", "pymunk"), "drake": ("drake", "pydrake"),
-                         "sapien": ("sapien", "sapien"), "dart": ("dartpy", "dartpy"),
-                         "box2d": ("box2d", "Box2D"), "mjx": ("mujoco-mjx", "mujoco"),
-                         "newton": ("newton", "newton")}
-"""engine → (distribution, top-level module)."""
 
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS results (
@@ -66,9 +62,7 @@ CREATE TABLE IF NOT EXISTS results (
     engine_version VARCHAR,
     mode VARCHAR NOT NULL,
     scenario VARCHAR NOT NULL,
-    local VARCHAR,
-    structure VARCHAR,
-    velocity_m_s DOUBLE,
+    point VARCHAR,
     timestep_s DOUBLE,
     wall_s DOUBLE,
     impactbench_version VARCHAR NOT NULL,
@@ -78,6 +72,7 @@ CREATE TABLE IF NOT EXISTS results (
     PRIMARY KEY (run_key, metric)
 );
 ALTER TABLE results ADD COLUMN IF NOT EXISTS study VARCHAR;
+ALTER TABLE results ADD COLUMN IF NOT EXISTS point VARCHAR;
 CREATE TABLE IF NOT EXISTS runs (
     run_key VARCHAR PRIMARY KEY,
     run VARCHAR NOT NULL
@@ -101,6 +96,17 @@ CREATE TABLE IF NOT EXISTS histories (
     penetration_m DOUBLE[]
 );
 """
+_MIGRATE_POINT = """
+UPDATE results SET point = CASE WHEN local IS NULL OR local = ''
+    THEN json_object('velocity_m_s', velocity_m_s)
+    ELSE json_object('local', local, 'structure', structure, 'velocity_m_s', velocity_m_s) END
+    WHERE point IS NULL;
+ALTER TABLE results DROP COLUMN local;
+ALTER TABLE results DROP COLUMN structure;
+ALTER TABLE results DROP COLUMN velocity_m_s;
+"""
+"""A store written before scenarios became specs kept a run's point in three columns
+(``local``, ``structure``, ``velocity_m_s``); one JSON ``point`` column holds any scenario's."""
 HISTORY_KEYS = ("time_s", "normal_force_n", "penetration_m")
 POINT_KEYS = ("peak_force_n", "pulse_width_s", "contact_time_s", "impulse_ns", "impacts")
 """The metric columns of ``sweep_points``: the 2-DOF solver's ``METRIC_KEYS`` (tested equal)."""
@@ -153,7 +159,8 @@ def engine_version(engine: str) -> str:
     if engine in disabled:
         return "disabled"
     if engine_is_builtin(engine):
-        version = _installed_version(*_ENGINE_DISTRIBUTIONS[engine])
+        spec = SPECS[engine]
+        version = _installed_version(spec.distribution, spec.module.partition(".")[0])
         if version is not None:
             return version
     try:
@@ -184,9 +191,7 @@ def _installed_version(dist: str, module: str) -> str | None:
 
 def engine_is_builtin(engine: str) -> bool:
     """True when ``engine`` is one of the packaged adapters (not replaced by a plug-in)."""
-    from impactbench.engines.base import ENGINES, _registry
-
-    return ENGINES.get(engine) is not None and _registry().get(engine) == ENGINES[engine]
+    return is_builtin(engine)
 
 
 def _canonical(value: Any) -> Any:
@@ -285,6 +290,11 @@ class Store:
                                  f"({str(exc).splitlines()[0]})") from None
         if not read_only:
             con.execute(_SCHEMA)
+            columns = {r[0] for r in con.execute(
+                "SELECT column_name FROM information_schema.columns WHERE table_name = "
+                "'results'").fetchall()}
+            if "local" in columns:  # written before points: a one-time migration
+                con.execute(_MIGRATE_POINT)
         return con
 
     @contextlib.contextmanager
@@ -377,19 +387,22 @@ class Store:
                 [engine, impactbench_version]).fetchall()
         return {key: json.loads(run) for key, run in rows}
 
-    def put(self, entries: Iterable[tuple[str, Mapping[str, Any], Mapping[str, Any],
+    def put(self, entries: Iterable[tuple[str, Mapping[str, Any], Any,
                                           Mapping[str, Any], Mapping[str, Any]]]) -> int:
-        """Store runs: (key, inputs, job fields, run object, history). ``crashed`` runs are
-        skipped. Returns the number of runs written."""
+        """Store runs: (key, inputs, job, run object, history). The job is a
+        :class:`~impactbench.matrix.RunKey` (or :class:`~impactbench.matrix.Job`) or a mapping
+        with its ``engine``, ``mode``, ``scenario``, ``point`` and optionally ``study`` and
+        ``keep_history``. ``crashed`` runs are skipped. Returns the number of runs written."""
         import pyarrow as pa
 
         rows: list[dict[str, Any]] = []
         runs: list[dict[str, Any]] = []
         hist: list[dict[str, Any]] = []
         now = time.time()
-        for key, inputs, job, run, history in entries:
+        for key, inputs, job_obj, run, history in entries:
             if run["status"] == "crashed":
                 continue
+            job = job_obj if isinstance(job_obj, Mapping) else vars(job_obj)
             skip = run.get("not_comparable", {})
             runs.append({"run_key": key, "run": json.dumps(
                 {k: v for k, v in run.items() if k != "reference"}, default=_plain)})
@@ -401,8 +414,8 @@ class Store:
                     "status": run["status"], "message": run.get("message", ""),
                     "engine": job["engine"], "engine_version": run.get("engine_version", ""),
                     "mode": job["mode"], "scenario": job["scenario"],
-                    "local": job.get("local", ""), "structure": job.get("structure", ""),
-                    "velocity_m_s": job["velocity_m_s"],
+                    "point": json.dumps(dict(job.get("point", ())), separators=(",", ":"),
+                                        default=_plain),
                     "timestep_s": _float(run.get("timestep_s")),
                     "wall_s": _float(run.get("wall_s")),
                     "impactbench_version": inputs["impactbench_version"],

@@ -18,6 +18,8 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from impactbench.scenarios import spec_of
+
 TUNED_DIR = Path(__file__).parent / "data" / "tuned"
 _BARE_KEY = re.compile(r"^[A-Za-z0-9_-]+$")
 
@@ -100,11 +102,9 @@ def load_tuned_settings(engine: str, scenario: str, timestep_s: float | None = N
 
 def tune_command(engine: str, scenario: Any, timestep_s: float) -> str:
     """The ``impactbench tune`` command line that fits ``engine`` to ``scenario`` at this step."""
-    from impactbench.params import BALL_FLAGS
-
     default = type(scenario)()
-    flags = [f"--{flag} {getattr(scenario, field):g}" for flag, (field, _) in BALL_FLAGS.items()
-             if getattr(scenario, field) != getattr(default, field)]
+    flags = [f"--{f.flag} {getattr(scenario, f.field):g}" for f in spec_of(scenario).flags
+             if getattr(scenario, f.field) != getattr(default, f.field)]
     return " ".join(["impactbench tune", f"--engine {engine}", *flags,
                      f"--timestep {timestep_s:g}", "--out tuned.toml"])
 
@@ -116,9 +116,7 @@ def binding_mismatch(provenance: dict[str, Any], engine: str, scenario: Any,
     A tuned file is bound to the engine, scenario (every physical parameter except the impact
     velocity) and timestep it was fitted for; the message names the first differing field and
     the ``impactbench tune`` command that fits this case."""
-    from impactbench.evaluate import scenario_name
-
-    name = scenario_name(scenario)
+    name = spec_of(scenario).name
     diffs: list[str] = []
     if provenance.get("engine", engine) != engine:
         diffs.append(f"engine = {provenance['engine']!r} (this run: {engine!r})")

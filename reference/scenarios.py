@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, fields
-from typing import Any
+from typing import Any, ClassVar
 
 from impactbench.reference import validation as check
 from impactbench.reference.laws import (
@@ -61,6 +61,11 @@ here; far below, V0² underflows and every metric would come out 0."""
 
 
 class _Scenario:
+    """What every scenario dataclass shares. ``name`` is its registry name, the key adapters
+    find their builder under (:attr:`impactbench.engines.base.Adapter.builders`)."""
+
+    name: ClassVar[str]
+
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)  # type: ignore[call-overload]
 
@@ -88,6 +93,8 @@ class BallOnPlate(_Scenario):
     (``exponent`` must be 1) and d = 2ζ√(k·m). The default model ``hunt-crossley`` without e
     takes ``damping_s_per_m`` as given (the paper's b).
     """
+
+    name: ClassVar[str] = "ball-on-plate"
 
     velocity_m_s: float = 1.0
     mass_kg: float = 0.1
@@ -169,6 +176,8 @@ class RigidFlexible(_Scenario):
     Defaults are Zhou & Xiao's base parameters. ``local`` names the contact law
     (linear, elastoplastic, mutation), ``structure`` the structural law (linear, softening).
     """
+
+    name: ClassVar[str] = "rigid-flexible"
 
     velocity_m_s: float = 2.0
     local: str = "linear"

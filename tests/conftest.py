@@ -36,12 +36,10 @@ def small_report(tmp_path_factory: pytest.TempPathFactory):
 
 def require_engine(name: str):
     """Import an engine's module or skip with the pip command that fixes it."""
-    from impactbench.engines.base import PIP
+    from impactbench.engines.registry import SPECS
 
-    module = {"drake": "pydrake", "pymunk": "pymunk", "mujoco": "mujoco",
-              "pybullet": "pybullet", "sapien": "sapien", "dart": "dartpy",
-              "box2d": "Box2D", "mjx": "mujoco.mjx", "newton": "newton"}[name]
-    return pytest.importorskip(module, reason=f"{name} not installed: run `{PIP[name]}`")
+    spec = SPECS[name]
+    return pytest.importorskip(spec.module, reason=f"{name} not installed: run `{spec.pip}`")
 
 
 def assert_escaped_after_whole_contact(rec, scenario) -> None:

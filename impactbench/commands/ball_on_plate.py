@@ -36,7 +36,7 @@ from impactbench.cliutil import (
     table_format,
     write_table,
 )
-from impactbench.params import add_parameter_flags, scenario_from_args
+from impactbench.flags import add_parameter_flags, scenario_from_args
 
 REFERENCE_HELP = "ball on a fixed plate (Hunt–Crossley or any --model): closed-form metrics"
 SWEEP_HELP = "ball on a fixed plate: metrics over a velocity grid into a table"

@@ -17,7 +17,7 @@ import sys
 from pathlib import Path
 
 from impactbench.cliutil import number, print_json, print_table
-from impactbench.params import add_parameter_flags, scenario_from_args
+from impactbench.flags import add_parameter_flags, scenario_from_args
 
 HELP = "fit a contact model's damping (and stiffness) to measured impacts, with intervals"
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from impactbench import scenarios
 from impactbench.cliutil import add_execution_flags, execution_options
 
 HELP = "run the comparison matrix and write the report (tables, plots, CSV/Parquet)"
@@ -44,7 +45,8 @@ def main(args: argparse.Namespace) -> int:
 
         fields = load_scenario_file(args.scenario_file)
         raw = dict(cfg.raw)
-        raw["ball_on_plate"] = {**raw.get("ball_on_plate", {}), **fields}
+        table = scenarios.for_study("calibrate").table
+        raw[table] = {**raw.get(table, {}), **fields}
         cfg = config.parse(raw, source=f"{cfg.source} + {args.scenario_file}")
     engines = None
     if args.engines:
@@ -54,9 +56,10 @@ def main(args: argparse.Namespace) -> int:
                 raise ValueError(f"--engines: {e!r} is not one of {', '.join(engine_names())}")
     opts = execution_options(args, cfg)
     rep = report.build(cfg, args.out, engines=engines, **opts)
-    counts = rep.results.drop_duplicates(
-        ["study", "scenario", "local", "structure", "velocity_m_s", "engine", "mode",
-         "timestep_s"]).status.value_counts().to_dict() if len(rep.results) else {}
+    from impactbench.report_sections import run_keys
+
+    counts = rep.results.drop_duplicates(run_keys()).status.value_counts().to_dict() \
+        if len(rep.results) else {}
     print(f"report written to {args.out}/ ({len(rep.files)} files) in {rep.wall_s:.1f} s; "
           "runs: " + (", ".join(f"{n} {s}" for s, n in sorted(counts.items())) or "none"))
     return 0

@@ -23,7 +23,7 @@ from impactbench.cliutil import (
     table_format,
     write_table,
 )
-from impactbench.params import add_law_flags, add_parameter_flags, scenario_from_args
+from impactbench.flags import add_axis_flags, add_parameter_flags, scenario_from_args
 from impactbench.reference.laws import LOCAL_LAWS, STRUCTURAL_LAWS
 from impactbench.reference.scenarios import SWEEP_FIELDS
 
@@ -37,7 +37,7 @@ def register(top: argparse._SubParsersAction, groups: dict) -> None:
     p = groups["reference"].add_parser("rigid-flexible", help=help_ref, description=help_ref)
     p.add_argument("--velocity", type=number, default=2.0, dest="velocity_m_s", metavar="V",
                    help="impact velocity v1 of body 1 (m/s); default 2")
-    add_law_flags(p)
+    add_axis_flags(p, "rigid-flexible")
     add_parameter_flags(p, "rigid-flexible")
     p.add_argument("--json", action="store_true",
                    help=JSON_HELP)
@@ -55,7 +55,7 @@ def register(top: argparse._SubParsersAction, groups: dict) -> None:
                    help="grid step: values A, A+H, A+2H, … ≤ B")
     s.add_argument("--velocity", type=number, default=2.0, dest="velocity_m_s", metavar="V",
                    help="v1 (m/s) when sweeping another parameter; default 2")
-    add_law_flags(s, default=None)
+    add_axis_flags(s, "rigid-flexible", default=None)
     add_parameter_flags(s, "rigid-flexible")
     s.add_argument("--out", type=Path, required=True, metavar="FILE",
                    help="output table: .csv or .parquet")

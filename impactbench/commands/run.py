@@ -6,6 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from impactbench import scenarios
 from impactbench.cliutil import (
     check_cost,
     key_value,
@@ -15,19 +16,19 @@ from impactbench.cliutil import (
     stdout_to_stderr,
 )
 from impactbench.engines.registry import ENGINES, MODES
-from impactbench.params import add_law_flags, add_parameter_flags, scenario_from_args
+from impactbench.flags import add_axis_flags, add_parameter_flags, scenario_from_args
 
 HELP = "run one scenario in one engine and compare it with the reference"
 
 
 def register(top: argparse._SubParsersAction, groups: dict) -> None:
-    p = top.add_parser("run", help=HELP, description=HELP + ". Parameter flags of both "
-                       "scenarios are accepted; those of the other scenario are ignored.")
+    p = top.add_parser("run", help=HELP, description=HELP + ". Parameter flags of every "
+                       "scenario are accepted; those of the other scenarios are ignored.")
     p.add_argument("--engine", required=True, choices=tuple(ENGINES),
                    help="the engine to run")
-    p.add_argument("--scenario", required=True, choices=("ball-on-plate", "rigid-flexible"),
-                   help="ball-on-plate: Hunt–Crossley ball on a plate; rigid-flexible: the "
-                   "2-DOF rigid body on a flexible body")
+    names = scenarios.names()
+    p.add_argument("--scenario", required=True, choices=names,
+                   help="; ".join(f"{n}: {scenarios.get(n).summary}" for n in names))
     p.add_argument("--mode", default=None, choices=MODES,
                    help="native: the engine's contact model with mapped parameters; "
                    "injected: the reference law driven through the engine; tuned: fitted "
@@ -44,9 +45,12 @@ def register(top: argparse._SubParsersAction, groups: dict) -> None:
                    metavar="V", help="impact velocity V0 or v1 (m/s)")
     p.add_argument("--timestep", type=number, default=None, dest="timestep_s", metavar="S",
                    help="integration step (s); default: the adapter's for the scenario")
-    add_law_flags(p)
-    add_parameter_flags(p, "ball-on-plate")
-    add_parameter_flags(p, "rigid-flexible")
+    axes: set[str] = set()
+    flags: set[str] = set()
+    for name in names:
+        add_axis_flags(p, name, added=axes)
+    for name in names:
+        add_parameter_flags(p, name, added=flags)
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--allow-status", default="", metavar="LIST",
                    help="comma list of non-ok statuses that still exit 0, e.g. "

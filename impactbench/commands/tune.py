@@ -29,7 +29,7 @@ from impactbench.cliutil import (
     stdout_to_stderr,
 )
 from impactbench.engines.registry import ENGINES
-from impactbench.params import add_parameter_flags, scenario_from_args
+from impactbench.flags import add_parameter_flags, scenario_from_args
 from impactbench.reference import validation as check
 from impactbench.reference.scenarios import PAPER_VELOCITIES_M_S
 

@@ -202,7 +202,7 @@ class Objective:
         inputs: dict[tuple[bytes, int], dict[str, Any]] = {}
         if self.store is not None:
             for k, item in wanted.items():
-                inputs[k] = store_mod.run_inputs(item[0], "ball-on-plate", *item[1:4])
+                inputs[k] = store_mod.run_inputs(item[0], self.scenario.name, *item[1:4])
                 keys[k] = store_mod.run_key(inputs[k])
             if self._stored is None:  # one query for the whole search, not one per point
                 self._stored = {} if self.fresh else self.store.runs_of(
@@ -229,8 +229,9 @@ class Objective:
             self._stored.update((keys[k], run) for k, run in zip(todo, runs, strict=True))
             self._unstored += [
                 (keys[k], inputs[k], {"engine": self.space.engine, "mode": wanted[k][2],
-                                      "scenario": "ball-on-plate", "study": CANDIDATE,
-                                      "velocity_m_s": self.velocities_m_s[k[1]]}, run, {})
+                                      "scenario": self.scenario.name, "study": CANDIDATE,
+                                      "point": (("velocity_m_s", self.velocities_m_s[k[1]]),)},
+                 run, {})
                 for k, run in zip(todo, runs, strict=True)]
             if time.monotonic() - self._last_flush > FLUSH_EVERY_S:
                 self.flush()

@@ -4,20 +4,19 @@ crash isolation: it kills its own process the way a segfaulting engine would."""
 from __future__ import annotations
 
 import os
+from typing import ClassVar
 
-from impactbench.engines.base import Adapter
+from impactbench.engines.base import Adapter, Builder
 
 
 class CrashingAdapter(Adapter):
     name = "crasher"
+    builders: ClassVar[dict[str, Builder]] = {"ball-on-plate": Builder("run_ball", 1e-6)}
 
     def version(self) -> str:
         return "0"
 
-    def default_timestep_s(self, scenario, mode) -> float:
-        return 1e-6
-
-    def _run(self, scenario, mode, settings):
+    def run_ball(self, scenario, mode, settings):
         os.abort()  # SIGABRT: the worker process dies without a Python exception
 
 

@@ -65,7 +65,7 @@ def write(tmp_path: Path, text: str, name: str = "gates.toml") -> Path:
      'scenario = "ball-on-plate"\n[gate.tolerance]\nrestitution = 0.01\n', 5, ("mode = 'fast'",)),
     ('[[gate]]\nengine = "mujoco"\nmode = "injected"\nscenario = "ball-on-plate"\n'
      'local = "linear"\n[gate.tolerance]\nrestitution = 0.01\n', 5,
-     ("local", "only for rigid-flexible")),
+     ("local", "not an axis of ball-on-plate")),
 ])
 def test_bad_gate_file_exits_2_naming_the_line(tmp_path, capsys, body, line, words) -> None:
     path = write(tmp_path, body)
@@ -251,8 +251,9 @@ def test_missing_engine_is_not_comparable(engine, tmp_path) -> None:
 
 def test_update_baseline_keeps_entries_it_could_not_measure(engine, measured) -> None:
     c = measured[0].check
-    other = gates.Check(gates.RunKey("drake", "tuned", "rigid-flexible", 2.0, 1e-5, "linear",
-                                     "linear"), "impulse_ns", 0.01)
+    point = (("local", "linear"), ("structure", "linear"), ("velocity_m_s", 2.0))
+    other = gates.Check(gates.RunKey("drake", "rigid-flexible", point, "tuned", 1e-5),
+                        "impulse_ns", 0.01)
     nc = gates.judge(other, {"status": "unavailable", "message": "not installed"})
     assert nc.mark == gates.NOT_COMPARABLE
     previous = {other.id: {"rel_error": 0.001}}
@@ -272,10 +273,10 @@ def test_shipped_gates_cover_native_modes_and_rigid_flexible_beyond_the_base() -
                        for r in runs), (engine, scenario)
     beyond = {dict(r.parameters).get("m2_kg") for r in runs if r.scenario == "rigid-flexible"}
     assert len(beyond - {None}) >= 1
-    assert {r.local for r in runs if r.scenario == "rigid-flexible"} == {
+    assert {r.get("local") for r in runs if r.scenario == "rigid-flexible"} == {
         "linear", "elastoplastic", "mutation"}
     # issue 16 part 1: the light, soft body 2 with its short separations and re-contacts
-    light = {r.velocity_m_s for r in runs if r.local == "elastoplastic"
+    light = {r.velocity_m_s for r in runs if r.get("local") == "elastoplastic"
              and dict(r.parameters) == {"m2_kg": 0.3, "k2_n_per_m": 1e3}}
     assert light == {100.0, 300.0}
     assert all(c.id in baseline for c in parsed.checks)  # the baseline is regenerated

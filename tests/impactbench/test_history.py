@@ -14,7 +14,10 @@ from impactbench.cli import main
 from impactbench.commands.history import summarize
 from impactbench.matrix import Job, execute, job_settings
 
-JOB = Job("matrix", "pymunk", "ball-on-plate", "injected", 1.0, 1e-5)
+V1 = (("velocity_m_s", 1.0),)
+"""The point of a ball run at 1 m/s."""
+
+JOB = Job("pymunk", "ball-on-plate", V1, "injected", 1e-5, study="matrix")
 
 
 def put_as(st: store_mod.Store, version: str, result) -> None:

@@ -15,6 +15,9 @@ from impactbench.reference.scenarios import BallOnPlate
 from impactbench import config, report
 from impactbench.matrix import Job, run_jobs
 
+V1 = (("velocity_m_s", 1.0),)
+"""The point of a ball run at 1 m/s."""
+
 COLUMNS = ["study", "scenario", "local", "structure", "engine", "mode", "velocity_m_s",
            "timestep_s", "metric", "value", "reference", "rel_error", "resolved", "params",
            "status", "message", "wall_s", "engine_version"]
@@ -95,8 +98,8 @@ def test_a_dying_worker_becomes_a_crashed_row(monkeypatch: pytest.MonkeyPatch) -
     plugin_dir = str(Path(__file__).resolve().parent.parent / "engines")
     monkeypatch.setenv(ENGINES_ENV, "crasher=crashing_adapter:CrashingAdapter")
     monkeypatch.syspath_prepend(plugin_dir)  # spawned workers inherit the parent's sys.path
-    jobs = [Job("matrix", "crasher", "ball-on-plate", "native", 1.0, None),
-            Job("matrix", "pymunk", "ball-on-plate", "injected", 1.0, None)]
+    jobs = [Job("crasher", "ball-on-plate", V1, "native", None, study="matrix"),
+            Job("pymunk", "ball-on-plate", V1, "injected", None, study="matrix")]
     results = {r.job.engine: r.run for r in run_jobs(jobs, workers=2)}
     assert results["crasher"]["status"] == "crashed"
     assert "died" in results["crasher"]["message"]
@@ -125,7 +128,7 @@ def test_render_key_sees_values_not_the_sign_of_zero(tmp_path: Path) -> None:
     from impactbench.matrix import JobResult
 
     cfg = config.parse({"report": {"engines": ["pymunk"], "modes": ["injected"]}})
-    job = Job("matrix", "pymunk", "ball-on-plate", "injected", 1.0, 1e-5, keep_history=True)
+    job = Job("pymunk", "ball-on-plate", V1, "injected", 1e-5, study="matrix", keep_history=True)
 
     def key(force: list[float]) -> str:
         history = {"time_s": np.array([0.0, 1e-5]), "normal_force_n": np.array(force),

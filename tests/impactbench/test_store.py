@@ -15,10 +15,14 @@ from impactbench.reference.scenarios import BallOnPlate
 from impactbench import store as store_mod
 from impactbench.matrix import Job, run_jobs, tidy
 
-JOBS = [Job("matrix", "pymunk", "ball-on-plate", "injected", 1.0, 1e-5, keep_history=True),
-        Job("matrix", "pymunk", "rigid-flexible", "injected", 2.0, 1e-4, (), "linear", "linear",
-            keep_history=True),
-        Job("work_precision", "pymunk", "ball-on-plate", "native", 1.0, 1e-5)]
+V1 = (("velocity_m_s", 1.0),)
+"""The point of a ball run at 1 m/s."""
+
+JOBS = [Job("pymunk", "ball-on-plate", V1, "injected", 1e-5, study="matrix", keep_history=True),
+        Job("pymunk", "rigid-flexible",
+            (("local", "linear"), ("structure", "linear"), ("velocity_m_s", 2.0)), "injected",
+            1e-4, study="matrix", keep_history=True),
+        Job("pymunk", "ball-on-plate", V1, "native", 1e-5, study="work_precision")]
 
 
 @pytest.fixture(scope="module")
@@ -55,14 +59,14 @@ def test_fresh_runs_again(stored) -> None:
 
 def test_a_history_is_required_where_plots_need_it(stored) -> None:
     st, *_ = stored  # the work-precision run has no history stored: a plotting job reruns
-    job = Job("matrix", "pymunk", "ball-on-plate", "native", 1.0, 1e-5, keep_history=True)
+    job = Job("pymunk", "ball-on-plate", V1, "native", 1e-5, study="matrix", keep_history=True)
     assert not run_jobs([job], workers=0, store=st)[0].cached
 
 
 def test_a_plotting_run_that_recorded_nothing_is_served(tmp_path: Path) -> None:
     """An unsupported run has no history; it is stored as such, not rerun by every report."""
     require_engine("pymunk")
-    job = Job("matrix", "pymunk", "ball-on-plate", "injected", 1.0, 1e-5,
+    job = Job("pymunk", "ball-on-plate", V1, "injected", 1e-5, study="matrix",
               parameters=(("exponent", 1.0), ("model", "kelvin-voigt"),
                           ("nominal_restitution", 0.5), ("stiffness", 1e7)), keep_history=True)
     st = store_mod.Store(tmp_path / "r.duckdb")
@@ -111,8 +115,8 @@ def test_a_file_that_is_no_store_is_one_line(tmp_path: Path) -> None:
 def test_twin_jobs_run_once_and_share_the_run(tmp_path: Path) -> None:
     require_engine("pymunk")
     st = store_mod.Store(tmp_path / "r.duckdb")
-    twins = [Job("matrix", "pymunk", "ball-on-plate", "native", 1.0, 1e-5, keep_history=True),
-             Job("work_precision", "pymunk", "ball-on-plate", "native", 1.0, 1e-5)]
+    twins = [Job("pymunk", "ball-on-plate", V1, "native", 1e-5, study="matrix", keep_history=True),
+             Job("pymunk", "ball-on-plate", V1, "native", 1e-5, study="work_precision")]
     first = {r.job.study: r for r in run_jobs(twins, workers=0, store=st)}
     assert first["matrix"].run == first["work_precision"].run  # one run, not two
     assert first["matrix"].history and not first["work_precision"].history
@@ -121,11 +125,16 @@ def test_twin_jobs_run_once_and_share_the_run(tmp_path: Path) -> None:
 
 
 def test_every_registered_engine_has_its_distribution() -> None:
-    """``engine_version`` reads package metadata for every built-in engine."""
-    from impactbench.engines.registry import ENGINES
+    """``engine_version`` reads package metadata for every built-in engine: its spec's
+    distribution, the one installed here."""
+    from importlib import metadata
+
+    from impactbench.engines.registry import SPECS
 
     from impactbench import store
 
-    assert set(store._ENGINE_DISTRIBUTIONS) == set(ENGINES)
-    for engine in ENGINES:
+    for name, spec in SPECS.items():
+        require_engine(name)
+        assert store.engine_version(name) == metadata.version(spec.distribution), name
+    for engine in SPECS:
         assert store.engine_version(engine)

@@ -1,0 +1,64 @@
+"""Command-line flags of the scenarios' fields and axes, shared by every subcommand.
+
+Each scenario's spec (:mod:`impactbench.scenarios`) lists its flags (``--mass`` sets
+``mass_kg``) and may add further options (a material, a scenario file); its categorical axes
+become flags of their own (``--local``). So ``reference``, ``sweep``, ``run`` and ``tune``
+accept the same flags with the same defaults (the papers'), and a scenario is built and
+validated in one place: :func:`scenario_from_args`.
+"""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from impactbench.cliutil import number
+from impactbench.scenarios import get, load
+
+
+def add_parameter_flags(parser: argparse.ArgumentParser, scenario: str, *,
+                        with_gravity: bool = True, added: set[str] | None = None) -> None:
+    """Add the field flags of ``scenario`` (defaults: the scenario's, i.e. the paper's).
+
+    A flag left unset is None, so that a further option (a material) can tell an explicit
+    value from the default. ``with_gravity`` is passed to the spec's options (the ball's
+    ``--gravity``: engines only, the reference is the paper's gravity-free impact).
+    ``added``: flags already on ``parser`` (from another scenario; a scenario that shares a
+    field shares its flag), updated."""
+    spec = get(scenario)
+    defaults = spec.cls()
+    added = added if added is not None else set()
+    group = parser.add_argument_group(f"{spec.title.lower()}: physical parameters (SI; "
+                                      "defaults are the paper's)")
+    for f in spec.flags:
+        if f.flag in added:
+            continue
+        added.add(f.flag)
+        group.add_argument(f"--{f.flag}", type=number, default=None, dest=f.field,
+                           metavar="X", help=f"{f.help}; default {getattr(defaults, f.field):g}")
+    if spec.options:
+        load(spec.options)(group, with_gravity)
+
+
+def add_axis_flags(parser: argparse.ArgumentParser, scenario: str, *,
+                   default: str | None = "linear", added: set[str] | None = None) -> None:
+    """Add one flag per categorical axis of ``scenario`` (``--local``, ``--structure``)."""
+    which = f"default {default}" if default else "default: every one, in turn"
+    added = added if added is not None else set()
+    for axis in get(scenario).axes:
+        if axis.categorical and axis.name not in added:
+            added.add(axis.name)
+            parser.add_argument(f"--{axis.name.replace('_', '-')}", choices=axis.allowed(),
+                                default=default, dest=axis.name,
+                                help=f"{axis.column} law; {which}")
+
+
+def scenario_from_args(scenario: str, args: argparse.Namespace, **overrides: Any) -> Any:
+    """Build and validate the scenario from parsed flags (overrides win)."""
+    spec = get(scenario)
+    fields = set(spec.cls.field_names())
+    values = {k: v for k, v in vars(args).items() if k in fields and v is not None}
+    if spec.from_args:
+        values = load(spec.from_args)(args, values)
+    values.update(overrides)
+    return spec.cls(**values)

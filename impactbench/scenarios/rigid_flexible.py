@@ -1,0 +1,75 @@
+"""The rigid-flexible scenario: a rigid body hitting a constrained flexible body (MODELS.md §2).
+
+Physics: :class:`~impactbench.reference.scenarios.RigidFlexible` (Zhou & Xiao's 2-DOF model with
+linear, elastoplastic or stiffness-mutation local laws on a linear or softening structure);
+reference: the event-driven solver (:mod:`impactbench.reference.two_dof`). One point per law
+pair (local, structure) and impact velocity v1 (m/s). Its subcommands (``reference
+rigid-flexible``, ``sweep rigid-flexible``) are in :mod:`impactbench.commands.rigid_flexible`.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from impactbench.scenarios import Axis, Flag, ScenarioSpec
+
+NAME = "rigid-flexible"
+
+METRICS: tuple[str, ...] = ("peak_force_n", "pulse_width_s", "contact_time_s", "impulse_ns",
+                            "impacts")
+"""The 2-DOF solver's ``METRIC_KEYS`` (tested equal), named here without importing it."""
+
+FLAGS = (
+    Flag("m1", "m1_kg", "rigid body mass m1 (kg)"),
+    Flag("m2", "m2_kg", "flexible body mass m2 (kg)"),
+    Flag("k1", "k1_n_per_m", "local contact stiffness k1 (N/m)"),
+    Flag("k2", "k2_n_per_m", "structural stiffness k2 (N/m)"),
+    Flag("kt", "kt_n_per_m", "elastoplastic hardening stiffness kt (N/m)"),
+    Flag("k1-failed", "k1_failed_n_per_m", "stiffness after local failure k1' (N/m)"),
+    Flag("eps-s", "eps_s_m", "elastoplastic yield penetration εs (m)"),
+    Flag("beta", "beta_n_per_m3", "cubic softening coefficient β (N/m³)"),
+    Flag("fm", "fm_n", "failure force F_m of the mutation law (N)"),
+)
+
+
+def reference(scenario: Any) -> dict[str, Any]:
+    """The event-driven reference: status and the five pulse metrics."""
+    from impactbench.reference import two_dof
+
+    ref = two_dof.solve(scenario)
+    return {"status": str(ref["status"]), **{k: ref[k] for k in METRICS}}
+
+
+def history(scenario: Any) -> Any:
+    from impactbench.reference import two_dof
+
+    return two_dof.simulate(scenario)
+
+
+_LAWS = "impactbench.reference.laws"
+
+SPEC = ScenarioSpec(
+    name=NAME,
+    title="Rigid–flexible",
+    summary="a rigid body on a flexible body (2-DOF), event-driven reference",
+    scenario="impactbench.reference.scenarios:RigidFlexible",
+    reference=f"{__name__}:reference",
+    reference_history=f"{__name__}:history",
+    metrics=METRICS,
+    headline=("peak_force_n", "pulse_width_s", "impulse_ns", "impacts"),
+    axes=(Axis("local", "local", "local", choices=f"{_LAWS}:ALL_LOCAL_LAWS",
+               default=f"{_LAWS}:LOCAL_LAWS"),
+          Axis("structure", "structure", "structure", choices=f"{_LAWS}:STRUCTURAL_LAWS",
+               default=f"{_LAWS}:STRUCTURAL_LAWS"),
+          Axis("velocity_m_s", "velocities_m_s", "v1 (m/s)", short="v")),
+    table="rigid_flexible",
+    flags=FLAGS,
+    gate_velocities_m_s=(2.0,),
+    native={"": "a linear, undamped k1 contact, which cannot yield or fail",
+            "pymunk": "a rigid, perfectly elastic contact with e = 1, which has no stiffness "
+                      "k1 at all"},
+    history_unit=(1e-3, "ms"),
+    figure_stem="rf",
+    velocity_symbol="v1",
+    commands="impactbench.commands.rigid_flexible",
+)
