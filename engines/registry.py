@@ -17,7 +17,10 @@ that adapter and nothing else: no tuning, its version from the adapter's ``versi
 
 from __future__ import annotations
 
+import contextlib
 import os
+import sys
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 MODES: tuple[str, ...] = ("native", "injected", "tuned", "default", "custom")
@@ -56,7 +59,7 @@ class EngineSpec:
 
 
 _TUNE = "impactbench.tuning.spaces"
-_MORE = "impactbench.tuning.spaces_more"
+_MORE = "impactbench.tuning.spaces_extras"
 
 BUILTIN: tuple[EngineSpec, ...] = (
     EngineSpec("mujoco", "impactbench.engines.mujoco_adapter:MujocoAdapter",
@@ -139,3 +142,21 @@ def spec(name: str) -> EngineSpec:
 def is_builtin(name: str) -> bool:
     """True when ``name`` is a packaged engine not replaced by a plug-in."""
     return name in SPECS and _registry().get(name) == SPECS[name].adapter
+
+
+@contextlib.contextmanager
+def stdout_to_stderr() -> Iterator[None]:
+    """Send C-level stdout to stderr for the duration (engines print banners on import —
+    pybullet its build time — which would corrupt ``--json`` output)."""
+    import ctypes
+
+    sys.stdout.flush()
+    saved = os.dup(1)
+    try:
+        os.dup2(2, 1)
+        yield
+    finally:
+        with contextlib.suppress(Exception):
+            ctypes.CDLL(None).fflush(None)
+        os.dup2(saved, 1)
+        os.close(saved)

@@ -33,8 +33,9 @@ import pandas as pd
 from scipy import optimize, stats
 
 from impactbench.reference import validation as check
-from impactbench.reference.models import effective_restitution
 from impactbench.reference.scenarios import BallOnPlate
+from impactbench.reference.zoo import effective_restitution
+from impactbench.scenarios import for_study
 
 REQUIRED = ("velocity_m_s", "restitution")
 OPTIONAL = ("duration_s", "peak_force_n")
@@ -304,7 +305,8 @@ def write_scenario_file(cal: Calibration, path: str | Path, command: str = "") -
     header = ("# impactbench scenario file written by `impactbench calibrate`.\n"
               "# [ball_on_plate] holds BallOnPlate fields (SI): pass the file to run, tune and\n"
               "# report with --scenario-file. [calibration] is provenance only.\n")
-    body = tomli_w.dumps({"ball_on_plate": scenario_table(cal), "calibration": prov})
+    table = for_study("calibrate").table
+    body = tomli_w.dumps({table: scenario_table(cal), "calibration": prov})
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(header + body)
     return path

@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 import argparse
-import contextlib
 import json
 import math
 import sys
-from collections.abc import Iterable, Iterator, Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
+
+from impactbench.engines.registry import stdout_to_stderr  # noqa: F401  (re-exported)
 
 
 def number(text: str) -> float:
@@ -82,25 +83,6 @@ def print_table(rows: Iterable[Mapping[str, Any]], columns: Sequence[str] | None
     columns = list(columns or (rows[0].keys() if rows else []))
     print(tabulate([[r.get(c) for c in columns] for r in rows], headers=columns,
                    floatfmt=floatfmt))
-
-
-@contextlib.contextmanager
-def stdout_to_stderr() -> Iterator[None]:
-    """Send C-level stdout to stderr for the duration (engines print banners on import —
-    pybullet its build time — which would corrupt ``--json`` output)."""
-    import ctypes
-    import os
-
-    sys.stdout.flush()
-    saved = os.dup(1)
-    try:
-        os.dup2(2, 1)
-        yield
-    finally:
-        with contextlib.suppress(Exception):
-            ctypes.CDLL(None).fflush(None)
-        os.dup2(saved, 1)
-        os.close(saved)
 
 
 MAX_GRID_POINTS = 100_000_000

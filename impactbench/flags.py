@@ -31,12 +31,15 @@ def add_parameter_flags(parser: argparse.ArgumentParser, scenario: str, *,
     group = parser.add_argument_group(f"{spec.title.lower()}: physical parameters (SI; "
                                       "defaults are the paper's)")
     for f in spec.flags:
-        if f.flag in added:
+        # a flag another scenario (or its options, e.g. the ball's --poisson) already added
+        # sets the same field: it is shared, not added twice
+        if f.flag in added or f"--{f.flag}" in parser._option_string_actions:
             continue
         added.add(f.flag)
         group.add_argument(f"--{f.flag}", type=number, default=None, dest=f.field,
                            metavar="X", help=f"{f.help}; default {getattr(defaults, f.field):g}")
-    if spec.options:
+    if spec.options and spec.options not in added:
+        added.add(spec.options)
         load(spec.options)(group, with_gravity)
 
 

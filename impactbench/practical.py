@@ -43,8 +43,7 @@ def column(row: pd.Series) -> str:
 
 def _cell(row: pd.Series):
     """``value (±err %)`` banded, or the run's status (see report_sections.value_cell)."""
-    from impactbench.report_render import Cell, band
-    from impactbench.report_sections import format_error
+    from impactbench.report_render import Cell, band, format_error
 
     if row.status != "ok":
         return Cell(str(row.status), "fail", str(row.message or ""))
@@ -159,8 +158,7 @@ def plot(df: pd.DataFrame, damping_s_per_m: float, how: str, path: Path) -> Path
 
 def section(ctx) -> dict[str, object] | None:
     """The data of ``templates/sections/practical.j2`` (None without the practical study)."""
-    from impactbench.report_render import Cell, Table, band
-    from impactbench.report_sections import format_error
+    from impactbench.report_render import Cell, Table, band, format_error
 
     df = ctx.df
     if df.empty or not (df.study == "practical").any():

@@ -232,3 +232,12 @@ def render_documents(ctx: ReportContext, sections: Sequence[Section], title: str
             title=title, intro=intro, toc=toc.entries, bodies=bodies)
         out[fmt] = re.sub(r"\n{3,}", "\n\n", page) if fmt == "md" else page
     return out
+
+
+def format_error(err: float) -> str:
+    """A signed relative error in percent, two significant digits (+0.0012 %, −25 %, +100 %)."""
+    if err == 0.0:
+        return "0 %"
+    pct = 100.0 * err
+    text = f"{pct:+.0f}" if abs(pct) >= 10 else f"{pct:+.2g}"
+    return f"{text} %".replace("-", "−")

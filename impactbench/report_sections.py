@@ -24,6 +24,7 @@ from impactbench.report_render import (
     Section,
     Table,
     band,
+    format_error,
 )
 
 LABELS = {"restitution": "restitution", "duration_s": "duration", "peak_force_n": "peak force",
@@ -40,15 +41,6 @@ def run_keys() -> list[str]:
 
 
 # ----------------------------------------------------------------------------- formatting
-
-
-def format_error(err: float) -> str:
-    """A signed relative error in percent, two significant digits (+0.0012 %, −25 %, +100 %)."""
-    if err == 0.0:
-        return "0 %"
-    pct = 100.0 * err
-    text = f"{pct:+.0f}" if abs(pct) >= 10 else f"{pct:+.2g}"
-    return f"{text} %".replace("-", "−")
 
 
 def point_label(row: Any) -> str:
@@ -402,7 +394,7 @@ def parameters(ctx: ReportContext) -> dict[str, Any] | None:
         if not sm.velocities_m_s:
             continue
         spec = scenarios.get(sm.name)
-        flags = {f.field: f.help for f in spec.flags}
+        flags = {**spec.descriptions, **{f.field: f.help for f in spec.flags}}
         sc = spec.build(parameters=sm.parameters)
         rows = []
         for name, value in sc.to_dict().items():
@@ -464,6 +456,11 @@ def contact_models(ctx: ReportContext) -> dict[str, Any] | None:
     from impactbench.figures import zoo
     from impactbench.reference.models import MODEL_CITATIONS
 
+    name = scenarios.for_study("tuning").name
+    ball = next((s for s in ctx.cfg.scenarios if s.name == name), None)
+    if ball is None:  # the zoo is the ball's contact models: no ball, no section
+        return None
+    params = dict(ball.parameters)
     wide = zoo.table(ZOO_NOMINAL)
     columns = [c for c in wide.columns if c != "model"]
     rows = [[Cell(f"`{r['model']}`"), Cell(MODEL_CITATIONS[r["model"]], wrap=True),
@@ -471,9 +468,6 @@ def contact_models(ctx: ReportContext) -> dict[str, Any] | None:
     path = zoo.figure(ctx.fig_dir / "report_zoo_restitution.png")
     fig = ctx.add_figure(path, "Effective against nominal restitution of every contact "
                          "model (exact)", group="contact_models")
-    name = scenarios.for_study("tuning").name
-    ball = next((s for s in ctx.cfg.scenarios if s.name == name), None)
-    params = dict(ball.parameters) if ball is not None else {}
     model = params.get("model", "hunt-crossley")
     e = params.get("nominal_restitution")
     used = (f"This report's ball uses `{model}` with nominal e = {e:g}." if e is not None

@@ -141,11 +141,29 @@ def impactbench_version() -> str:
         release = "0+unknown"
     digest = hashlib.sha256()
     for package in (impactbench, impactbench.reference, impactbench.engines):
-        root = Path(package.__file__).parent
-        for path in sorted(root.rglob("*.py")):
-            digest.update(str(path.relative_to(root)).encode())
-            digest.update(path.read_bytes())
+        _hash_sources(digest, Path(package.__file__).parent)
     return f"{release}+{digest.hexdigest()[:10]}"
+
+
+def _hash_sources(digest: Any, root: Path) -> None:
+    for path in sorted(root.rglob("*.py")):
+        digest.update(str(path.relative_to(root)).encode())
+        digest.update(path.read_bytes())
+
+
+@cache
+def source_version(package: str) -> str:
+    """A hash of a plug-in package's Python source (its scenario and builders), so an edited
+    plug-in is never served a stale stored run."""
+    import importlib
+
+    module = importlib.import_module(package)
+    digest = hashlib.sha256()
+    if getattr(module, "__path__", None):
+        _hash_sources(digest, Path(module.__file__).parent)
+    else:
+        digest.update(Path(module.__file__).read_bytes())
+    return digest.hexdigest()[:10]
 
 
 @cache
@@ -164,7 +182,7 @@ def engine_version(engine: str) -> str:
         if version is not None:
             return version
     try:
-        from impactbench.cliutil import stdout_to_stderr
+        from impactbench.engines.registry import stdout_to_stderr
 
         with stdout_to_stderr():
             return get_adapter(engine).version()
@@ -214,7 +232,7 @@ def run_inputs(engine: str, scenario_name: str, scenario: Any, mode: str,
     ``settings`` is the :class:`~impactbench.engines.base.RunSettings` the run gets: its every
     field (timestep_s, max_time_s, tuned, params, options, and whatever is added later) is in.
     """
-    return _canonical({
+    inputs = {
         "engine": engine,
         "engine_version": engine_version(engine),
         "impactbench_version": impactbench_version(),
@@ -222,7 +240,11 @@ def run_inputs(engine: str, scenario_name: str, scenario: Any, mode: str,
         "physics": scenario.to_dict(),
         "mode": mode,
         "settings": asdict(settings),
-    })
+    }
+    package = type(scenario).__module__.partition(".")[0]
+    if package != "impactbench":  # a plug-in's scenario and builders: its source counts too
+        inputs["plugin_version"] = source_version(package)
+    return _canonical(inputs)
 
 
 def sweep_key(solver: str, scenario: Any, over: str, swept_field: str) -> str:

@@ -348,7 +348,7 @@ def _linear(scenario: BallOnPlate, samples: int | None = None):
     if samples is None:
         return kelvin_voigt.solve(*args)
     return kelvin_voigt.history(*args, samples=samples, meta={
-        "engine": "reference", "mode": "closed_form", "scenario": "ball-on-plate",
+        "engine": "reference", "mode": "closed_form", "scenario": scenario.name,
         "parameters": scenario.to_dict()})
 
 
@@ -687,7 +687,7 @@ def history(scenario: BallOnPlate, samples: int = 4001) -> ImpactRecord:
         time_s=t, penetration_m=x, penetration_rate_m_s=v, normal_force_n=f,
         velocity_1_m_s=v, velocity_2_m_s=np.zeros_like(t), mass_1_kg=m,
         mass_2_kg=math.inf, status=Status.OK,
-        meta={"engine": "reference", "mode": "closed_form", "scenario": "ball-on-plate",
+        meta={"engine": "reference", "mode": "closed_form", "scenario": scenario.name,
               "parameters": scenario.to_dict()},
     )
 

@@ -272,22 +272,6 @@ def linear_damping_ns_per_m(nominal_restitution: float, stiffness_n_per_m: float
     return 2.0 * zeta * math.sqrt(stiffness_n_per_m * mass_kg)
 
 
-def effective_restitution(model: str, nominal_restitution: float) -> float:
-    """The exact restitution of ``model`` set up for nominal restitution e (any V0, m, c, n)."""
-    check.one_of("model", model, MODELS)
-    e = check_restitution("nominal_restitution", nominal_restitution)
-    if model in HYSTERESIS_MODELS:
-        from impactbench.reference.hunt_crossley import restitution
-
-        return float(restitution(HYSTERESIS_MODELS[model].alpha(e)))
-    from impactbench.reference import kelvin_voigt
-
-    zeta = kelvin_voigt.zeta_from_restitution(e)
-    if LINEAR_MODELS[model]:
-        return kelvin_voigt.clipped_restitution(zeta)
-    return kelvin_voigt.unclipped_restitution(zeta)
-
-
 def spring_damper(law: HuntCrossley | KelvinVoigt, x: float) -> tuple[float, float]:
     """(secant stiffness N/m, damping N·s/m) with F = k·x + d·ẋ at penetration x > 0.
 

@@ -16,15 +16,29 @@ from collections.abc import Iterable
 import numpy as np
 import pandas as pd
 from impactbench.reference import hunt_crossley, kelvin_voigt
+from impactbench.reference import validation as check
 from impactbench.reference.metrics import BALL_METRICS
 from impactbench.reference.models import (
     HYSTERESIS_MODELS,
     LINEAR_MODELS,
     MODELS,
     check_restitution,
-    effective_restitution,
 )
 from impactbench.reference.scenarios import BallOnPlate
+
+
+def effective_restitution(model: str, nominal_restitution: float) -> float:
+    """The exact restitution of ``model`` set up for nominal restitution e (any V0, m, c, n):
+    Hunt–Crossley's k(α(e)) for the hysteresis-damping models (it depends on α alone), the
+    clipped or unclipped Kelvin–Voigt closed form for the linear ones."""
+    check.one_of("model", model, MODELS)
+    e = check_restitution("nominal_restitution", nominal_restitution)
+    if model in HYSTERESIS_MODELS:
+        return float(hunt_crossley.restitution(HYSTERESIS_MODELS[model].alpha(e)))
+    zeta = kelvin_voigt.zeta_from_restitution(e)
+    if LINEAR_MODELS[model]:
+        return kelvin_voigt.clipped_restitution(zeta)
+    return kelvin_voigt.unclipped_restitution(zeta)
 
 
 def sweep(scenario: BallOnPlate, velocities: Iterable[float] | np.ndarray) -> pd.DataFrame:

@@ -18,6 +18,7 @@ from pathlib import Path
 
 from impactbench.cliutil import number, print_json, print_table
 from impactbench.flags import add_parameter_flags, scenario_from_args
+from impactbench.scenarios import for_study
 
 HELP = "fit a contact model's damping (and stiffness) to measured impacts, with intervals"
 
@@ -34,7 +35,7 @@ def register(top: argparse._SubParsersAction, groups: dict) -> None:
     p.add_argument("--confidence", type=number, default=0.95, metavar="P",
                    help="confidence level of the intervals; default 0.95")
     p.add_argument("--json", action="store_true", help="print one JSON object")
-    add_parameter_flags(p, "ball-on-plate", with_gravity=False)
+    add_parameter_flags(p, for_study("calibrate").name, with_gravity=False)
     p.set_defaults(func=main)
 
 
@@ -46,7 +47,7 @@ def main(args: argparse.Namespace) -> int:
     # a model set from a nominal restitution fits that e: any start value will do
     placeholder = {} if model == "hunt-crossley" or args.nominal_restitution is not None \
         else {"nominal_restitution": 0.9}
-    base = scenario_from_args("ball-on-plate", args, **placeholder)
+    base = scenario_from_args(for_study("calibrate").name, args, **placeholder)
     cal = calibrate(data, base, fit_exponent=args.fit_exponent, confidence=args.confidence)
     out = args.out or Path(f"{args.data.stem}_scenario.toml")
     command = "impactbench " + " ".join(shlex.quote(a) for a in sys.argv[1:])
@@ -76,7 +77,7 @@ def main(args: argparse.Namespace) -> int:
     print_table(cal.residuals.to_dict(orient="records"), floatfmt=".6g")
     eff = cal.scenario.replace(velocity_m_s=1.0)
     if not math.isnan(cal.estimates.get("nominal_restitution", math.nan)):
-        from impactbench.reference.models import effective_restitution
+        from impactbench.reference.zoo import effective_restitution
 
         print(f"\neffective restitution of the fitted model: "
               f"{effective_restitution(eff.model, eff.nominal_restitution):.6g}")

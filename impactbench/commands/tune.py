@@ -18,6 +18,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from impactbench import scenarios
 from impactbench.cliutil import (
     add_execution_flags,
     check_workers,
@@ -35,7 +36,6 @@ from impactbench.reference.scenarios import PAPER_VELOCITIES_M_S
 
 HELP = ("fit an engine's native contact parameters to the reference (Hunt–Crossley, or any "
         "--model)")
-SCENARIOS = ("ball-on-plate", "rigid-flexible")
 DISPATCH_MIN_S = 0.5
 """A batch of runs estimated (from the runs so far) below this runs in this process: on two
 cores a cluster start costs ~1 s and a round trip ~10–30 ms (``python -m benchmarks tune``)."""
@@ -58,8 +58,9 @@ def register(top: argparse._SubParsersAction, groups: dict) -> None:
 
     p = top.add_parser("tune", help=HELP, description=HELP + ". " + __doc__.split("\n\n")[1])
     p.add_argument("--engine", required=True, metavar="E", help=f"one of {', '.join(ENGINES)}")
-    p.add_argument("--scenario", default="ball-on-plate", metavar="S",
-                   help="ball-on-plate (rigid-flexible is not supported yet)")
+    tunable = [s.name for s in scenarios.specs() if "tuning" in s.studies]
+    p.add_argument("--scenario", default=tunable[0], metavar="S",
+                   help=f"{' | '.join(tunable)} (the scenarios that serve tuning)")
     p.add_argument("--velocities", type=number_list, default=list(PAPER_VELOCITIES_M_S),
                    dest="velocities_m_s", metavar="V,…",
                    help="impact velocities (m/s); default the paper's 0.5,1,2,3,4,5")
@@ -87,7 +88,7 @@ def register(top: argparse._SubParsersAction, groups: dict) -> None:
                      help="tuned file to write; default tuned_<engine>.toml in the cwd")
     out.add_argument("--write-default", action="store_true",
                      help="write the packaged default impactbench/data/tuned/"
-                     "<engine>_ball_on_plate.toml (read by run --mode tuned and the report)")
+                     "<engine>_<scenario>.toml (read by run --mode tuned and the report)")
     p.add_argument("--plot", type=Path, default=None, metavar="FILE",
                    help="residual plot PNG; default next to the tuned file")
     p.add_argument("--no-plot", action="store_true", help="do not draw the residual plot")
@@ -97,7 +98,8 @@ def register(top: argparse._SubParsersAction, groups: dict) -> None:
                    "e.g. Drake's discrete_contact_approximation=sap for a discrete plant")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     add_execution_flags(p, in_process=True)
-    add_parameter_flags(p, "ball-on-plate")
+    for name in tunable:
+        add_parameter_flags(p, name)
     p.set_defaults(func=main)
 
 
@@ -105,7 +107,7 @@ def _paths(args: argparse.Namespace) -> tuple[Path, Path | None]:
     from impactbench.tuned import tuned_path
 
     if args.write_default:
-        tuned = tuned_path(args.engine, "ball-on-plate")
+        tuned = tuned_path(args.engine, args.scenario)
         plot = args.plot or REPO_FIGURES / f"tune_{args.engine}.png"
     else:
         tuned = args.out or Path(f"tuned_{args.engine}.toml")
@@ -120,15 +122,16 @@ def main(args: argparse.Namespace) -> int:
     from impactbench.tuning.optimize import tune
 
     check.one_of("engine", args.engine, tuple(ENGINES))
-    check.one_of("scenario", args.scenario, SCENARIOS)
-    if args.scenario != "ball-on-plate":
+    check.one_of("scenario", args.scenario, scenarios.names())
+    if "tuning" not in scenarios.get(args.scenario).studies:
+        tunable = [s.name for s in scenarios.specs() if "tuning" in s.studies]
         raise ValueError(f"scenario = {args.scenario!r}: tuning is not supported yet for it "
-                         f"(ball-on-plate only)")
+                         f"({', '.join(tunable)} only)")
     if not args.velocities_m_s:
         raise ValueError("velocities = []: must list at least one impact velocity")
     if args.timestep_s is not None:
         check.positive("timestep", args.timestep_s)
-    scenario = scenario_from_args("ball-on-plate", args)
+    scenario = scenario_from_args(args.scenario, args)
     _check_cost(scenario, args)
     from impactbench.publish import check_file_target
 

@@ -136,6 +136,8 @@ class ScenarioSpec:
             to an argument group, ``f(group, with_gravity)``; "" for none.
         from_args: ``"module:function"`` (parsed args, field values) → field values: turns
             its further flags (a material, a scenario file) into fields; "" for none.
+        descriptions: what each field means (SI units), for the report's parameter table,
+            where no flag's help says it.
         studies: the suite's single-scenario studies it serves (``work_precision``,
             ``practical``, ``tuning``, ``calibrate``): each runs the first scenario that lists
             it (:func:`for_study`).
@@ -162,6 +164,7 @@ class ScenarioSpec:
     report_figures: str = ""
     options: str = ""
     from_args: str = ""
+    descriptions: Mapping[str, str] = field(default_factory=dict)
     studies: tuple[str, ...] = ()
 
     # ------------------------------------------------------------------ the dataclass

@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+from impactbench.engines.registry import BUILTIN
+
 TARGETS: dict[str, str] = {
     "restitution": "restitution",
     "duration": "duration_s",
@@ -16,20 +18,8 @@ DEFAULT_TARGETS: tuple[str, ...] = ("restitution", "duration", "peak_force")
 DEFAULT_BUDGET_S = 120.0
 """Wall-time budget of one tuning run (s)."""
 
-MUJOCO_VARIANTS = ("solref+solimp", "solref")
-PYMUNK_VARIANTS = ("elasticity", "restitution-law")
-SAPIEN_VARIANTS = ("compliant-stiffness", "restitution")
 SOLREF_FORMS = ("direct", "timeconst")
 
-VARIANTS: dict[str, tuple[str, ...]] = {
-    "mujoco": MUJOCO_VARIANTS,
-    "pybullet": ("stiffness+damping",),
-    "pymunk": PYMUNK_VARIANTS,
-    "drake": ("stiffness+dissipation", "stiffness+relaxation"),
-    "sapien": SAPIEN_VARIANTS,
-    "dart": ("restitution",),
-    "box2d": ("restitution",),
-    "mjx": MUJOCO_VARIANTS,
-    "newton": ("ke+kd",),
-}
-"""Each engine's parameter sets (the first is the default)."""
+VARIANTS: dict[str, tuple[str, ...]] = {s.name: s.variants for s in BUILTIN if s.variants}
+"""Each tunable engine's parameter sets (the first is the default), from its
+:class:`~impactbench.engines.registry.EngineSpec`."""

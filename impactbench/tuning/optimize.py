@@ -36,6 +36,7 @@ from impactbench.evaluate import reference_metrics
 from impactbench.reference import validation as check
 from impactbench.reference.metrics import BALL_METRICS, MIN_CONTACT_SAMPLES, TIME_RESOLVED
 from impactbench.reference.scenarios import BallOnPlate
+from impactbench.scenarios import spec_of
 from impactbench.tuning.names import DEFAULT_BUDGET_S
 from impactbench.tuning.objective import (
     Evaluation,
@@ -235,9 +236,9 @@ def tune(engine: str, scenario: BallOnPlate | None = None,
 
     t0 = time.perf_counter()
     scenario = scenario or BallOnPlate()
-    if not isinstance(scenario, BallOnPlate):
-        raise ValueError(f"scenario = {type(scenario).__name__}: tuning supports ball-on-plate "
-                         f"only (rigid-flexible is not supported yet)")
+    spec = spec_of(scenario)
+    if "tuning" not in spec.studies:
+        raise ValueError(f"scenario = {spec.name!r}: tuning is not supported yet for it")
     budget_s = check.positive("budget_s", budget_s)
     if max_evals is not None and (isinstance(max_evals, bool) or int(max_evals) < 1):
         raise ValueError(f"max_evals = {max_evals!r}: must be an integer >= 1")

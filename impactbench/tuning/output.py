@@ -185,7 +185,7 @@ def tuned_tables(result: TuneResult) -> dict[str, dict[str, Any]]:
     prov: dict[str, Any] = {
         "engine": result.space.engine,
         "engine_version": result.engine_version,
-        "scenario": "ball-on-plate",
+        "scenario": s.name,
         "parameter_set": result.space.variant,
         "mode": result.space.mode,
         "velocities_m_s": list(result.velocities_m_s),

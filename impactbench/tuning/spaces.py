@@ -50,7 +50,7 @@ Engines and their force laws (x penetration, ẋ its rate, m the ball's mass):
   shape ``ke`` (N/m) and ``kd`` (N·s/m), averaged over the two shapes; damping acts only while
   approaching, so e = exp(−ζφ/√(1−ζ²)) with ζ = kd/(2√(ke·m)), φ = atan2(√(1−ζ²), ζ).
 
-The last four live in :mod:`~impactbench.tuning.spaces_more`.
+The last four (the optional extras) live in :mod:`~impactbench.tuning.spaces_extras`.
 """
 
 from __future__ import annotations
@@ -63,12 +63,11 @@ from typing import Any
 import numpy as np
 
 from impactbench.engines.base import RunSettings
+from impactbench.engines.registry import SPECS
 from impactbench.reference import validation as check
 from impactbench.reference.metrics import BALL_METRICS
 from impactbench.reference.scenarios import BallOnPlate
 from impactbench.tuning.names import (
-    MUJOCO_VARIANTS,
-    PYMUNK_VARIANTS,
     SOLREF_FORMS,
     VARIANTS,
 )
@@ -185,7 +184,7 @@ def mujoco_space(scenario: BallOnPlate, variant: str = "solref+solimp",
     from impactbench.engines.common import native_ball_spring_damper
     from impactbench.engines.mujoco_adapter import BALL_TIMESTEP_S, SOLIMP
 
-    check.one_of("parameters", variant, MUJOCO_VARIANTS)
+    check.one_of("parameters", variant, VARIANTS[engine])
     check.one_of("solref_form", solref_form, SOLREF_FORMS)
     a = _mujoco_diag_a(scenario, timestep_s)
     sd = native_ball_spring_damper(scenario)
@@ -301,7 +300,7 @@ def pymunk_space(scenario: BallOnPlate, variant: str = "elasticity") -> Space:
     from impactbench.engines.common import NATIVE_REFERENCE_VELOCITY_M_S
     from impactbench.reference import hunt_crossley
 
-    check.one_of("parameters", variant, PYMUNK_VARIANTS)
+    check.one_of("parameters", variant, VARIANTS["pymunk"])
     expressible = frozenset({"restitution"})
     if variant == "elasticity":
         e0 = hunt_crossley.solve(scenario.replace(
@@ -419,22 +418,20 @@ def drake_space(scenario: BallOnPlate, timestep_s: float | None = None) -> Space
 
 def make_space(engine: str, scenario: BallOnPlate, variant: str | None = None,
                solref_form: str = "direct", timestep_s: float | None = None) -> Space:
-    """The engine's parameterisation ``variant`` (default: the first of :data:`VARIANTS`)."""
+    """The engine's parameterisation ``variant`` (default: its spec's first): the function
+    its :class:`~impactbench.engines.registry.EngineSpec` names for it, called with the
+    options it takes (``variant``, ``timestep_s``, ``engine``, ``solref_form``)."""
+    import inspect
+
+    from impactbench.scenarios import load
+
     check.one_of("engine", engine, tuple(VARIANTS))
     variant = check.one_of("parameters", variant or VARIANTS[engine][0], VARIANTS[engine])
-    if engine in ("mujoco", "mjx"):
-        return mujoco_space(scenario, variant, solref_form, timestep_s, engine)
-    if engine == "pybullet":
-        return pybullet_space(scenario, timestep_s)
-    if engine == "pymunk":
-        return pymunk_space(scenario, variant)
-    if engine in ("sapien", "dart", "box2d", "newton"):
-        from impactbench.tuning import spaces_more
-
-        return spaces_more.make_space(engine, scenario, variant, timestep_s)
-    if variant == "stiffness+relaxation":
-        return drake_relaxation_space(scenario, timestep_s)
-    return drake_space(scenario, timestep_s)
+    build = load(dict(SPECS[engine].tuning)[variant])
+    options = {"variant": variant, "timestep_s": timestep_s, "engine": engine,
+               "solref_form": solref_form}
+    taken = inspect.signature(build).parameters
+    return build(scenario, **{k: v for k, v in options.items() if k in taken})
 
 
 def with_start(space: Space, start: tuple[float, ...]) -> Space:

@@ -5,7 +5,8 @@ from __future__ import annotations
 import json
 
 import pytest
-from impactbench.reference.models import LINEAR_MODELS, MODELS, effective_restitution
+from impactbench.reference.models import LINEAR_MODELS, MODELS
+from impactbench.reference.zoo import effective_restitution
 
 from impactbench.cli import main
 

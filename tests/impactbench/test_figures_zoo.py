@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import pandas as pd
 import pytest
-from impactbench.reference.models import MODELS, effective_restitution
+from impactbench.reference.models import MODELS
+from impactbench.reference.zoo import effective_restitution
 
 from impactbench.figures import zoo
 

@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from impactbench.reference.models import MODELS, effective_restitution
+from impactbench.reference.models import MODELS
+from impactbench.reference.zoo import effective_restitution
 
 from impactbench import report
 

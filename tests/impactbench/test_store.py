@@ -138,3 +138,47 @@ def test_every_registered_engine_has_its_distribution() -> None:
         assert store.engine_version(name) == metadata.version(spec.distribution), name
     for engine in SPECS:
         assert store.engine_version(engine)
+
+
+def test_a_store_written_before_points_is_migrated_once(tmp_path: Path) -> None:
+    """A store made by impactbench before scenario specs (its ``local``, ``structure`` and
+    ``velocity_m_s`` columns; rebuilt from ``data/store_before_points.json``, dumped from a
+    real store of that version) opens: its rows keep their values and get a JSON ``point``,
+    the old columns go, and new runs are stored beside them."""
+    import duckdb
+
+    old = json.loads((Path(__file__).parent / "data" / "store_before_points.json").read_text())
+    path = tmp_path / "old.duckdb"
+    con = duckdb.connect(str(path))
+    con.execute(old["schema"])
+    for table in ("results", "runs"):
+        cols = old[table]["columns"]
+        marks = ", ".join("?" for _ in cols)
+        con.executemany(f"INSERT INTO {table} ({', '.join(cols)}) VALUES ({marks})",
+                        old[table]["rows"])
+    con.close()
+    before = {(r[0], r[1]): r for r in old["results"]["rows"]}
+    col = {c: i for i, c in enumerate(old["results"]["columns"])}
+
+    st = store_mod.Store(path)
+    require_engine("pymunk")
+    job = Job("pymunk", "ball-on-plate", (("velocity_m_s", 3.0),), "injected", 1e-5)
+    assert run_jobs([job], workers=0, store=st)[0].run["status"] == "ok"  # a write migrates
+    frame = st.frame()
+    assert {"local", "structure", "velocity_m_s"}.isdisjoint(frame.columns)
+    migrated = frame[frame.run_key.isin({k for k, _ in before})]
+    assert len(migrated) == len(before) == 10
+    for r in migrated.itertuples():
+        row = before[(r.run_key, r.metric)]
+        assert r.value == pytest.approx(row[col["value"]], rel=0, abs=0)
+        point = json.loads(r.point)
+        assert point["velocity_m_s"] == row[col["velocity_m_s"]]
+        if row[col["scenario"]] == "rigid-flexible":
+            assert (point["local"], point["structure"]) == (row[col["local"]],
+                                                            row[col["structure"]])
+        else:
+            assert set(point) == {"velocity_m_s"}
+    new = frame[~frame.run_key.isin({k for k, _ in before})]
+    assert {json.loads(p)["velocity_m_s"] for p in new.point} == {3.0}
+    st._connect().close()  # a second open for writing finds nothing to migrate
+    assert len(st.frame()) == len(frame)

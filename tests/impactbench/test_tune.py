@@ -277,7 +277,7 @@ def test_cli_tunes_to_any_model(tmp_path, capsys):
     """A model set from a nominal e has one restitution at every velocity, so pymunk's
     constant elasticity fitted to it must equal that model's exact effective restitution."""
     require_engine("pymunk")
-    from impactbench.reference.models import effective_restitution
+    from impactbench.reference.zoo import effective_restitution
 
     out = tmp_path / "flores.toml"
     code = main(["tune", "--engine", "pymunk", "--model", "flores", "--nominal-restitution",

@@ -12,10 +12,10 @@ from impactbench.reference.models import (
     LINEAR_MODELS,
     MODELS,
     KelvinVoigt,
-    effective_restitution,
     spring_damper,
 )
 from impactbench.reference.scenarios import BallOnPlate
+from impactbench.reference.zoo import effective_restitution
 from scipy import integrate
 
 NOMINAL = (0.2, 0.5, 0.8, 0.95)

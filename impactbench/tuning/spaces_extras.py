@@ -36,9 +36,7 @@ from typing import Any
 import numpy as np
 
 from impactbench.engines.common import NATIVE_REFERENCE_VELOCITY_M_S
-from impactbench.reference import validation as check
 from impactbench.reference.scenarios import BallOnPlate
-from impactbench.tuning.names import VARIANTS
 from impactbench.tuning.spaces import (
     ALL_METRICS,
     LINEAR_LIMITS,
@@ -155,17 +153,3 @@ def newton_space(scenario: BallOnPlate, timestep_s: float | None = None) -> Spac
               "follow Hertz's V0^(−1/5) and V0^(6/5)",)
     return Space("newton", "ke+kd", params, (k0, d0), "tuned", ALL_METRICS, limits, to_tuned,
                  snippet, linear=True, diff_step=NEWTON_DIFF_STEP)
-
-
-def make_space(engine: str, scenario: BallOnPlate, variant: str,
-               timestep_s: float | None = None) -> Space:
-    """The space ``variant`` of one of this module's engines (checked against VARIANTS)."""
-    check.one_of("engine", engine, ("sapien", "dart", "box2d", "newton"))
-    check.one_of("parameters", variant, VARIANTS[engine])
-    if engine == "sapien":
-        return sapien_space(scenario, variant, timestep_s)
-    if engine == "dart":
-        return dart_space(scenario)
-    if engine == "box2d":
-        return box2d_space(scenario)
-    return newton_space(scenario, timestep_s)
