@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from impactbench import plausibility
 from impactbench.engines.base import (
     EngineUnavailable,
     RunSettings,
@@ -53,7 +54,9 @@ def compare(engine: str, scenario: Scenario, mode: str,
     """Run ``engine`` on ``scenario`` and compare with the reference.
 
     Returns the ``run --json`` object (status, engine, engine_version, mode, timestep_s,
-    wall_s, the metrics, ``reference`` and ``rel_error``) and the engine's record.
+    wall_s, the metrics, ``reference``, ``rel_error`` and ``plausibility``, the scenario's
+    measures; a run beyond the limits of :mod:`impactbench.plausibility` is ``implausible``,
+    its metrics kept) and the engine's record.
     """
     rec = _unbound(engine, scenario, mode, settings)
     if rec is None:
@@ -79,7 +82,11 @@ def compare(engine: str, scenario: Scenario, mode: str,
         "rel_error": {k: (metrics.relative_error(float(got[k]), float(ref[k]))
                           if resolved[k] else math.nan) for k in got},
     }
-    problem = spec_of(scenario).problem(scenario, ref)
+    spec = spec_of(scenario)
+    if rec.status in (Status.OK, Status.MAX_TIME, Status.STRUCTURE_COLLAPSED):
+        out["plausibility"] = spec.measure(scenario, rec, got)
+        out = plausibility.judge(out)
+    problem = spec.problem(scenario, ref)
     if problem:  # the reference itself is outside its model: nothing to compare with
         out.update(status=str(Status.UNSUPPORTED), message=problem,
                    rel_error=dict.fromkeys(got, math.nan))

@@ -459,8 +459,12 @@ def judge(check_: Check, result: Mapping[str, Any],
         out.mark = NOT_COMPARABLE
         out.message = f"{status}: {result.get('message', '')}".strip(": ")
         return out
+    base_passed = math.isfinite(base_err) and abs(base_err) <= check_.tolerance
+    if status == "implausible":  # its error may be small: its contact is not usable
+        out.mark = NEW_FAILURE if base_passed else FAIL
+        out.message = str(result.get("message", "implausible"))
+        return out
     if not (math.isfinite(err) and abs(err) <= check_.tolerance):
-        base_passed = math.isfinite(base_err) and abs(base_err) <= check_.tolerance
         out.mark = NEW_FAILURE if base_passed else FAIL
         out.message = (f"|rel error| {abs(err):.3g} > tolerance {check_.tolerance:g}"
                        if math.isfinite(err) else

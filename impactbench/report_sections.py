@@ -58,7 +58,13 @@ def timestep_text(rows: pd.DataFrame) -> str:
 
 
 def value_cell(row: Any) -> Cell:
-    """``value (±err %)`` banded by |err|; a failed run's status; n/a with its reason."""
+    """``value (±err %)`` banded by |err|; a failed run's status; n/a with its reason; an
+    implausible run's value marked as such (measured, but not a setting to use)."""
+    if row.status == "implausible":
+        value = row.value
+        shown = f"{value:.5g} " if isinstance(value, int | float) and math.isfinite(value) \
+            else ""
+        return Cell(f"{shown}(implausible)", "fail", str(row.message or ""))
     if row.status != "ok":
         return Cell(str(row.status), "fail", str(row.message or ""))
     value, err = row.value, row.rel_error

@@ -32,6 +32,9 @@ class Status(StrEnum):
     UNSUPPORTED = "unsupported"
     UNAVAILABLE = "unavailable"
     CRASHED = "crashed"
+    IMPLAUSIBLE = "implausible"
+    """Ran and measured, but beyond a plausibility limit (penetration, energy): the suite sets
+    it (:mod:`impactbench.plausibility`), never an adapter."""
 
 
 def _array(a: Any) -> np.ndarray:

@@ -136,6 +136,9 @@ class ScenarioSpec:
             to an argument group, ``f(group, with_gravity)``; "" for none.
         from_args: ``"module:function"`` (parsed args, field values) → field values: turns
             its further flags (a material, a scenario file) into fields; "" for none.
+        plausibility: ``"module:function"`` (scenario, record, metrics) → its plausibility
+            measures, ``penetration_ratio`` and ``energy_ratio`` (NaN where a measure does not
+            apply; :mod:`impactbench.plausibility`); "" for none.
         descriptions: what each field means (SI units), for the report's parameter table,
             where no flag's help says it.
         studies: the suite's single-scenario studies it serves (``work_precision``,
@@ -164,6 +167,7 @@ class ScenarioSpec:
     report_figures: str = ""
     options: str = ""
     from_args: str = ""
+    plausibility: str = ""
     descriptions: Mapping[str, str] = field(default_factory=dict)
     studies: tuple[str, ...] = ()
 
@@ -194,6 +198,11 @@ class ScenarioSpec:
     def history(self, scenario: Any) -> Any:
         """The reference's time history of ``scenario`` (an ImpactRecord)."""
         return load(self.reference_history)(scenario)
+
+    def measure(self, scenario: Any, record: Any, metrics: Mapping[str, Any]) -> dict:
+        """The plausibility measures of one run ({} when the spec has none)."""
+        return dict(load(self.plausibility)(scenario, record, metrics)) if self.plausibility \
+            else {}
 
     def problem(self, scenario: Any, reference: Mapping[str, Any]) -> str:
         """Why the reference of ``scenario`` is outside its model ("" when it is not)."""

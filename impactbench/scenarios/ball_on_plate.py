@@ -40,6 +40,17 @@ def history(scenario: Any) -> Any:
     return hunt_crossley.history(scenario)
 
 
+def plausibility(scenario: Any, rec: Any, metrics: dict[str, Any]) -> dict[str, float]:
+    """The largest overlap over the ball's radius (from the record itself: a rigid contact's
+    one-step overlap is not compared with the reference, but a ball that deep sinks visibly),
+    and the kinetic energy after over before, e² (ball on a fixed plate)."""
+    import math
+
+    pen = float(rec.penetration_m.max()) if len(rec) else math.nan
+    e = float(metrics.get("restitution", math.nan))
+    return {"penetration_ratio": pen / scenario.radius_m, "energy_ratio": e * e}
+
+
 def reference_problem(scenario: Any, ref: dict[str, Any]) -> str:
     """An indentation beyond the ball's radius: no contact law holds there."""
     return scenario.penetration_problem(float(ref.get("max_penetration_m", 0.0)))
@@ -152,6 +163,7 @@ SPEC = ScenarioSpec(
     velocity_symbol="V0",
     commands="impactbench.commands.ball_on_plate",
     reference_problem=f"{__name__}:reference_problem",
+    plausibility=f"{__name__}:plausibility",
     report_figures=f"{__name__}:report_figures",
     options=f"{__name__}:add_options",
     from_args=f"{__name__}:from_args",

@@ -46,6 +46,17 @@ def history(scenario: Any) -> Any:
     return two_dof.simulate(scenario)
 
 
+def plausibility(scenario: Any, rec: Any, metrics: dict[str, Any]) -> dict[str, float]:
+    """Body 1's kinetic energy after the last impact over before ((v1'/v1)²: body 2 starts at
+    rest, so body 1 cannot leave with more than it brought). No size to measure penetration
+    against: the local law's deformation is the physics here (NaN)."""
+    import math
+
+    v_end = float(rec.velocity_1_m_s[-1]) if len(rec) else math.nan
+    return {"penetration_ratio": math.nan,
+            "energy_ratio": (v_end / scenario.velocity_m_s) ** 2}
+
+
 _LAWS = "impactbench.reference.laws"
 
 SPEC = ScenarioSpec(
@@ -72,4 +83,5 @@ SPEC = ScenarioSpec(
     figure_stem="rf",
     velocity_symbol="v1",
     commands="impactbench.commands.rigid_flexible",
+    plausibility=f"{__name__}:plausibility",
 )

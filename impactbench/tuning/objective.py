@@ -6,7 +6,10 @@ with the engine run through its own adapter (``tuned`` mode with the parameters 
 space's own run) and the metrics from ``impactbench.reference.metrics.compute`` — the same path as
 every
 comparison. A run that fails (non-ok status, or a NaN metric) gets the residual
-:data:`FAILED_RESIDUAL` (an error of 1000 %) in each metric, so the optimiser backs away.
+:data:`FAILED_RESIDUAL` (an error of 1000 %) in each metric, so the optimiser backs away; an
+``implausible`` run (a ball sunk deeper than the plausibility limit, energy created:
+:mod:`impactbench.plausibility`) counts as failed, so every search is constrained to
+plausible contacts.
 
 Evaluations are sequential (the search's budget, counting and best-so-far never depend on
 where runs execute), but their engine runs need not be: :meth:`Objective.prefetch` runs every
@@ -85,6 +88,13 @@ class Evaluation:
     metrics: list[dict[str, float]]
     rel_errors: list[dict[str, float]]
     statuses: list[str]
+    penetration_ratios: list[float] = field(default_factory=list)
+    """Per velocity: the largest overlap over the body's size (NaN where not measured)."""
+
+    @property
+    def max_penetration_ratio(self) -> float:
+        finite = [p for p in self.penetration_ratios if math.isfinite(p)]
+        return max(finite) if finite else math.nan
 
 
 @dataclass
@@ -106,6 +116,9 @@ class Objective:
     references: list[dict[str, Any]] = field(default_factory=list)
     evaluations: int = 0
     best: Evaluation | None = None
+    best_implausible: Evaluation | None = None
+    """The best evaluation among those the plausibility limits ruled out, scored on its
+    errors alone: when it beats :attr:`best`, the limits bind (the output says so)."""
     run_wall_s: float = 0.0
     store: Any = None
     fresh: bool = False
@@ -149,20 +162,31 @@ class Objective:
                 raise OutOfBudget("evaluation budget spent")
         t0 = time.perf_counter()
         values = np.asarray(values, dtype=float)
-        mets, errs, stats = [], [], []
+        mets, errs, stats, pens = [], [], [], []
+        raw: list[dict[str, float]] = []  # errors whatever the plausibility
         for run, ref in zip(self._runs(values), self.references, strict=True):
             ok = run["status"] == str(Status.OK)
+            measured = ok or run["status"] == str(Status.IMPLAUSIBLE)
             mets.append({k: float(run[k]) for k in BALL_METRICS})
-            errs.append({k: (relative_error(float(run[k]), float(ref[k])) if ok else math.nan)
-                         for k in BALL_METRICS})
+            raw.append({k: (relative_error(float(run[k]), float(ref[k])) if measured
+                            else math.nan) for k in BALL_METRICS})
+            errs.append(raw[-1] if ok else dict.fromkeys(BALL_METRICS, math.nan))
             stats.append(run["status"] + (f": {run['message']}" if run["message"] and not ok
                                           else ""))
+            pens.append(float((run.get("plausibility") or {}).get("penetration_ratio",
+                                                                   math.nan)))
         self.run_wall_s += time.perf_counter() - t0
-        ev = Evaluation(values.copy(), 0.0, mets, errs, stats)
+        ev = Evaluation(values.copy(), 0.0, mets, errs, stats, pens)
         ev.objective = float(np.sum(self.residuals_of(ev) ** 2))
         self.evaluations += 1
         if self.best is None or ev.objective < self.best.objective:
             self.best = ev
+        if any(st.startswith(str(Status.IMPLAUSIBLE)) for st in stats):
+            # what the search would have taken without the plausibility limits
+            free = Evaluation(values.copy(), 0.0, mets, raw, stats, pens)
+            free.objective = float(np.sum(self.residuals_of(free) ** 2))
+            if self.best_implausible is None or free.objective < self.best_implausible.objective:
+                self.best_implausible = free
         return ev
 
     @property

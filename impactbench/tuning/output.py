@@ -89,8 +89,50 @@ def at_bounds(result: TuneResult, rel: float = 1e-3) -> list[str]:
     return out
 
 
+def limits_bind(result: TuneResult) -> bool:
+    """True when a point the plausibility limits ruled out had smaller errors than the fit."""
+    free = result.objective.best_implausible
+    return free is not None and free.objective < result.tuned.objective
+
+
+def plausibility_lines(result: TuneResult) -> list[str]:
+    """What the plausibility limits (:mod:`impactbench.plausibility`) did to the fit."""
+    from impactbench.plausibility import DEFAULT
+
+    pen = result.tuned.max_penetration_ratio
+    lines = []
+    if math.isfinite(pen):
+        verdict = "within" if pen <= DEFAULT.max_penetration_ratio else "beyond"
+        lines.append(f"penetration: the tuned contact's largest is {pen:.3g} of the radius, "
+                     f"{verdict} the plausibility limit {DEFAULT.max_penetration_ratio:g}")
+    tuned = result.tuned
+    bad = [v for v, st in zip(result.velocities_m_s, tuned.statuses, strict=True)
+           if not st.startswith("ok")]
+    if bad:
+        lines.append(f"no plausible run at {', '.join(f'{v:g}' for v in bad)} m/s with the "
+                     f"tuned parameters ({tuned.statuses[result.velocities_m_s.index(bad[0])]})")
+    if limits_bind(result):
+        free = result.objective.best_implausible
+        errs = [abs(e["restitution"]) for e, st in zip(tuned.rel_errors, tuned.statuses,
+                                                        strict=True)
+                if st.startswith("ok") and math.isfinite(e["restitution"])]
+        within = (f"restitution within {100 * max(errs):.3g} %" if errs
+                  else "no plausible restitution at all")
+        where = f" (at {', '.join(f'{v:g}' for v in result.velocities_m_s if v not in bad)} " \
+                "m/s)" if bad and errs else ""
+        lines.append(
+            f"the plausibility limits bind: the best {result.space.engine} does at "
+            f"{result.timestep_s:g} s with penetration <= "
+            f"{DEFAULT.max_penetration_ratio:g} of the radius is {within}{where}; without "
+            f"the limits the search found an objective of {free.objective:.4g} (against "
+            f"{tuned.objective:.4g}) at a penetration of {free.max_penetration_ratio:.3g} "
+            "radii, a setting that would sink the ball")
+    return lines
+
+
 def honesty_lines(result: TuneResult) -> list[str]:
     lines = [f"cannot express: {s}" for s in result.space.limits]
+    lines += plausibility_lines(result)
     if result.space.mode != "tuned":
         lines.append(f"this parameter set runs in {result.space.mode} mode: the adapter's "
                      f"tuned mode cannot read {sorted(result.parameters)} yet")
@@ -211,6 +253,10 @@ def tuned_tables(result: TuneResult) -> dict[str, dict[str, Any]]:
     for k in REPORTED:
         prov[f"max_abs_rel_error_{k}_start"] = start[k]
         prov[f"max_abs_rel_error_{k}_tuned"] = tuned[k]
+    pen = result.tuned.max_penetration_ratio
+    if math.isfinite(pen):
+        prov["max_penetration_ratio_tuned"] = pen
+    prov["plausibility_limit_binds"] = limits_bind(result)
     res: dict[str, Any] = {"velocities_m_s": list(result.velocities_m_s)}
     for k in shown_metrics(result):
         res[f"{k}_reference"] = [float(r[k]) for r in result.objective.references]

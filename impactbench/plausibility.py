@@ -1,0 +1,87 @@
+"""Is a run physically plausible? Penetration relative to the body's size, and energy.
+
+An engine can reproduce a restitution while its contact is absurd: a ball buried ten radii
+deep in the plate for 100 ms bounces back at the right speed. Such a setting would wreck a
+simulation that uses it (the ball visibly sinks, a robot foot stands inside the floor), so a
+run beyond a limit is not ``ok``: its status is ``implausible`` (its metrics are kept, so the
+tables can show what happened), which the tables, the scoreboard, the gates and tuning honour.
+
+Each scenario measures (its spec's ``plausibility`` function, from the record and metrics):
+
+- ``penetration_ratio``: the largest overlap over the body's size (the ball: x_max/R). The
+  contact laws are small-indentation laws: Hertz's theory assumes a contact radius
+  a = √(R·x) much smaller than R, and at x = 0.1·R it is already 0.32·R; past that the
+  geometry the law describes is gone (and an engine's ball sinking by more than a tenth of
+  its radius is visible in any rendering). Default limit **0.1** (10 % of the radius).
+  The paper's steel ball at 5 m/s indents 114 µm, 0.8 % of its radius.
+- ``energy_ratio``: kinetic energy after the impact over before (the ball: e²; a body on a
+  flexible structure: body 1's). A passive contact cannot create energy; integration error
+  may, a little. Default limit **1.01** (1 % created, the adapters' own divergence rule,
+  :data:`impactbench.engines.common.ENERGY_GAIN_LIMIT`).
+
+The limits are :class:`Limits`; a report config's ``[plausibility]`` table changes them, and a
+run is judged again whenever it is read (a stored run keeps its measures, not its verdict).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+IMPLAUSIBLE = "implausible"
+OK = "ok"
+
+
+@dataclass(frozen=True)
+class Limits:
+    """The plausibility limits (dimensionless).
+
+    Attributes:
+        max_penetration_ratio: the largest overlap over the body's size (ball: radius).
+        max_energy_ratio: the largest kinetic energy after the impact over before.
+    """
+
+    max_penetration_ratio: float = 0.1
+    max_energy_ratio: float = 1.01
+
+    def __post_init__(self) -> None:
+        from impactbench.reference import validation as check
+
+        check.positive("max_penetration_ratio", self.max_penetration_ratio)
+        if not (math.isfinite(self.max_energy_ratio) and self.max_energy_ratio >= 1.0):
+            raise ValueError(f"max_energy_ratio = {self.max_energy_ratio!r}: must be >= 1 "
+                             "(a passive contact cannot create energy)")
+
+
+DEFAULT = Limits()
+
+
+def problems(measures: dict[str, float], limits: Limits = DEFAULT) -> list[str]:
+    """What is beyond the limits, in words ([] when nothing is)."""
+    out = []
+    p = measures.get("penetration_ratio", math.nan)
+    if math.isfinite(p) and p > limits.max_penetration_ratio:
+        out.append(f"penetration {p:.3g} of the body's size (limit "
+                   f"{limits.max_penetration_ratio:g})")
+    e = measures.get("energy_ratio", math.nan)
+    if math.isfinite(e) and e > limits.max_energy_ratio:
+        out.append(f"kinetic energy ×{e:.4g} after the impact (limit ×"
+                   f"{limits.max_energy_ratio:g}): energy created")
+    return out
+
+
+def judge(run: dict[str, Any], limits: Limits = DEFAULT) -> dict[str, Any]:
+    """``run`` (a comparison object with its ``plausibility`` measures) with its status set
+    from the limits: an ``ok`` run beyond them becomes ``implausible`` (the message says
+    why), an ``implausible`` one within them ``ok`` again. Other statuses are kept."""
+    status = run.get("status")
+    if status not in (OK, IMPLAUSIBLE):
+        return run
+    why = problems(run.get("plausibility") or {}, limits)
+    if why:
+        return {**run, "status": IMPLAUSIBLE,
+                "message": "implausible: " + "; ".join(why)}
+    if status == IMPLAUSIBLE:
+        return {**run, "status": OK, "message": ""}
+    return run

@@ -1,0 +1,126 @@
+"""Plausibility: a run whose ball sinks deeper than a tenth of its radius, or that creates
+energy, is ``implausible`` — in the comparison, the gates and tuning."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+from conftest import require_engine
+from impactbench.engines.base import RunSettings
+from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
+
+from impactbench import gates, plausibility
+from impactbench.evaluate import compare
+from impactbench.matrix import RunKey
+from impactbench.plausibility import Limits
+
+
+def run_object(status: str = "ok", penetration: float = 0.01, energy: float = 0.5) -> dict:
+    return {"status": status, "message": "",
+            "plausibility": {"penetration_ratio": penetration, "energy_ratio": energy}}
+
+
+@pytest.mark.parametrize(("penetration", "energy", "status"), [
+    (0.0999, 0.5, "ok"), (0.1, 0.5, "ok"), (0.1001, 0.5, "implausible"),  # the limit is kept
+    (0.01, 1.0099, "ok"), (0.01, 1.01, "ok"), (0.01, 1.0101, "implausible"),
+    (math.nan, 0.5, "ok"),  # not measured (a scenario without a size): nothing to judge
+])
+def test_the_limits_and_their_boundaries(penetration, energy, status) -> None:
+    judged = plausibility.judge(run_object(penetration=penetration, energy=energy))
+    assert judged["status"] == status
+    if status == "implausible":
+        assert judged["message"].startswith("implausible: ")
+
+
+def test_the_verdict_follows_the_limits_not_the_stored_status() -> None:
+    """A run is judged whenever it is read: looser limits make it ok again, and a status
+    that is not about plausibility (diverged) is never touched."""
+    deep = plausibility.judge(run_object(penetration=0.5))
+    assert deep["status"] == "implausible"
+    assert plausibility.judge(deep, Limits(max_penetration_ratio=1.0))["status"] == "ok"
+    assert plausibility.judge(run_object("diverged", penetration=5.0))["status"] == "diverged"
+
+
+@pytest.mark.parametrize(("kwargs", "field"), [
+    ({"max_penetration_ratio": 0.0}, "max_penetration_ratio"),
+    ({"max_energy_ratio": 0.99}, "max_energy_ratio"),
+])
+def test_bad_limits_are_one_line_errors(kwargs, field) -> None:
+    with pytest.raises(ValueError, match=field) as err:
+        Limits(**kwargs)
+    assert "\n" not in str(err.value)
+
+
+def test_a_soft_default_contact_at_a_practical_step_is_implausible() -> None:
+    """MuJoCo out of the box (solref 0.02 s, critically damped) at its 2 ms step lets the
+    paper's 14.5 mm ball sink about a radius at 2 m/s; the measure is the record's own largest
+    overlap over the radius (read back against the metric)."""
+    require_engine("mujoco")
+    ball = BallOnPlate(velocity_m_s=2.0)
+    out, rec = compare("mujoco", ball, "default", RunSettings(timestep_s=2e-3))
+    assert out["status"] == "implausible", out
+    ratio = out["plausibility"]["penetration_ratio"]
+    assert ratio == pytest.approx(rec.penetration_m.max() / ball.radius_m, rel=1e-12)
+    assert ratio > 0.1
+    assert "penetration" in out["message"]
+    assert math.isfinite(out["rel_error"]["restitution"])  # measured, kept for the tables
+
+
+def test_the_paper_case_at_a_fine_step_is_plausible() -> None:
+    """Injected Hunt–Crossley at 1e-6 s: the paper's ball indents 114 µm at 5 m/s, 0.8 % of
+    its radius (MODELS.md's table: x_max = 1.137259e-04 m, R = 1.452 cm)."""
+    require_engine("mujoco")
+    out, _ = compare("mujoco", BallOnPlate(velocity_m_s=5.0), "injected",
+                     RunSettings(timestep_s=1e-6))
+    assert out["status"] == "ok"
+    assert out["plausibility"]["penetration_ratio"] == pytest.approx(1.137259e-04 / 0.01452,
+                                                                    rel=1e-2)
+    assert out["plausibility"]["energy_ratio"] < 1.0
+
+
+def test_rigid_flexible_measures_body_1_energy() -> None:
+    require_engine("mujoco")
+    s = RigidFlexible(velocity_m_s=2.0)
+    out, rec = compare("mujoco", s, "injected", RunSettings(timestep_s=1e-5))
+    assert out["status"] == "ok"
+    assert out["plausibility"]["energy_ratio"] == pytest.approx(
+        (rec.velocity_1_m_s[-1] / 2.0) ** 2, rel=1e-12)
+    assert math.isnan(out["plausibility"]["penetration_ratio"])
+
+
+@pytest.mark.parametrize(("base_err", "mark"), [(0.001, gates.NEW_FAILURE), (None, gates.FAIL)])
+def test_a_gate_fails_an_implausible_run_whatever_its_error(base_err, mark) -> None:
+    check = gates.Check(RunKey("mujoco", "ball-on-plate", (("velocity_m_s", 2.0),), "tuned",
+                               2e-3), "restitution", 0.05)
+    result = {"status": "implausible", "message": "implausible: penetration 2 of the body's "
+              "size (limit 0.1)", "restitution": 0.8, "reference": {"restitution": 0.8},
+              "rel_error": {"restitution": 0.0}}
+    baseline = {check.id: {"rel_error": base_err}} if base_err is not None else None
+    out = gates.judge(check, result, baseline)
+    assert out.mark == mark and out.failed
+    assert "penetration" in out.message
+
+
+def test_tuning_is_constrained_and_says_when_the_limits_bind() -> None:
+    """At MuJoCo's 2 ms step the least-error restitution fit sinks the ball; the constrained
+    fit stays plausible where it can and says what the limits cost."""
+    require_engine("mujoco")
+    from impactbench.tuning import output
+    from impactbench.tuning.optimize import tune
+
+    result = tune("mujoco", BallOnPlate(), velocities_m_s=(0.5, 1.0), timestep_s=2e-3,
+                  targets=("restitution",), max_evals=40, budget_s=120)
+    tuned = result.tuned
+    assert tuned.objective <= result.start.objective
+    for st, pen in zip(tuned.statuses, tuned.penetration_ratios, strict=True):
+        assert (st == "ok") == (pen <= 0.1), (st, pen)  # every ok run is a plausible one
+    assert tuned.statuses[0] == "ok"  # at 0.5 m/s a plausible contact exists at 2 ms
+    lines = output.honesty_lines(result)
+    assert any(line.startswith("penetration: ") for line in lines)
+    if output.limits_bind(result):
+        assert result.objective.best_implausible.objective < tuned.objective
+        assert any("the plausibility limits bind" in line for line in lines)
+    prov = output.tuned_tables(result)["provenance"]
+    assert prov["plausibility_limit_binds"] == output.limits_bind(result)
+    assert prov["max_penetration_ratio_tuned"] == pytest.approx(tuned.max_penetration_ratio)
