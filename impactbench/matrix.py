@@ -384,7 +384,9 @@ def run_jobs(jobs: list[Job], workers: int | None = None,
 
 
 def tidy(results: list[JobResult]) -> list[dict[str, Any]]:
-    """One row per run and metric (DESIGN.md's columns, plus study and the point's axes:
+    """One row per run and metric (DESIGN.md's columns, plus study, the run's plausibility
+    measures ``penetration_ratio`` and ``energy_ratio`` (:mod:`impactbench.plausibility`) and
+    the point's axes:
     every registered scenario's, each once — categorical ones after ``scenario``, numeric
     ones after ``mode``; a scenario without an axis leaves it "" or NaN)."""
     cats, nums = scenarios.point_columns()
@@ -392,6 +394,7 @@ def tidy(results: list[JobResult]) -> list[dict[str, Any]]:
     for r in results:
         j, run = r.job, r.run
         point = dict(j.point)
+        measures = run.get("plausibility") or {}
         for metric in j.spec.metrics:
             rows.append({
                 "study": j.study,
@@ -411,5 +414,7 @@ def tidy(results: list[JobResult]) -> list[dict[str, Any]]:
                 "message": run.get("not_comparable", {}).get(metric) or run.get("message", ""),
                 "wall_s": run.get("wall_s"),
                 "engine_version": run.get("engine_version", ""),
+                "penetration_ratio": measures.get("penetration_ratio", math.nan),
+                "energy_ratio": measures.get("energy_ratio", math.nan),
             })
     return rows

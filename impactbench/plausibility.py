@@ -80,8 +80,7 @@ def judge(run: dict[str, Any], limits: Limits = DEFAULT) -> dict[str, Any]:
         return run
     why = problems(run.get("plausibility") or {}, limits)
     if why:
-        return {**run, "status": IMPLAUSIBLE,
-                "message": "implausible: " + "; ".join(why)}
+        return {**run, "status": IMPLAUSIBLE, "message": "; ".join(why)}
     if status == IMPLAUSIBLE:
         return {**run, "status": OK, "message": ""}
     return run

@@ -184,3 +184,119 @@ def section(ctx) -> dict[str, object] | None:
                "max |error|", "failed runs"]
     return {"intro": intro(df), "figures": ctx.figures_in("practical"), "engines": engines,
             "summary": Table(columns, summary_rows, text_columns=4)}
+
+
+# ----------------------------------------------------------------------------- at your timestep
+
+YOUR_TIMESTEP = "At your timestep"
+
+
+def _groups(results: list) -> dict[tuple, list]:
+    """The practical study's runs by (engine, step, mode, engine parameters)."""
+    out: dict[tuple, list] = {}
+    for r in results:
+        j = r.job
+        if j.study == "practical":
+            out.setdefault((j.engine, float(j.timestep_s), j.mode, j.params), []).append(r)
+    return out
+
+
+def _score(runs: list) -> tuple[int, float]:
+    """(plausible ok runs, worst |restitution error| over them): more ok runs first."""
+    errs = [abs(float(r.run["rel_error"].get("restitution", math.nan))) for r in runs
+            if r.run["status"] == "ok"]
+    errs = [e for e in errs if math.isfinite(e)]
+    return len(errs), (max(errs) if errs else math.inf)
+
+
+def settings_snippet(runs: list) -> tuple[str, str]:
+    """(words, the settings in the engine's own words) of one group of runs."""
+    from impactbench.config import thawed
+
+    job = runs[0].job
+    params = thawed(job.params)
+    if job.mode == "default":
+        return "nothing to set: the engine out of the box", "# the engine's defaults"
+    if job.mode == "custom":
+        return ("the engine's defaults plus", "\n".join(f"{k} = {v!r}"
+                                                        for k, v in params.items()))
+    if job.mode == "native":
+        return ("the native mapping (fitted for a 1 µs step; see the tables)",
+                "# impactbench run --mode native")
+    if job.mode != "tuned":
+        return job.mode, ""
+    from impactbench.matrix import job_settings
+    from impactbench.tuning.spaces import make_space
+
+    settings = job_settings(job)
+    tuned, prov = settings.tuned or {}, settings.tuned_for or {}
+    variant, _, form = str(prov.get("parameter_set", "")).partition(" (")
+    try:
+        space = make_space(job.engine, job.build_scenario(), variant or None,
+                           form.rstrip(")") or "direct", timestep_s=job.timestep_s)
+        snippet = space.snippet(tuned)
+    except (ValueError, KeyError) as exc:  # a user's tuned file of another parameter set
+        snippet = "\n".join(f"{k} = {v!r}" for k, v in tuned.items()) + f"\n# ({exc})"
+    where = prov.get("file", "the tuned file")
+    return f"the parameters fitted at this step ({where})", snippet
+
+
+def your_timestep(ctx) -> dict[str, object] | None:
+    """The report's first section: per engine at each of its steps (the config's practical
+    steps), the best mode's restitution error, its plausibility and the settings to paste."""
+    from impactbench.plausibility import DEFAULT
+    from impactbench.report_render import Cell, Table, band, format_error
+
+    groups = _groups(ctx.results)
+    if not groups:
+        return None
+    best: dict[tuple, tuple] = {}
+    for (engine, dt, mode, params), runs in groups.items():
+        key = (engine, dt)
+        score = _score(runs)
+        if key not in best or (-score[0], score[1]) < (-best[key][0][0], best[key][0][1]):
+            best[key] = (score, mode, params, runs)
+    rows, settings = [], []
+    for (engine, dt), (score, mode, params, runs) in sorted(best.items()):
+        n_ok, worst = score
+        from impactbench.config import thawed
+
+        label = mode + (f" [{', '.join(f'{k}={v}' for k, v in thawed(params).items())}]"
+                        if params else "")
+        pens = [float((r.run.get("plausibility") or {}).get("penetration_ratio", math.nan))
+                for r in runs]
+        pens = [p for p in pens if math.isfinite(p)]
+        bad = sorted(r.job.velocity_m_s for r in runs if r.run["status"] != "ok")
+        ok_text = f"{n_ok}/{len(runs)}" + (f" (not at {', '.join(f'{v:g}' for v in bad)} m/s)"
+                                           if bad else "")
+        err = Cell(f"{100 * worst:.2g} %", band(worst)) if math.isfinite(worst) \
+            else Cell("none plausible", "fail")
+        pen = max(pens) if pens else math.nan
+        pen_cell = Cell(f"{pen:.2g} R", "good" if pen <= DEFAULT.max_penetration_ratio
+                        else "poor") if math.isfinite(pen) else Cell("—", "na")
+        version = next((r.run.get("engine_version") for r in runs
+                        if r.run.get("engine_version")), "")
+        rows.append([Cell(f"{engine} {version}".strip()), Cell(_step(dt)), Cell(label), err,
+                     Cell(ok_text), pen_cell])
+        words, snippet = settings_snippet(runs)
+        settings.append({"title": f"{engine} at {_step(dt)}: {label}",
+                         "words": f"{words}; max |restitution error| "
+                                  + (format_error(worst).lstrip("+") if math.isfinite(worst)
+                                     else "— (no plausible run)")
+                                  + f" over {n_ok} plausible of {len(runs)} runs.",
+                         "snippet": snippet})
+    v = sorted({r.job.velocity_m_s for runs in groups.values() for r in runs})
+    intro = (
+        "Which engine comes closest at the step you run it at, and what to set. Per engine "
+        "and step (the config's `[practical]` steps), the mode with the most plausible runs "
+        "and then the smallest worst restitution error over V0 = "
+        f"{', '.join(f'{x:g}' for x in v)} m/s against the reference. A run is plausible "
+        f"when the ball sinks at most {DEFAULT.max_penetration_ratio:g} of its radius and "
+        "no energy is created (`impactbench.plausibility`); an implausible run's error is "
+        "not counted, however small. At a step longer than the contact, duration and peak "
+        "force are not resolved: restitution is the answer here.")
+    columns = ["engine", "step", "best mode", "max |restitution error|", "plausible runs",
+               "max penetration"]
+    return {"intro": intro, "table": Table(columns, rows, text_columns=3),
+            "after": "The settings behind each row, in the engine's own words:",
+            "settings": settings}

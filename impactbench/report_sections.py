@@ -181,7 +181,7 @@ def scoreboard(ctx: ReportContext) -> dict[str, Any] | None:
                 cells.append(Cell(verdict(g, scenario), wrap=True))
                 rows.append(cells)
         columns = ["engine", "mode", *[LABELS[x] for x in metrics], "runs ok", "in one sentence"]
-        tables.append({"title": f"Scoreboard: {spec.title.lower()}",
+        tables.append({"title": f"Scoreboard: {spec.title.lower()}, {timestep_text(s)}",
                        "table": Table(columns, rows, text_columns=2, marks=True,
                                       prose_columns=1)})
     legend = ", ".join(f"{name}: {words}" for name, _, words in BANDS)
@@ -551,10 +551,17 @@ def practical_section(ctx: ReportContext) -> dict[str, Any] | None:
     return section(ctx)
 
 
+def your_timestep_section(ctx: ReportContext) -> dict[str, Any] | None:
+    from impactbench.practical import your_timestep
+
+    return your_timestep(ctx)
+
+
 def sections() -> list[Section]:
     """The report in reading order: one section per registered scenario after the
     scoreboard. Insert a :class:`Section` here to add one."""
     return [
+        Section("your_timestep", "At your timestep", your_timestep_section),
         Section("scoreboard", "Scoreboard", scoreboard),
         Section("how_to_read", "How to read it", how_to_read),
         *(Section("scenario", spec.title, partial(scenario_section, spec.name))

@@ -257,6 +257,12 @@ def tuned_tables(result: TuneResult) -> dict[str, dict[str, Any]]:
     if math.isfinite(pen):
         prov["max_penetration_ratio_tuned"] = pen
     prov["plausibility_limit_binds"] = limits_bind(result)
+    plausible = [i for i, st in enumerate(result.tuned.statuses) if st == "ok"]
+    prov["plausible_velocities_m_s"] = [result.velocities_m_s[i] for i in plausible]
+    for k in REPORTED:  # the worst error where the tuned contact is plausible
+        errs = [abs(result.tuned.rel_errors[i][k]) for i in plausible]
+        if errs and all(math.isfinite(e) for e in errs):
+            prov[f"max_abs_rel_error_{k}_plausible"] = max(errs)
     res: dict[str, Any] = {"velocities_m_s": list(result.velocities_m_s)}
     for k in shown_metrics(result):
         res[f"{k}_reference"] = [float(r[k]) for r in result.objective.references]

@@ -229,7 +229,9 @@ def mujoco_space(scenario: BallOnPlate, variant: str = "solref+solimp",
                if engine == "mjx" else "")
         return (f'<geom solref="{_fmt(t["solref"])}" solimp="{_fmt(t["solimp"])}"/>\n'
                 f"(on both the ball and the plate geoms, or as <default><geom .../>; "
-                f"efc_diagA = {a:.10g} 1/kg, solref {solref_form} form{mjx})")
+                f"efc_diagA = {a:.10g} 1/kg, solref {solref_form} form{mjx})\n"
+                f"or in Python: model.geom_solref[:] = [{_fmt(t['solref'])}]; "
+                f"model.geom_solimp[:] = [{_fmt(t['solimp'])}]")
 
     limits = (
         "restitution is nearly independent of the impact velocity: the impedance scales "

@@ -37,7 +37,9 @@ def test_engines_table_gives_a_custom_column(practical_report: report.Report) ->
     assert "custom [solref=[0.02, 1.0]]" in text
     df = practical_report.results
     custom = df[(df.study == "matrix") & (df["mode"] == "custom")]
-    assert set(custom.status) == {"ok"} and set(custom.params) == {"solref=[0.02, 1.0]"}
+    assert set(custom.params) == {"solref=[0.02, 1.0]"}
+    # MuJoCo's own 20 ms, critically damped contact sinks the paper's ball a radius deep
+    assert set(custom.status) == {"implausible"} and (custom.penetration_ratio > 0.1).all()
 
 
 def test_practical_section_tables_and_figure(practical_report: report.Report) -> None:
@@ -49,9 +51,15 @@ def test_practical_section_tables_and_figure(practical_report: report.Report) ->
     df = practical_report.results
     rows = df[(df.study == "practical") & (df.metric == "restitution")]
     tuned = rows[rows["mode"] == "tuned"]
-    # the packaged files fitted at these very steps apply (no timestep mismatch)
-    assert set(tuned.status) == {"ok"}
-    assert (tuned.rel_error.abs() < 0.2).all()
+    # the packaged files fitted at these very steps apply (no timestep mismatch): plausible
+    # where their provenance says so (MuJoCo 2 ms: 0.5 and 1 m/s; pymunk 1/60 s: never, the
+    # ball moves 8 mm, 0.57 radii, per step at 0.5 m/s), implausible elsewhere
+    assert set(tuned.status) <= {"ok", "implausible"}
+    assert ((tuned.status == "ok") == (tuned.penetration_ratio <= 0.1)).all()
+    ok = tuned[tuned.status == "ok"]
+    assert set(ok.engine) == {"mujoco"} and set(ok.velocity_m_s) == {1.0}
+    assert (ok.rel_error.abs() < 0.05).all()  # measured 1.6 % (the file's provenance)
+    assert "## At your timestep" in text
 
 
 def test_unresolved_metrics_are_flagged_not_compared(practical_report: report.Report) -> None:

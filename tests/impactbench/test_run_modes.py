@@ -4,6 +4,7 @@ and timestep they were fitted for (real engines)."""
 from __future__ import annotations
 
 import json
+import math
 
 import pytest
 from conftest import require_engine
@@ -31,7 +32,11 @@ def test_default_mode_json_at_the_customary_step(capsys, engine, dt):
     code, out, _ = run(capsys, "run", "--engine", engine, "--scenario", "ball-on-plate",
                        "--mode", "default", "--velocity", "2", "--timestep", dt, "--json")
     obj = json.loads(out)
-    assert code == 0 and obj["status"] == "ok"
+    # measured either way; out of the box at these steps the paper's 14.5 mm ball often sinks
+    # deeper than a tenth of its radius (MuJoCo's 20 ms default contact: about one radius)
+    deep = obj["plausibility"]["penetration_ratio"] > 0.1
+    assert obj["status"] == ("implausible" if deep else "ok")
+    assert code == (1 if deep else 0)
     assert isinstance(obj["restitution"], float) and obj["engine_defaults"]
 
 
@@ -41,7 +46,8 @@ def test_custom_param_reaches_mujoco(capsys):
                        "--mode", "custom", "--param", "solref=0.01,0.5", "--velocity", "2",
                        "--timestep", "2e-3", "--json")
     obj = json.loads(out)
-    assert code == 0 and obj["params"] == {"solref": [0.01, 0.5]}
+    assert obj["params"] == {"solref": [0.01, 0.5]}
+    assert code == (0 if obj["status"] == "ok" else 1)
 
 
 @pytest.mark.parametrize("argv", [
@@ -118,18 +124,30 @@ PACKAGED = [("mujoco", 2e-3, None), ("mujoco", 1e-3, None), ("pybullet", 1 / 240
 
 @pytest.mark.parametrize(("engine", "dt", "approximation"), PACKAGED)
 def test_packaged_tuned_file_fits_its_customary_step(engine, dt, approximation):
-    """Each packaged file fitted at a practical step applies there (its provenance matches)
-    and its restitution is within its recorded worst error of the reference."""
+    """Each packaged file fitted at a practical step applies there (its provenance matches):
+    at the velocities its provenance lists as plausible the run is ok and its restitution
+    within the recorded worst error; at the others it is implausible (the paper's 14.5 mm
+    ball moves v·dt per step: at 1 ms and 3 m/s, 0.21 radii, so it can overlap the plate by
+    more than the 0.1-radius limit before any contact acts)."""
     require_engine(engine)
     variant = {"discrete_contact_approximation": approximation} if approximation else None
     tuned, prov = load_tuned_settings(engine, "ball-on-plate", dt, variant=variant)
     assert prov["timestep_s"] == pytest.approx(dt, rel=1e-12)
-    worst = prov["max_abs_rel_error_restitution_tuned"]
-    out, _ = compare(engine, BallOnPlate(velocity_m_s=2.0), "tuned",
-                     RunSettings(timestep_s=dt, tuned=tuned, tuned_for=prov))
-    assert out["status"] == "ok", out["message"]
-    assert abs(out["rel_error"]["restitution"]) <= worst * (1 + 1e-6)
-    assert worst < 0.25
+    plausible = prov["plausible_velocities_m_s"]
+    worst = prov.get("max_abs_rel_error_restitution_plausible", math.nan)
+    for v in prov["velocities_m_s"]:
+        out, _ = compare(engine, BallOnPlate(velocity_m_s=v), "tuned",
+                         RunSettings(timestep_s=dt, tuned=tuned, tuned_for=prov))
+        if v in plausible:
+            assert out["status"] == "ok", (v, out["message"])
+            assert abs(out["rel_error"]["restitution"]) <= worst * (1 + 1e-6)
+        else:
+            assert out["status"] == "implausible", (v, out["status"], out["message"])
+            assert out["plausibility"]["penetration_ratio"] > 0.1
+    if engine == "pymunk" and dt > 1e-2:  # 1/60 s: 8 mm a step even at 0.5 m/s
+        assert plausible == []
+    else:
+        assert 0.5 in plausible
 
 
 def test_tune_at_a_coarse_step_fits_restitution_only_and_keeps_fixed_settings():
