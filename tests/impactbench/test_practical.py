@@ -102,3 +102,32 @@ def test_default_config_has_the_practical_section() -> None:
     drake = [j for j in plan(cfg) if j.study == "practical" and j.engine == "drake"]
     approximations = {dict(j.params).get("discrete_contact_approximation") for j in drake}
     assert approximations >= {"tamsi", "sap", "similar", "lagged"}
+
+
+def test_at_your_timestep_opens_the_report_with_settings_to_paste(
+        practical_report: report.Report) -> None:
+    """The first section: each engine at its configured step, the best mode, its plausibility
+    and the settings in the engine's own words (MuJoCo: an MJCF attribute and a Python line);
+    the scoreboard names its step."""
+    text = (practical_report.out_dir / "README.md").read_text()
+    first = text.index("## ", text.index("**Contents:**"))
+    assert text[first:].startswith("## At your timestep")
+    section = text[first:text.index("## Scoreboard")]
+    assert "| mujoco 4" in section and "| 2 ms |" in section and "1/60 s" in section
+    assert 'solref="' in section and "model.geom_solref" in section  # tuned MuJoCo at 2 ms
+    assert "plausible runs" in section and "max penetration" in section
+    assert "Scoreboard: ball on plate, dt = 1e-05 s" in text
+
+
+def test_the_practical_section_follows_the_configured_velocities(tmp_path: Path) -> None:
+    """A config asking for 0.5 and 2 m/s gets those columns, never a 'failed' for a
+    velocity it did not ask for (the section once had fixed 1 and 5 m/s columns)."""
+    require_engine("mujoco")
+    cfg = config.parse({"report": {"engines": ["mujoco"], "modes": ["native"]},
+                        "practical": {"velocities_m_s": [0.5, 2.0], "modes": ["default"],
+                                      "timesteps_s": {"mujoco": [1e-3]}}})
+    rep = report.build(cfg, tmp_path / "r", show_progress=False, workers=0)
+    text = (rep.out_dir / "README.md").read_text()
+    section = text[text.index("## At practical timesteps"):]
+    assert "error at 0.5 m/s" in section and "error at 2 m/s" in section
+    assert "error at 5 m/s" not in section and "| failed |" not in section
