@@ -15,7 +15,7 @@ $(STAMP): pyproject.toml
 
 report: $(STAMP)
 	$(BIN)/impactbench figures
-	$(BIN)/impactbench report
+	$(BIN)/impactbench report --keep-unchanged
 
 test: $(STAMP)
 	$(BIN)/ruff check .

@@ -41,23 +41,28 @@ class Report:
     results: pd.DataFrame
     files: list[Path]
     wall_s: float
+    kept: bool = False
+    """True when the previous report was kept: the same results apart from wall times."""
 
 
 def git_commit(exclude: Path | None = None) -> str:
     """The source commit (``+dirty`` when tracked files differ from it), or ``unknown``.
 
-    ``exclude``: a folder inside the work tree left out of the dirty check — the report's own
-    output folder, which a regeneration rewrites (it is output, not source)."""
+    ``exclude``: a folder inside the work tree left out — the report's own output folder,
+    which a regeneration rewrites (it is output, not source): the commit is the last one that
+    changed anything else, so committing a regenerated report does not change the commit the
+    next regeneration records, and the dirty check ignores the folder."""
     root = Path(__file__).resolve().parent.parent
     try:
-        sha = subprocess.run(["git", "rev-parse", "HEAD"], cwd=root, capture_output=True,
-                             text=True, check=True, timeout=10).stdout.strip()
         spec = ["--", "."]
         if exclude is not None:
             with contextlib.suppress(ValueError):
                 rel = Path(exclude).resolve().relative_to(root)
                 if rel.parts:
                     spec.append(f":(exclude){rel.as_posix()}")
+        sha = subprocess.run(["git", "log", "-1", "--format=%H", *spec], cwd=root,
+                             capture_output=True, text=True, check=True,
+                             timeout=10).stdout.strip() or "unknown"
         dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", *spec],
                                cwd=root, capture_output=True, text=True, timeout=10).stdout
         return sha + ("+dirty" if dirty.strip() else "")
@@ -237,7 +242,8 @@ def scenario_parameters(cfg: config_mod.ReportConfig) -> list[dict[str, Any]]:
 
 def build(cfg: config_mod.ReportConfig, out_dir: Path, *, engines: list[str] | None = None,
           workers: int | None = None, show_progress: bool = True, store=None,
-          fresh: bool = False, scheduler: str | None = None, yes: bool = True) -> Report:
+          fresh: bool = False, scheduler: str | None = None, yes: bool = True,
+          keep_unchanged: bool = False) -> Report:
     """Run the matrix of ``cfg`` and write every report file into ``out_dir``.
 
     Holds the folder's writer lock throughout; runs come from ``store`` where finished
@@ -265,7 +271,8 @@ def build(cfg: config_mod.ReportConfig, out_dir: Path, *, engines: list[str] | N
             close()
         try:
             with publish.staged(out_dir, owned_by_report) as stage:
-                rep = _write(cfg, stage, results, engines, commit, t0, previous=out_dir)
+                rep = _write(cfg, stage, results, engines, commit, t0, previous=out_dir,
+                             keep_unchanged=keep_unchanged)
         except KeyboardInterrupt:  # every run is stored; only the rendering is lost
             raise Interrupted(len(results), len(jobs), store is not None) from None
     rep.out_dir = out_dir
@@ -290,7 +297,8 @@ def render_key(df: pd.DataFrame, results: list[JobResult], meta: dict[str, Any],
             # + 0.0 turns −0.0 into 0.0: the store's DOUBLE[] keeps no sign of zero, and a
             # plot does not show one (Newton's histories start at −0.0)
             h.update((r.history[name] + 0.0).tobytes())
-    shown = {k: v for k, v in meta.items() if k not in ("runs", "wall_s", "command")}
+    shown = {k: v for k, v in meta.items()
+             if k not in ("runs", "wall_s", "command", "content_key", "render_key")}
     h.update(json.dumps(shown, sort_keys=True, default=str).encode())
     h.update(f"{cfg.title}\0{impactbench_version()}".encode())
     templates = Path(__file__).parent / "templates"
@@ -306,24 +314,27 @@ def render_key(df: pd.DataFrame, results: list[JobResult], meta: dict[str, Any],
 
 def _unchanged(previous: Path | None, key: str) -> bool:
     """True when ``previous`` holds a complete report rendered from the same inputs."""
-    if previous is None:
-        return False
+    return previous is not None and _same(previous, "render_key", key)
+
+
+def _same(previous: Path, name: str, key: str) -> bool:
+    """True when ``previous`` holds a complete report whose metadata has this key."""
     try:
         old = json.loads((previous / "metadata.json").read_text())
     except (OSError, ValueError):
         return False
-    return old.get("render_key") == key and all((previous / n).is_file()
-                                                 for n in REPORT_FILES)
+    return old.get(name) == key and all((previous / n).is_file() for n in REPORT_FILES)
 
 
 def _write(cfg: config_mod.ReportConfig, out_dir: Path, results: list[JobResult],
            engines: list[str] | None, commit: str, t0: float,
-           previous: Path | None = None) -> Report:
+           previous: Path | None = None, keep_unchanged: bool = False) -> Report:
     """Write results.csv/.parquet, metadata.json and the rendered report into ``out_dir``.
 
     When ``previous`` (the folder being replaced) was rendered from the same inputs
     (:func:`render_key`), its files are kept (hard links) and only metadata.json is new:
-    the rendering would give the same bytes."""
+    the rendering would give the same bytes. With ``keep_unchanged``, a previous report whose
+    results differ only in wall times (``content_key``) is kept whole, metadata included."""
     df = pd.DataFrame(tidy(results))
     if not df.empty:
         df = df.sort_values(sort_columns(), kind="stable").reset_index(drop=True)
@@ -351,7 +362,18 @@ def _write(cfg: config_mod.ReportConfig, out_dir: Path, results: list[JobResult]
                          "message": r.run.get("message", "")}
                         for r in results if r.run["status"] != "ok"],
     }
+    meta["content_key"] = render_key(df.drop(columns=["wall_s"], errors="ignore"), results,
+                                     meta, cfg, out_dir / "figures")
     meta["render_key"] = render_key(df, results, meta, cfg, out_dir / "figures")
+    if keep_unchanged and previous is not None and _same(previous, "content_key",
+                                                          meta["content_key"]):
+        # the same results apart from wall times: the previous folder, byte for byte
+        from impactbench.publish import link_tree
+
+        link_tree(previous, out_dir, lambda rel: not owned_by_report(rel))
+        files = [out_dir / rel for rel in (Path(n) for n in REPORT_FILES)]
+        old = pd.read_csv(previous / "results.csv", keep_default_na=False, na_values=[""])
+        return Report(out_dir, old, files, time.perf_counter() - t0, kept=True)
     if _unchanged(previous, meta["render_key"]):
         from impactbench.publish import link_tree
 

@@ -30,6 +30,9 @@ def register(top: argparse._SubParsersAction, groups: dict) -> None:
     p.add_argument("--scenario-file", type=Path, default=None, metavar="FILE",
                    help="TOML [ball_on_plate] scenario fields (e.g. from impactbench "
                    "calibrate) replacing the config's ball parameters")
+    p.add_argument("--keep-unchanged", action="store_true",
+                   help="leave the folder as it is when its report has the same results "
+                   "apart from wall times (make report: a committed report stays unchanged)")
     add_execution_flags(p)
     p.set_defaults(func=main)
 
@@ -55,11 +58,14 @@ def main(args: argparse.Namespace) -> int:
             if e not in engine_names():
                 raise ValueError(f"--engines: {e!r} is not one of {', '.join(engine_names())}")
     opts = execution_options(args, cfg)
-    rep = report.build(cfg, args.out, engines=engines, **opts)
+    rep = report.build(cfg, args.out, engines=engines, keep_unchanged=args.keep_unchanged,
+                       **opts)
     from impactbench.report_sections import run_keys
 
     counts = rep.results.drop_duplicates(run_keys()).status.value_counts().to_dict() \
         if len(rep.results) else {}
-    print(f"report written to {args.out}/ ({len(rep.files)} files) in {rep.wall_s:.1f} s; "
+    done = ("kept as it was (the same results apart from wall times)" if rep.kept
+            else f"written ({len(rep.files)} files)")
+    print(f"report {args.out}/ {done} in {rep.wall_s:.1f} s; "
           "runs: " + (", ".join(f"{n} {s}" for s, n in sorted(counts.items())) or "none"))
     return 0

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pandas as pd
 import pytest
-from conftest import SMALL_REPORT
+from conftest import SMALL_REPORT, require_engine
 from impactbench.engines.base import DISABLE_ENV, ENGINES_ENV, available_engines
 from impactbench.reference import hunt_crossley
 from impactbench.reference.scenarios import BallOnPlate
@@ -20,7 +20,8 @@ V1 = (("velocity_m_s", 1.0),)
 
 COLUMNS = ["study", "scenario", "local", "structure", "engine", "mode", "velocity_m_s",
            "timestep_s", "metric", "value", "reference", "rel_error", "resolved", "params",
-           "status", "message", "wall_s", "engine_version"]
+           "status", "message", "wall_s", "engine_version", "penetration_ratio",
+           "energy_ratio"]
 
 
 def test_report_writes_every_file(small_report: report.Report) -> None:
@@ -138,3 +139,28 @@ def test_render_key_sees_values_not_the_sign_of_zero(tmp_path: Path) -> None:
 
     assert key([-0.0, 5.0]) == key([0.0, 5.0])
     assert key([0.0, 5.0]) != key([0.0, 5.000000001])
+
+
+def test_keep_unchanged_leaves_a_report_with_the_same_results_as_it_was(tmp_path: Path) -> None:
+    """``make report`` on a fresh machine runs everything again (new wall times); with
+    ``keep_unchanged`` a folder whose results differ only in wall times stays byte for byte,
+    metadata.json included, so a newcomer's checkout is not left dirty."""
+    from impactbench.store import Store
+
+    require_engine("pymunk")
+    cfg = config.parse({"report": {"engines": ["pymunk"], "modes": ["injected"]},
+                        "ball_on_plate": {"velocities_m_s": [1.0]}})
+    out = tmp_path / "rep"
+    first = report.build(cfg, out, show_progress=False, workers=0,
+                         store=Store(tmp_path / "a.duckdb"))
+    before = {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    again = report.build(cfg, out, show_progress=False, workers=0,
+                         store=Store(tmp_path / "b.duckdb"), keep_unchanged=True)
+    assert again.kept and not first.kept
+    after = {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    assert after == before
+    changed = config.parse({"report": {"engines": ["pymunk"], "modes": ["injected"]},
+                            "ball_on_plate": {"velocities_m_s": [2.0]}})
+    third = report.build(changed, out, show_progress=False, workers=0,
+                         store=Store(tmp_path / "b.duckdb"), keep_unchanged=True)
+    assert not third.kept and set(third.results.velocity_m_s) == {2.0}
