@@ -17,6 +17,10 @@ def available() -> list[str]:
 
 def main(argv: list[str]) -> int:
     names = available()
+    if any(a in ("-h", "--help") for a in argv):
+        print(__doc__.strip())
+        print("\nbenchmarks: " + ", ".join(n.removeprefix("bench_") for n in names))
+        return 0
     chosen = []
     for arg in argv:
         name = arg if arg.startswith("bench_") else f"bench_{arg}"
