@@ -19,7 +19,10 @@ def test_default_mode_at_the_customary_step_is_ok_and_records_defaults(engine):
     require_engine(engine)
     out, rec = compare(engine, BallOnPlate(velocity_m_s=2.0), "default",
                        RunSettings(timestep_s=CUSTOMARY_S[engine]))
-    assert out["status"] == "ok", out["message"]
+    # measured either way; at its customary step the 14.5 mm ball may sink deeper than a tenth
+    # of its radius (impactbench.plausibility): then it is implausible, its numbers kept
+    assert out["status"] in ("ok", "implausible"), out["message"]
+    assert (out["status"] == "implausible") == (out["plausibility"]["penetration_ratio"] > 0.1)
     assert 0.0 <= out["restitution"] < 1.0
     assert rec.meta["engine_defaults"], "the engine's defaults must be recorded"
     assert out["timestep_s"] == CUSTOMARY_S[engine]
@@ -37,7 +40,7 @@ def test_custom_parameters_reach_the_engine(engine, params, meta_key, expected):
     dt = CUSTOMARY_S[engine]
     default, _ = compare(engine, s, "default", RunSettings(timestep_s=dt))
     custom, rec = compare(engine, s, "custom", RunSettings(timestep_s=dt, params=params))
-    assert custom["status"] == "ok", custom["message"]
+    assert custom["status"] in ("ok", "implausible"), custom["message"]  # measured
     if expected is not None:
         assert rec.meta[meta_key] == expected
     else:
@@ -85,9 +88,9 @@ def test_every_engine_runs_at_ten_ms(engine):
     require_engine(engine)
     out, _ = compare(engine, BallOnPlate(velocity_m_s=1.0), "default",
                      RunSettings(timestep_s=1e-2))
-    assert out["status"] in ("ok", "tunneled", "diverged", "max_time")
+    assert out["status"] in ("ok", "implausible", "tunneled", "diverged", "max_time")
     native, _ = compare(engine, BallOnPlate(velocity_m_s=1.0), "native",
                         RunSettings(timestep_s=1e-2))
     assert native["status"] != "crashed", native["message"]
-    if native["status"] == "ok":
+    if native["status"] in ("ok", "implausible"):
         assert not native["resolved"]["peak_force_n"]
