@@ -556,6 +556,11 @@ class DrakeAdapter(Adapter):
     pip: ClassVar[str] = PIP["drake"]
     modes: ClassVar[tuple[str, ...]] = ("native", "injected", "tuned", "default", "custom")
     parameter_keys: ClassVar[tuple[str, ...]] = PARAMETER_KEYS
+    tuned_keys: ClassVar[tuple[str, ...]] = (
+        "point_stiffness_n_per_m", "hunt_crossley_dissipation_s_per_m", "relaxation_time_s",
+        "discrete_contact_approximation")
+    """What ``tuned`` mode reads (:func:`impactbench.tuned.tuned_keys`): the fitted keys of the
+    tuning spaces and the discrete approximation a fit at a practical step holds fixed."""
     builders: ClassVar[dict[str, Builder]] = {
         "ball-on-plate": Builder("run_ball", BALL_TIMESTEP_S),
         "rigid-flexible": Builder("run_rigid_flexible", RIGID_FLEXIBLE_TIMESTEP_S,

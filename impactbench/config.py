@@ -19,9 +19,22 @@ tuned, custom), ``[practical.timesteps_s]`` engine → list of its customary ste
 ``[execution]`` scheduler (a Dask address), workers, store (a results-store path) — how to
 run, not part of the config hash.
 
+A scenario table may also name the ball's ``material`` (and ``plate_material``,
+``youngs_modulus_pa``, ``poisson``): applied as ``--material`` is (mass, Hertz c and the
+material's nominal restitution, from which the damping follows at each velocity; an explicit
+``damping_s_per_m``, ``nominal_restitution``, ``mass_kg`` wins).
+
+A user's file (:func:`load`) is layered over the packaged default: tables merge key by key, a
+key the file sets replaces the default's value (lists are replaced, not appended). So
+``[report] engines = ["mujoco"]`` alone is the default report for MuJoCo only. To drop a
+default section, empty it: ``[ball_on_plate] velocities_m_s = []``, ``[rigid_flexible]
+velocities_m_s = []`` (an empty velocity list drops that scenario), ``[work_precision]
+timesteps_s = []``, ``[practical] velocities_m_s = []``. :func:`parse` of a dict does not
+layer: the dict is the whole config.
+
 A bad file raises ValueError with one line naming the key (``rigid_flexible.velocities_m_s``),
-the value and the rule. An empty velocity list drops that scenario. The work-precision and
-practical studies run the first scenario whose spec lists them in ``studies``.
+the value and the rule. The work-precision and practical studies run the first scenario whose
+spec lists them in ``studies``.
 """
 
 from __future__ import annotations
@@ -30,6 +43,7 @@ import hashlib
 import json
 import math
 import tomllib
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -119,15 +133,20 @@ def _fail(key: str, value: Any, rule: str) -> ValueError:
     return ValueError(f"{key} = {value!r}: {rule}")
 
 
+def did_you_mean(key: str, valid: Iterable[str]) -> str:
+    """`` (did you mean 'solimp'?)`` for the valid name closest to ``key``; '' when none is
+    close (difflib's ratio ≥ 0.6)."""
+    import difflib
+
+    hint = difflib.get_close_matches(str(key), sorted(valid), n=1)
+    return f" (did you mean {hint[0]!r}?)" if hint else ""
+
+
 def _check_keys(table: dict[str, Any], allowed: set[str], prefix: str) -> None:
     for key in table:
         if key not in allowed:
-            import difflib
-
-            hint = difflib.get_close_matches(key, sorted(allowed), n=1)
-            more = f" (did you mean {hint[0]!r}?)" if hint else ""
-            raise ValueError(f"{prefix}{key}: unknown key{more}; allowed: "
-                             f"{', '.join(sorted(allowed))}")
+            raise ValueError(f"{prefix}{key}: unknown key{did_you_mean(key, allowed)}; "
+                             f"allowed: {', '.join(sorted(allowed))}")
 
 
 def _positive_list(key: str, value: Any) -> tuple[float, ...]:
@@ -162,12 +181,17 @@ def _timesteps(key: str, value: Any, engines: tuple[str, ...]) -> dict[str, floa
 
 def _scenario(spec: scenarios.ScenarioSpec, table: dict[str, Any],
               engines: tuple[str, ...]) -> ScenarioMatrix:
+    from impactbench.scenario_file import apply_options, option_keys
+
     name = spec.table
     fields = set(spec.cls.field_names()) - set(spec.axis_names)
-    allowed = {"timestep_s"} | fields | {a.config_key for a in spec.axes}
+    options = set(option_keys(spec))  # the ball's material, plate_material, E, ν
+    allowed = {"timestep_s"} | fields | options | {a.config_key for a in spec.axes}
     _check_keys(table, allowed, f"{name}.")
-    params = {k: table[k] for k in fields if k in table}
+    params = {k: table[k] for k in sorted(fields | options) if k in table}
     try:
+        # a material is applied as --material is (mass, c, nominal restitution)
+        params = apply_options(spec, params)
         spec.cls(**params)  # validates values (one line naming the field)
     except ValueError as exc:
         raise ValueError(f"{name}.{exc}") from None
@@ -215,7 +239,7 @@ def _engine_params(key: str, engine: str, table: Any) -> Params:
     for k in table:
         if k not in valid:
             raise ValueError(f"{key}.{k}: not a {engine} parameter; valid keys: "
-                             f"{', '.join(valid) or '(none)'}")
+                             f"{', '.join(valid) or '(none)'}{did_you_mean(k, valid)}")
     return frozen_params(table)
 
 
@@ -315,16 +339,45 @@ def _execution(table: dict[str, Any]) -> dict[str, Any]:
     return dict(table)
 
 
-def load(path: str | Path | None = None) -> ReportConfig:
-    """Read and validate a config file (the packaged default when ``path`` is None)."""
-    path = Path(path) if path is not None else DEFAULT_CONFIG
+def layered(base: dict[str, Any], over: dict[str, Any]) -> dict[str, Any]:
+    """``over`` deep-merged over ``base`` (new dicts; neither is changed): tables merge key by
+    key, any other value ``over`` sets (a number, a string, a list) replaces ``base``'s."""
+    out = dict(base)
+    for key, value in over.items():
+        if isinstance(value, dict) and isinstance(out.get(key), dict):
+            out[key] = layered(out[key], value)
+        else:
+            out[key] = value
+    return out
+
+
+def _read(path: Path) -> dict[str, Any]:
     try:
         text = path.read_text()
     except OSError as exc:
         raise ValueError(f"config {str(path)!r}: cannot read ({exc.strerror})") from None
     try:
-        data = tomllib.loads(text)
+        return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ValueError(f"config {str(path)!r}: not valid TOML ({exc})") from None
-    source = "impactbench/data/default.toml (packaged)" if path == DEFAULT_CONFIG else str(path)
-    return parse(data, source=source)
+
+
+def load(path: str | Path | None = None) -> ReportConfig:
+    """Read and validate a config file layered over the packaged default (the default alone
+    when ``path`` is None): see :func:`layered` and the module docstring. :func:`parse` of a
+    dict does not layer (the dict is the whole config)."""
+    default = _read(DEFAULT_CONFIG)
+    if path is None or Path(path) == DEFAULT_CONFIG:
+        return parse(default, source="impactbench/data/default.toml (packaged)")
+    path = Path(path)
+    mine = _read(path)
+    for table, (one, many) in ALIASES.items():
+        # the user's one value replaces the default's list given under the other name
+        if isinstance(mine.get(table), dict) and one in mine[table] \
+                and many not in mine[table] and isinstance(default.get(table), dict):
+            default[table] = {k: v for k, v in default[table].items() if k != many}
+    return parse(layered(default, mine), source=str(path))
+
+
+ALIASES: dict[str, tuple[str, str]] = {"work_precision": ("velocity_m_s", "velocities_m_s")}
+"""Table → (key, key): two spellings of one setting, the second winning in :func:`parse`."""

@@ -33,11 +33,21 @@ Gate file schema::
     local = "linear"                # a categorical axis of the scenario (rigid-flexible: local,
     structure = "linear"            # structure); one value or a list; default its first value
     parameters = {m2_kg = 0.3}      # optional scenario fields beyond the papers' defaults
+    params = {solref = [0.02, 1.0]} # engine parameters by the engine's names (the adapter's
+                                    # parameter_keys): required by mode custom; with mode tuned
+                                    # the fixed settings picking the packaged tuned file
+    tuned_file = "my_tuned.toml"    # mode tuned: this tuned file (relative to the gate file)
+                                    # instead of the packaged one; default timesteps_s: its step
     baseline_margin = 0.5           # optional per-gate overrides of [defaults]
     baseline_floor = 1e-4
     [gate.tolerance]                # metric -> tolerated |relative error| (≥ 0)
     restitution = 0.005
     duration_s = 0.01
+
+A check's id is its run's label and metric (``mujoco-injected-ball-on-plate-v1-dt1e-06-
+restitution``); a run with engine parameters or a tuned file of the user's adds them
+(``…-dt1e-06-solref=0.02,1-restitution``, ``…-tuned=my_tuned.toml-…``). An unknown key anywhere
+is a one-line error listing the valid ones, with a "did you mean".
 
 Two gates that produce the same check are an error (a check has one tolerance). Every error in
 the file raises one-line ``ValueError`` ``"<file>:<line>: gate <n>: <key> = <value>: <rule>"``
@@ -98,7 +108,7 @@ FAILING: frozenset[str] = frozenset({WORSE, FAIL, NEW_FAILURE})
 NOT_COMPARABLE_STATUSES: frozenset[str] = frozenset({"unavailable", "unsupported"})
 
 FIXED_KEYS = ("engine", "mode", "scenario", "velocities_m_s", "timesteps_s", "parameters",
-              "tolerance", "baseline_margin", "baseline_floor")
+              "params", "tuned_file", "tolerance", "baseline_margin", "baseline_floor")
 DEFAULT_KEYS = ("baseline_margin", "baseline_floor")
 
 
@@ -124,7 +134,7 @@ class Check:
 
     @property
     def id(self) -> str:
-        return f"{self.run.label}-{self.metric}"
+        return f"{run_label(self.run)}-{self.metric}"
 
 
 @dataclass(frozen=True)
@@ -204,6 +214,24 @@ class _LineIndex:
         return 1
 
 
+def _label_value(value: Any) -> str:
+    if isinstance(value, list | tuple):
+        return ",".join(_label_value(v) for v in value)
+    if isinstance(value, float):
+        return f"{value:g}"
+    return str(value)
+
+
+def run_label(run: RunKey) -> str:
+    """A run's label in check ids: :attr:`RunKey.label`, plus the user's engine parameters
+    (``-solref=0.02,1``) and tuned file (``-tuned=<file name>``) when the run has them (so the
+    ids of runs without them, the baseline's keys, do not change)."""
+    extra = "".join(f"-{k}={_label_value(v)}" for k, v in run.params)
+    if run.tuned_file:
+        extra += f"-tuned={Path(run.tuned_file).name}"
+    return run.label + extra
+
+
 def _names(value: Any, field_name: str, choices: Iterable[str]) -> list[str]:
     items = value if isinstance(value, list) else [value]
     if not items:
@@ -234,6 +262,70 @@ def _parameters(value: Any, spec: scenarios.ScenarioSpec) -> tuple[tuple[str, fl
     return tuple(out)
 
 
+SETTINGS_MODES = ("custom", "tuned")
+"""The modes a gate's ``params`` apply to (custom: run them; tuned: pick the tuned file)."""
+
+
+def _engine_params(value: Any, engines: list[str], modes: list[str]
+                   ) -> tuple[tuple[str, Any], ...]:
+    """A gate's ``params``: the engine's own parameters, checked against each engine's
+    ``parameter_keys``; a sorted, hashable tuple (:func:`impactbench.config.frozen_params`)."""
+    from impactbench.config import did_you_mean, frozen_params
+    from impactbench.engines.base import parameter_keys
+
+    if not isinstance(value, dict) or not value:
+        raise ValueError(f"params = {value!r}: must be a non-empty table of the engine's "
+                         "parameters (e.g. params = {solref = [0.02, 1.0]})")
+    if not any(m in SETTINGS_MODES for m in modes):
+        raise ValueError(f"params = {value!r}: engine parameters are for mode custom (or tuned: "
+                         f"the settings that pick the tuned file); this gate runs "
+                         f"{', '.join(modes)}")
+    for engine in engines:
+        valid = parameter_keys(engine)
+        for key, v in value.items():
+            if key not in valid:
+                raise ValueError(f"params.{key}: not a {engine} parameter"
+                                 f"{did_you_mean(key, valid)}; valid keys: "
+                                 f"{', '.join(valid) or '(none)'}")
+            items = v if isinstance(v, list) else [v]
+            if not items or not all(isinstance(x, str | int | float) for x in items):
+                raise ValueError(f"params.{key} = {v!r}: must be a number, a string, a bool "
+                                 "or a list of numbers")
+    return frozen_params(value)
+
+
+def _tuned_file(value: Any, engines: list[str], modes: list[str], base: Path
+                ) -> tuple[str, float | None]:
+    """A gate's ``tuned_file`` (relative to the gate file's folder): its path, checked (it
+    exists, it is one engine's and its keys are that engine's tuned keys), and the step it was
+    fitted at (None when its provenance has none)."""
+    from impactbench.tuned import check_tuned_keys, load_tuned_file
+
+    if not isinstance(value, str) or not value:
+        raise ValueError(f"tuned_file = {value!r}: must be the path of a tuned file "
+                         "(impactbench tune --out)")
+    if "tuned" not in modes:
+        raise ValueError(f"tuned_file = {value!r}: a tuned file is for mode tuned; this gate "
+                         f"runs {', '.join(modes)}")
+    path = Path(value) if Path(value).is_absolute() else base / value
+    try:
+        data = load_tuned_file(path)
+    except ValueError as exc:
+        raise ValueError(f"tuned_file = {value!r}: {exc}") from None
+    if data is None:
+        raise ValueError(f"tuned_file = {value!r}: no such file (relative to the gate file's "
+                         f"folder: {str(path)!r})")
+    prov = data.get("provenance") if isinstance(data.get("provenance"), dict) else {}
+    fitted = prov.get("engine")
+    if len(engines) > 1 or (fitted is not None and fitted != engines[0]):
+        raise ValueError(f"tuned_file = {value!r}: fitted for "
+                         f"{repr(fitted) if fitted else 'one engine'}; the gate names "
+                         f"{', '.join(engines)} (one engine per tuned file)")
+    check_tuned_keys(engines[0], data["parameters"], value)
+    dt = prov.get("timestep_s")
+    return str(path.resolve()), (float(dt) if isinstance(dt, int | float) else None)
+
+
 def _default_timestep(engine: str, mode: str, scenario: Any) -> float | None:
     """The adapter's default step (s), or None when the adapter cannot be loaded here."""
     try:
@@ -246,8 +338,10 @@ def _default_timestep(engine: str, mode: str, scenario: Any) -> float | None:
 
 
 def _expand_gate(n: int, gate: Mapping[str, Any], defaults: Mapping[str, float],
-                 where: Callable[..., int]) -> list[Check]:
-    """Validate one ``[[gate]]`` table and expand it into checks."""
+                 where: Callable[..., int], base: Path = Path()) -> list[Check]:
+    """Validate one ``[[gate]]`` table and expand it into checks (``base``: the gate file's
+    folder, which a ``tuned_file`` is relative to)."""
+    from impactbench.config import did_you_mean
 
     def fail(key: tuple[str, ...], exc: ValueError) -> ValueError:
         return ValueError(f"line {where('gate', n, *key)}: gate {n}: {exc}")
@@ -256,7 +350,8 @@ def _expand_gate(n: int, gate: Mapping[str, Any], defaults: Mapping[str, float],
     for key in gate:
         if key not in keys:
             raise fail((key,), ValueError(
-                f"key {key!r}: unknown; must be one of {', '.join(keys)}"))
+                f"key {key!r}: unknown{did_you_mean(key, keys)}; must be one of "
+                f"{', '.join(keys)}"))
     for key in ("engine", "mode", "scenario", "tolerance"):
         if key not in gate:
             raise fail((), ValueError(f"{key}: missing (required in every [[gate]])"))
@@ -305,6 +400,30 @@ def _expand_gate(n: int, gate: Mapping[str, Any], defaults: Mapping[str, float],
             params = _parameters(gate["parameters"], spec)
         except ValueError as exc:
             raise fail(("parameters",), exc) from None
+    engine_params: tuple[tuple[str, Any], ...] = ()
+    if "params" in gate:
+        try:
+            engine_params = _engine_params(gate["params"], engines, modes)
+        except ValueError as exc:
+            raise fail(("params",), exc) from None
+    elif "custom" in modes:
+        raise fail(("mode",), ValueError(
+            "mode = 'custom': needs params, the engine parameters to run (e.g. params = "
+            "{solref = [0.02, 1.0]}); without them custom is the engine's defaults, mode "
+            "default"))
+    tuned_file = ""
+    if "tuned_file" in gate:
+        try:
+            tuned_file, fitted_dt = _tuned_file(gate["tuned_file"], engines, modes, base)
+            if "timesteps_s" not in gate and fitted_dt is not None:
+                timesteps = [fitted_dt]  # the step the file was fitted for
+            elif fitted_dt is not None and any(
+                    dt is None or abs(dt - fitted_dt) > 1e-9 * fitted_dt for dt in timesteps):
+                raise ValueError(f"tuned_file = {gate['tuned_file']!r}: fitted at "
+                                 f"timestep_s = {fitted_dt:g}; the gate's timesteps_s = "
+                                 f"{timesteps}: it applies only at its own step")
+        except ValueError as exc:
+            raise fail(("tuned_file",), exc) from None
     margins = dict(defaults)
     for key in DEFAULT_KEYS:
         if key in gate:
@@ -333,12 +452,16 @@ def _expand_gate(n: int, gate: Mapping[str, Any], defaults: Mapping[str, float],
               for combo in itertools.product(*(v for _, v in axis_values))]
     for engine in engines:
         for mode in modes:
+            # the user's settings go with the modes that use them
+            user = engine_params if mode in SETTINGS_MODES and not (
+                mode == "tuned" and tuned_file) else ()
+            own_file = tuned_file if mode == "tuned" else ""
             for point in points:
                 for dt in timesteps:
-                    run = RunKey(engine, scenario, point, mode, dt, params)
+                    run = RunKey(engine, scenario, point, mode, dt, params, user, own_file)
                     if dt is None:
                         dt = _default_timestep(engine, mode, run.build_scenario())
-                        run = RunKey(engine, scenario, point, mode, dt, params)
+                        run = RunKey(engine, scenario, point, mode, dt, params, user, own_file)
                     out.extend(Check(run, m, t, margins["baseline_margin"],
                                      margins["baseline_floor"], n, line)
                                for m, t in tol.items())
@@ -355,8 +478,11 @@ def parse_gates(text: str, path: str | Path = "<gates>") -> GateFile:
     lines = _LineIndex(text)
     for key in data:
         if key not in ("defaults", "gate"):
-            raise ValueError(f"{path}:{lines.line(key)}: {key}: unknown table or key; "
-                             "must be [defaults] or [[gate]]")
+            from impactbench.config import did_you_mean
+
+            raise ValueError(f"{path}:{lines.line(key)}: {key}: unknown table or key"
+                             f"{did_you_mean(key, ('defaults', 'gate'))}; must be [defaults] "
+                             "or [[gate]]")
     defaults = {"baseline_margin": DEFAULT_MARGIN, "baseline_floor": DEFAULT_FLOOR}
     raw_defaults = data.get("defaults", {})
     if not isinstance(raw_defaults, dict):
@@ -374,7 +500,7 @@ def parse_gates(text: str, path: str | Path = "<gates>") -> GateFile:
     seen: dict[str, Check] = {}
     for n, gate in enumerate(gates, start=1):
         try:
-            expanded = _expand_gate(n, gate, defaults, lines.line)
+            expanded = _expand_gate(n, gate, defaults, lines.line, path.parent)
         except ValueError as exc:
             raise ValueError(f"{path}:{str(exc).removeprefix('line ')}") from None
         for c in expanded:

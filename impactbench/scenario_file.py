@@ -4,15 +4,57 @@
 Written by ``impactbench calibrate``; read by ``run``, ``tune`` and ``report`` with
 ``--scenario-file FILE``. Any other table (e.g. ``[calibration]``, provenance) is ignored. The
 impact velocity is not part of a scenario file (each command sets its own velocities).
+
+Besides fields, the table may hold the scenario's further options by their flags' names
+(:func:`option_keys`; the ball's ``material``, ``plate_material``, ``youngs_modulus_pa``,
+``poisson``): they are applied as the flags are, through the spec's ``from_args``
+(``material = "rubber"`` sets mass, Hertz c and the nominal restitution). The report config's
+scenario tables take them the same way (:func:`apply_options`).
 """
 
 from __future__ import annotations
 
+import argparse
 import tomllib
+from functools import cache
 from pathlib import Path
 from typing import Any
 
-from impactbench.scenarios import for_study
+from impactbench.scenarios import ScenarioSpec, for_study, load
+
+
+@cache
+def _option_keys(options: str, from_args: str, fields: tuple[str, ...]) -> tuple[str, ...]:
+    parser = argparse.ArgumentParser(add_help=False)
+    load(options)(parser.add_argument_group(), False)
+    return tuple(a.dest for a in parser._actions
+                 if a.dest not in fields and a.dest != "scenario_file")
+
+
+def option_keys(spec: ScenarioSpec) -> tuple[str, ...]:
+    """The keys a scenario table may hold besides the scenario's fields: the destinations of
+    its further options (``spec.options``) that ``spec.from_args`` turns into fields, a
+    scenario file itself excepted; () for a scenario without them."""
+    if not (spec.options and spec.from_args):
+        return ()
+    return _option_keys(spec.options, spec.from_args, tuple(spec.cls.field_names()))
+
+
+def apply_options(spec: ScenarioSpec, table: dict[str, Any], prefix: str = ""
+                  ) -> dict[str, Any]:
+    """The scenario fields of ``table``: its fields, with its option keys (a material) applied
+    through ``spec.from_args`` as the command-line flags are; a one-line error is prefixed
+    with ``prefix`` (``ball_on_plate.``)."""
+    keys = option_keys(spec)
+    given = {k: v for k, v in table.items() if k in keys}
+    fields = {k: v for k, v in table.items() if k not in keys}
+    if not given:
+        return fields
+    try:
+        return load(spec.from_args)(argparse.Namespace(**{**dict.fromkeys(keys), **given}),
+                                    fields)
+    except ValueError as exc:
+        raise ValueError(f"{prefix}{exc}") from None
 
 
 def load_scenario_file(path: str | Path) -> dict[str, Any]:
@@ -30,13 +72,18 @@ def load_scenario_file(path: str | Path) -> dict[str, Any]:
     if not isinstance(table, dict):
         raise ValueError(f"scenario_file = {str(path)!r}: needs a [{table_name}] table of "
                          f"{cls.__name__} fields")
-    allowed = set(cls.field_names()) - set(spec.axis_names)
+    allowed = (set(cls.field_names()) - set(spec.axis_names)) | set(option_keys(spec))
     for key in table:
         if key not in allowed:
-            raise ValueError(f"{table_name}.{key}: unknown key in {str(path)!r}; allowed: "
+            import difflib
+
+            hint = difflib.get_close_matches(key, sorted(allowed), n=1)
+            raise ValueError(f"{table_name}.{key}: unknown key in {str(path)!r}"
+                             f"{f' (did you mean {hint[0]!r}?)' if hint else ''}; allowed: "
                              f"{', '.join(sorted(allowed))}")
     try:
-        cls(**table)
+        fields = apply_options(spec, dict(table))
+        cls(**fields)
     except ValueError as exc:
         raise ValueError(f"{str(path)!r}: {table_name}.{exc}") from None
-    return dict(table)
+    return fields

@@ -6,6 +6,10 @@ case in ``impactbench/data/tuned/<engine>_<scenario>.toml``; ``impactbench tune`
 (:func:`write_tuned`): ``[parameters]``, ``[start]`` (the closed-form starting point),
 ``[provenance]`` (engine version, velocities, targets, weights, objective before/after,
 timestep; no date or wall time, so the same tuning writes the same bytes) and ``[residuals]``.
+
+The keys of ``[parameters]`` are checked against the engine's tuned keys (:func:`tuned_keys`):
+an unknown one (MuJoCo's ``solimpp``) is a one-line error with the valid keys and a "did you
+mean", never silently ignored.
 """
 
 from __future__ import annotations
@@ -15,6 +19,7 @@ import math
 import re
 import tomllib
 from collections.abc import Mapping
+from functools import cache
 from pathlib import Path
 from typing import Any
 
@@ -48,6 +53,55 @@ def load_tuned_file(path: Path | str) -> dict[str, Any] | None:
     if not isinstance(params, dict):
         raise ValueError(f"{path}: [parameters] table is missing")
     return data
+
+
+@cache
+def tuned_keys(engine: str) -> tuple[str, ...] | None:
+    """The keys a tuned file's ``[parameters]`` may hold for ``engine`` (what its ``tuned`` mode
+    reads): what each of its tuning spaces writes (``Space.to_tuned``, every parameter set),
+    plus the adapter's ``tuned_keys`` where it declares settings a fit holds fixed (Drake's
+    ``discrete_contact_approximation``). None for an engine without a tuning space (a
+    plug-in's), whose files are not checked."""
+    import importlib
+
+    import numpy as np
+
+    from impactbench.engines.base import EngineUnavailable
+    from impactbench.engines.registry import spec
+    from impactbench.scenarios import for_study
+    from impactbench.tuning.spaces import make_space
+
+    engine_spec = spec(engine)
+    keys: dict[str, None] = {}
+    scenario = for_study("tuning").cls()
+    for variant in engine_spec.variants:
+        try:
+            space = make_space(engine, scenario, variant)
+        except (ImportError, EngineUnavailable):  # engine absent: the declared keys count
+            continue
+        keys.update(dict.fromkeys(space.to_tuned(np.array(space.start))))
+    module, _, attr = engine_spec.adapter.partition(":")
+    try:
+        declared = getattr(getattr(importlib.import_module(module), attr), "tuned_keys", ())
+    except ImportError:
+        declared = ()
+    keys.update(dict.fromkeys(declared))
+    return tuple(keys) if keys else None
+
+
+def check_tuned_keys(engine: str, parameters: Mapping[str, Any], where: str = "") -> None:
+    """A one-line ValueError for a key of ``parameters`` that ``engine``'s tuned mode does not
+    read (``where``: the file, for the message)."""
+    valid = tuned_keys(engine)
+    if valid is None:
+        return
+    for key in parameters:
+        if key not in valid:
+            from impactbench.config import did_you_mean
+
+            raise ValueError(f"{where + ': ' if where else ''}parameters.{key}: not a {engine} "
+                             f"tuned key{did_you_mean(key, valid)}; valid keys: "
+                             f"{', '.join(valid)}")
 
 
 TIMESTEP_RTOL = 1e-9
@@ -97,6 +151,9 @@ def load_tuned_settings(engine: str, scenario: str, timestep_s: float | None = N
         return None, None
     prov = data.get("provenance")
     shown = path.name if path.parent == TUNED_DIR else str(path)
+    if not (isinstance(prov, dict) and prov.get("engine", engine) != engine):
+        # (a file of another engine is reported by the binding check, naming the engine)
+        check_tuned_keys(engine, data["parameters"], shown)
     return data["parameters"], (dict(prov, file=shown) if isinstance(prov, dict) else None)
 
 

@@ -1,9 +1,14 @@
 """Materials and the Hertz stiffness of a sphere, so "my ball" needs no hand calculation.
 
 The packaged table ``reference/data/materials.toml`` gives, per material, Young's modulus E (Pa),
-Poisson's ratio ν, density ρ (kg/m³) and an indicative restitution range, each with its
-source (the file's header lists them). Hertz contact of two elastic bodies (Johnson, Contact
-Mechanics, 1985, §4.2) gives F = c·x^(3/2) with
+Poisson's ratio ν, density ρ (kg/m³), an indicative restitution range and a nominal
+restitution e (one representative value at about 1–2 m/s inside that range), each with its
+source (the file's header lists them). A ball of a material bounces at about its e: its
+contact damping is set from e (:func:`ball_parameters` returns it as ``nominal_restitution``,
+and the Hunt–Crossley model derives b = α(e)/V0 at each impact velocity).
+
+Hertz contact of two elastic bodies (Johnson, Contact Mechanics, 1985, §4.2) gives
+F = c·x^(3/2) with
 
     c = (4/3)·E*·√R*,   1/E* = (1 − ν₁²)/E₁ + (1 − ν₂²)/E₂,   1/R* = 1/R₁ + 1/R₂,
 
@@ -37,6 +42,8 @@ class Material:
     source: str
     restitution_range: tuple[float, float]
     restitution_source: str
+    restitution: float | None = None
+    """Nominal restitution e at about 1–2 m/s (inside ``restitution_range``); None: unknown."""
 
 
 @cache
@@ -48,7 +55,8 @@ def materials() -> dict[str, Material]:
                            poisson=float(row["poisson"]),
                            density_kg_m3=float(row["density_kg_m3"]), source=row["source"],
                            restitution_range=tuple(row["restitution_range"]),
-                           restitution_source=row["restitution_source"])
+                           restitution_source=row["restitution_source"],
+                           restitution=float(row["restitution"]))
             for name, row in tomllib.loads(text).items()}
 
 
@@ -93,11 +101,15 @@ def ball_parameters(radius_m: float, *, material_name: str | None = None,
                     youngs_modulus_pa: float | None = None, poisson: float | None = None,
                     mass_kg: float | None = None, plate_material: str = "steel"
                     ) -> dict[str, Any]:
-    """BallOnPlate fields (mass_kg, stiffness, exponent, radius_m) of a ball on a plate.
+    """BallOnPlate fields (mass_kg, stiffness, exponent, radius_m, nominal_restitution) of a
+    ball on a plate.
 
     E and ν come from ``material_name``, overridden by ``youngs_modulus_pa``/``poisson``;
     without a material both must be given. The mass is ``mass_kg`` when given, else ρ·(4/3)πR³
     of the material (a ball without a material and without a mass is an error).
+    ``nominal_restitution`` is the ball material's nominal e (None without a material): with it
+    a BallOnPlate's damping is derived from e at each impact velocity, so the ball bounces at
+    about e (the Hunt–Crossley model's k(3(1 − e)/2), e.g. 0.833 for e = 0.8).
     """
     mat = material(material_name) if material_name is not None else None
     if mat is None and (youngs_modulus_pa is None or poisson is None):
@@ -116,4 +128,5 @@ def ball_parameters(radius_m: float, *, material_name: str | None = None,
     m = mass_kg if mass_kg is not None else sphere_mass_kg(r, ball.density_kg_m3)
     return {"mass_kg": check.positive("mass_kg", m),
             "stiffness": sphere_on_plate(r, ball, material(plate_material)),
-            "exponent": HERTZ_EXPONENT, "radius_m": r}
+            "exponent": HERTZ_EXPONENT, "radius_m": r,
+            "nominal_restitution": mat.restitution if mat is not None else None}

@@ -44,7 +44,9 @@ def register(top: argparse._SubParsersAction, groups: dict) -> None:
     p.add_argument("--velocity", type=number, required=True, dest="velocity_m_s",
                    metavar="V", help="impact velocity V0 or v1 (m/s)")
     p.add_argument("--timestep", type=number, default=None, dest="timestep_s", metavar="S",
-                   help="integration step (s); default: the adapter's for the scenario")
+                   help="integration step (s); default: in default mode the engine's own "
+                   "default step (MuJoCo 2 ms, PyBullet 1/240 s, Drake 1 ms, pymunk 1/60 s), "
+                   "otherwise the adapter's for the scenario")
     axes: set[str] = set()
     flags: set[str] = set()
     for name in names:
@@ -73,22 +75,26 @@ def main(args: argparse.Namespace) -> int:
         raise ValueError(f"tuned = {str(args.tuned_file)!r}: --tuned needs --mode tuned "
                          f"(got {mode})")
     _check_param_keys(args.engine, args.params)
-    settings = RunSettings(timestep_s=args.timestep_s, params=dict(args.params) or None)
+    timestep_s, timestep_source = run_timestep(args.engine, mode, args.timestep_s)
+    settings = RunSettings(timestep_s=timestep_s, params=dict(args.params) or None)
     if mode == "tuned":
         from impactbench.tuned import load_tuned_settings
 
-        tuned, provenance = load_tuned_settings(args.engine, args.scenario, args.timestep_s,
+        tuned, provenance = load_tuned_settings(args.engine, args.scenario, timestep_s,
                                                 args.tuned_file)
-        settings = RunSettings(timestep_s=args.timestep_s, tuned=tuned, tuned_for=provenance)
+        settings = RunSettings(timestep_s=timestep_s, tuned=tuned, tuned_for=provenance)
     allowed = _allowed_statuses(args.allow_status)
     from impactbench.evaluate import reference_metrics
     from impactbench.matrix import estimated_steps_of
 
     reference = reference_metrics(scenario)
-    check_cost(estimated_steps_of(reference, args.timestep_s), f"timestep = {args.timestep_s!r}",
+    check_cost(estimated_steps_of(reference, timestep_s), f"timestep = {timestep_s!r}",
                args.yes, "integration steps")
     with stdout_to_stderr():
         out, _ = compare(args.engine, scenario, mode, settings, reference)
+    at = list(out).index("timestep_s") + 1  # beside the step it explains
+    out = dict([*list(out.items())[:at], ("timestep_source", timestep_source),
+                *list(out.items())[at:]])
     code = 0 if out["status"] == "ok" or out["status"] in allowed else 1
     if code:
         print(f"impactbench: run status {out['status']}"
@@ -98,7 +104,7 @@ def main(args: argparse.Namespace) -> int:
         print_json(out)
         return code
     print(f"{out['engine']} {out['engine_version']}  mode {out['mode']}  "
-          f"timestep {out['timestep_s']} s  status {out['status']}"
+          f"timestep {out['timestep_s']} s ({timestep_source})  status {out['status']}"
           + (f" ({out['message']})" if out["message"] else "")
           + f"  wall {out['wall_s']:.3g} s")
     rows = [{"metric": k, "engine": out[k], "reference": out["reference"][k],
@@ -106,6 +112,28 @@ def main(args: argparse.Namespace) -> int:
             for k in out["rel_error"]]
     print_table(rows)
     return code
+
+
+ENGINE_DEFAULT, GIVEN, ADAPTER_DEFAULT = ("engine default", "given",
+                                         "adapter default for the scenario")
+"""The values of ``timestep_source`` in ``run``'s output."""
+
+
+def run_timestep(engine: str, mode: str, timestep_s: float | None
+                 ) -> tuple[float | None, str]:
+    """(step, where it comes from): the given step; in ``default`` mode without one the
+    engine's own default step (the first of its spec's ``customary_timesteps_s``: MuJoCo 2 ms,
+    PyBullet 1/240 s, Drake 1 ms, pymunk 1/60 s), so "default" means the engine as it comes;
+    otherwise None, the adapter's step for the scenario (engines without customary steps)."""
+    if timestep_s is not None:
+        return timestep_s, GIVEN
+    if mode == "default":
+        from impactbench.engines.registry import spec
+
+        customary = spec(engine).customary_timesteps_s
+        if customary:
+            return float(customary[0]), ENGINE_DEFAULT
+    return None, ADAPTER_DEFAULT
 
 
 def _allowed_statuses(text: str) -> set[str]:
@@ -122,10 +150,11 @@ def _allowed_statuses(text: str) -> set[str]:
 
 def _check_param_keys(engine: str, params: list[tuple[str, object]]) -> None:
     """An unknown --param key is a one-line error listing the engine's keys."""
+    from impactbench.config import did_you_mean
     from impactbench.engines.base import parameter_keys
 
     valid = parameter_keys(engine)
     for key, _ in params:
         if key not in valid:
             raise ValueError(f"param = {key!r}: not a {engine} parameter; valid keys: "
-                             f"{', '.join(valid) or '(none)'}")
+                             f"{', '.join(valid) or '(none)'}{did_you_mean(key, valid)}")

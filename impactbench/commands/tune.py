@@ -127,6 +127,7 @@ def main(args: argparse.Namespace) -> int:
         tunable = [s.name for s in scenarios.specs() if "tuning" in s.studies]
         raise ValueError(f"scenario = {args.scenario!r}: tuning is not supported yet for it "
                          f"({', '.join(tunable)} only)")
+    _check_fixed_keys(args.engine, args.fixed)
     if not args.velocities_m_s:
         raise ValueError("velocities = []: must list at least one impact velocity")
     if args.timestep_s is not None:
@@ -170,6 +171,19 @@ def main(args: argparse.Namespace) -> int:
         return 0
     _print_text(result, files, runner.describe())
     return 0
+
+
+def _check_fixed_keys(engine: str, fixed: list[tuple[str, object]]) -> None:
+    """A --param the engine's tuned mode does not read is a one-line error (it would be
+    written into the tuned file and ignored by every run of it)."""
+    from impactbench.config import did_you_mean
+    from impactbench.tuned import tuned_keys
+
+    valid = tuned_keys(engine)
+    for key, _ in fixed:
+        if valid is not None and key not in valid:
+            raise ValueError(f"param = {key!r}: not a {engine} tuned key{did_you_mean(key, valid)}"
+                             f"; valid keys: {', '.join(valid)}")
 
 
 def _check_cost(scenario, args: argparse.Namespace) -> None:

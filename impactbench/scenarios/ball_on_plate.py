@@ -70,11 +70,14 @@ def add_options(group: argparse._ArgumentGroup, with_gravity: bool = True) -> No
                        dest="nominal_restitution", metavar="E",
                        help="nominal restitution e in (0, 1] the model's damping is set from "
                        "at each impact velocity (replaces --damping)")
-    group.add_argument("--material", choices=tuple(materials()), default=None,
-                       help="ball material: mass from --radius and density, Hertz c on the "
-                       "plate from E and ν (explicit --mass wins)")
-    group.add_argument("--plate-material", choices=tuple(materials()), default=None,
-                       help="plate material for the Hertz c (default steel)")
+    names = ", ".join(materials())
+    # no argparse choices: a misspelt name gets the one-line error with a "did you mean"
+    group.add_argument("--material", default=None, metavar="NAME",
+                       help=f"ball material ({names}): mass from --radius and density, Hertz "
+                       "c on the plate from E and ν, damping from its nominal restitution e "
+                       "(explicit --mass, --damping, --nominal-restitution win)")
+    group.add_argument("--plate-material", default=None, metavar="NAME",
+                       help=f"plate material for the Hertz c ({names}; default steel)")
     group.add_argument("--youngs-modulus", type=number, default=None, dest="youngs_modulus_pa",
                        metavar="PA", help="ball Young's modulus E (Pa), with --poisson: "
                        "Hertz c (overrides the material's)")
@@ -89,8 +92,14 @@ def add_options(group: argparse._ArgumentGroup, with_gravity: bool = True) -> No
 
 
 def from_args(args: argparse.Namespace, values: dict[str, Any]) -> dict[str, Any]:
-    """Fill mass, c, n and R from a material or elastic constants, when given; a scenario
-    file's fields under the flags."""
+    """Fill mass, c, n and R from a material or elastic constants, when given, and the damping
+    from the material's nominal restitution e (``nominal_restitution``: the model derives b
+    from e at each impact velocity) unless ``damping_s_per_m`` or ``nominal_restitution`` is
+    given; a scenario file's fields under the flags.
+
+    ``values`` holds the fields given explicitly. Also applies a config's or a scenario file's
+    ``material``/``plate_material``/``youngs_modulus_pa``/``poisson`` keys (``args`` is then a
+    namespace of those)."""
     material = getattr(args, "material", None)
     young = getattr(args, "youngs_modulus_pa", None)
     poisson = getattr(args, "poisson", None)
@@ -109,14 +118,23 @@ def from_args(args: argparse.Namespace, values: dict[str, Any]) -> dict[str, Any
         from impactbench.reference.materials import ball_parameters
         from impactbench.reference.scenarios import BallOnPlate
 
-        values.update(ball_parameters(
+        ball = ball_parameters(
             values.get("radius_m", BallOnPlate().radius_m), material_name=material,
             youngs_modulus_pa=young, poisson=poisson, mass_kg=values.get("mass_kg"),
-            plate_material=plate or "steel"))
+            plate_material=plate or "steel")
+        e = ball.pop("nominal_restitution")
+        values.update(ball)
+        if e is not None and "damping_s_per_m" not in values \
+                and "nominal_restitution" not in values:
+            values["nominal_restitution"] = e  # the material's bounce (explicit b or e win)
     if getattr(args, "scenario_file", None):
         from impactbench.scenario_file import load_scenario_file
 
-        values = {**load_scenario_file(args.scenario_file), **values}
+        base = load_scenario_file(args.scenario_file)
+        if "damping_s_per_m" in values and "nominal_restitution" not in values \
+                and values.get("model", base.get("model", "hunt-crossley")) == "hunt-crossley":
+            base.pop("nominal_restitution", None)  # an explicit b wins over the file's e
+        values = {**base, **values}
     return values
 
 

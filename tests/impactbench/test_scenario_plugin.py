@@ -153,7 +153,11 @@ def test_report_has_the_plugin_section(plugin, tmp_path: Path) -> None:
     config = tmp_path / "report.toml"
     config.write_text('[report]\nengines = ["mujoco", "pymunk"]\n'
                       'modes = ["injected", "native"]\n\n'
-                      "[sphere_on_sphere]\nvelocities_m_s = [1.0, 2.0]\n")
+                      "[sphere_on_sphere]\nvelocities_m_s = [1.0, 2.0]\n"
+                      # layered over the default report: drop its own sections
+                      "[ball_on_plate]\nvelocities_m_s = []\n"
+                      "[rigid_flexible]\nvelocities_m_s = []\n"
+                      "[work_precision]\ntimesteps_s = []\n[practical]\nvelocities_m_s = []\n")
     out = tmp_path / "report"
     done = cli(plugin, "report", "--config", str(config), "--out", str(out))
     assert done.returncode == 0, done.stdout + done.stderr

@@ -1,0 +1,633 @@
+"""The Python API: the ``run``, ``reference``, ``tune`` and ``report`` commands as functions.
+
+Each function is exported from the package (``impactbench.run``, ``impactbench.reference``,
+``impactbench.tune``, ``impactbench.report``), loaded on first use so that ``import
+impactbench`` stays light. They call the machinery the commands call
+(:func:`impactbench.evaluate.compare`, :func:`impactbench.tuning.optimize.tune`,
+:func:`impactbench.report.build`), so a function and its command give the same numbers.
+
+Keyword arguments, the same for every function:
+
+- *scenario fields* by their dataclass names (``mass_kg``, ``radius_m``, ``damping_s_per_m``,
+  ``model``, ``nominal_restitution``, ``gravity_m_s2`` …; SI, as in
+  ``impactbench.reference.scenarios``) and the scenario's *point* axes (``velocity_m_s``, and
+  ``local`` and ``structure`` for ``rigid-flexible``). Unset ones keep the papers' values;
+- the scenario's further options, as its command-line flags have them (the ball's
+  ``material``, ``plate_material``, ``youngs_modulus_pa``, ``poisson``, ``scenario_file``);
+- *engine settings*: ``params`` (``custom`` mode: a dict by the engine's own names, as
+  ``run --param``), ``tuned_file`` (``tuned`` mode) and ``timestep_s`` (default: in
+  ``default`` mode the engine's own step, else the adapter's for the scenario).
+
+An unknown keyword is a one-line ``ValueError`` that names it, suggests the nearest valid one
+and lists them all, as are bad values (the scenario's own validation):
+
+>>> import impactbench
+>>> impactbench.run(engine="pymunk", scenario="ball-on-plate", velocity=2.0)
+Traceback (most recent call last):
+...
+ValueError: impactbench.run(scenario='ball-on-plate'): unknown keyword 'velocity' (did you
+mean 'velocity_m_s'?); valid: engine, scenario, mode, ...
+>>> impactbench.reference_solution(scenario="ball-on-plate", velocity_m_s=-1.0)
+Traceback (most recent call last):
+...
+ValueError: velocity_m_s = -1.0: must be > 0...
+
+A run in one line, compared with the reference:
+
+>>> r = impactbench.run(engine="mujoco", scenario="ball-on-plate", mode="default",
+...                     velocity_m_s=2.0, timestep_s=2e-3)
+>>> r.engine, r.mode, r.timestep_s, r.timestep_source
+('mujoco', 'default', 0.002, 'given')
+>>> round(r.metrics["restitution"], 2), round(r.reference["restitution"], 2)
+(0.13, 0.88)
+>>> round(r.rel_error["restitution"], 2)
+-0.86
+>>> r.params, r.engine_defaults["solref"]
+({}, [0.02, 1.0])
+"""
+
+from __future__ import annotations
+
+import argparse
+import difflib
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from functools import cache
+from pathlib import Path
+from typing import Any
+
+from impactbench import scenarios
+
+__all__ = ["RunResult", "TuneFit", "build_report", "reference_solution", "run", "tune"]
+
+RUN_KEYWORDS = ("engine", "scenario", "mode", "params", "tuned_file", "timestep_s", "yes")
+"""The keywords of :func:`run` besides the scenario's fields and options."""
+TUNE_KEYWORDS = ("engine", "scenario", "velocities_m_s", "targets", "weights", "parameters",
+                 "solref_form", "timestep_s", "budget_s", "max_evals", "params", "out", "plot",
+                 "store", "fresh", "workers", "scheduler")
+"""The keywords of :func:`tune` besides the scenario's fields and options."""
+TUNE_DISPATCH_MIN_S = 0.5
+"""A tuning batch estimated below this runs in this process (``impactbench tune``'s rule)."""
+
+
+# ------------------------------------------------------------------------------ results
+
+
+_RUN_HEAD = ("status", "message", "engine", "engine_version", "mode", "timestep_s", "wall_s")
+_RUN_TAIL = ("not_comparable", "resolved", "params", "engine_defaults", "reference",
+             "rel_error")
+
+
+@dataclass(frozen=True)
+class RunResult:
+    """One engine run compared with the reference (what :func:`run` returns).
+
+    Attributes:
+        status: ``ok``, or why the run failed or is not to be trusted (``no_contact``,
+            ``tunneled``, ``diverged``, ``max_time``, ``implausible``, ``unsupported``,
+            ``unavailable``, ``crashed``, …; the values ``impactbench run`` prints).
+        message: what went wrong ("" when nothing did).
+        engine, engine_version, mode: what ran.
+        timestep_s: the integration step used (s).
+        timestep_source: where the step came from: ``given``, ``engine default`` (``default``
+            mode without a step: the engine's own, MuJoCo 2 ms, pymunk 1/60 s, …) or
+            ``adapter default for the scenario``.
+        wall_s: the engine's wall time (s).
+        metrics: the engine's metrics, by the scenario's metric names (NaN where not
+            measured).
+        reference: the reference's metrics of the same scenario.
+        rel_error: signed relative error per metric (NaN where a metric is not resolved or
+            the run failed).
+        resolved: per metric, whether the step resolves it in time (a step about as long as
+            the contact leaves duration and peak force unresolved: no error is given).
+        params: the engine parameters the run used (``custom`` and ``tuned`` modes).
+        not_comparable: metric → why the engine's value says nothing about the physics.
+        engine_defaults: the engine's own defaults in force (``default`` mode).
+        extra: any further keys of the ``run --json`` object (e.g. ``plausibility``).
+        scenario: the scenario object that ran (its dataclass).
+        record: the engine's :class:`~impactbench.reference.record.ImpactRecord` (time
+            histories: ``t_s``, forces, positions).
+    """
+
+    status: str
+    message: str
+    engine: str
+    engine_version: str
+    mode: str
+    timestep_s: float | None
+    wall_s: float
+    metrics: dict[str, Any]
+    reference: dict[str, Any]
+    rel_error: dict[str, float]
+    resolved: dict[str, bool] = field(default_factory=dict)
+    params: dict[str, Any] = field(default_factory=dict)
+    not_comparable: dict[str, str] = field(default_factory=dict)
+    engine_defaults: dict[str, Any] = field(default_factory=dict)
+    extra: dict[str, Any] = field(default_factory=dict)
+    timestep_source: str = ""
+    scenario: Any = field(default=None, repr=False, compare=False)
+    record: Any = field(default=None, repr=False, compare=False)
+
+    @property
+    def ok(self) -> bool:
+        """True when the status is ``ok``."""
+        return self.status == "ok"
+
+    @classmethod
+    def from_compare(cls, out: Mapping[str, Any], metric_names: Iterable[str],
+                     scenario: Any = None, record: Any = None,
+                     timestep_source: str = "") -> RunResult:
+        """From the object :func:`impactbench.evaluate.compare` returns (``run --json``'s)."""
+        names = [k for k in metric_names if k in out]
+        known = {*_RUN_HEAD, *_RUN_TAIL, *names, "timestep_source"}
+        return cls(**{k: out.get(k) for k in _RUN_HEAD},
+                   metrics={k: out[k] for k in names},
+                   **{k: dict(out.get(k) or {}) for k in _RUN_TAIL},
+                   extra={k: v for k, v in out.items() if k not in known},
+                   timestep_source=timestep_source or str(out.get("timestep_source", "")),
+                   scenario=scenario, record=record)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The object ``impactbench run --json`` prints: JSON-ready (NaN and inf are None,
+        numpy scalars plain numbers), the metrics at the top level.
+
+        >>> import json
+        >>> r = run(engine="pymunk", scenario="ball-on-plate", velocity_m_s=1.0,
+        ...         timestep_s=1e-3)
+        >>> d = r.to_dict()
+        >>> d["engine"], d["mode"], d["restitution"] == r.metrics["restitution"]
+        ('pymunk', 'native', True)
+        >>> json.loads(json.dumps(d)) == d
+        True
+        """
+        from impactbench.cliutil import _jsonable
+
+        head = {k: getattr(self, k) for k in _RUN_HEAD}
+        if self.timestep_source:  # beside the step it explains, as the command prints it
+            at = list(head).index("timestep_s") + 1
+            head = dict([*list(head.items())[:at], ("timestep_source", self.timestep_source),
+                         *list(head.items())[at:]])
+        obj = {**head, **self.metrics, **{k: getattr(self, k) for k in _RUN_TAIL},
+               **self.extra}
+        return _jsonable(obj)
+
+
+@dataclass(frozen=True)
+class TuneFit:
+    """A tuning run's outcome (what :func:`tune` returns).
+
+    Attributes:
+        engine, engine_version: what was tuned.
+        parameter_set: the engine's parameter set fitted (``elasticity``, ``solref``, …).
+        parameters: the fitted parameters by the adapter's tuned keys (a tuned file's
+            ``[parameters]``, what ``run(mode="tuned")`` reads).
+        snippet: the same parameters in the engine's own form (MJCF, ``changeDynamics``,
+            pymunk shape settings, Drake ``AddContactMaterial``).
+        start_parameters: the closed-form start (the native conversion).
+        objective_start, objective_tuned: the weighted sum of squared relative errors.
+        residuals: per velocity and metric: reference, start and tuned values and errors.
+        summary: per metric: start and tuned largest |relative error| and the linear floor.
+        honesty: what the engine cannot express, excluded targets, bounds hit, early stops.
+        stop: why the search ended (``converged`` or the budget that ran out).
+        timestep_s: the step fitted at (s).
+        files: what was written (``tuned``, ``plot``) → its path.
+        result: the :class:`impactbench.tuning.optimize.TuneResult` itself.
+    """
+
+    engine: str
+    engine_version: str
+    parameter_set: str
+    parameters: dict[str, Any]
+    snippet: str
+    start_parameters: dict[str, Any]
+    objective_start: float
+    objective_tuned: float
+    residuals: list[dict[str, Any]]
+    summary: list[dict[str, Any]]
+    honesty: list[str]
+    stop: str
+    timestep_s: float
+    files: dict[str, str]
+    result: Any = field(default=None, repr=False, compare=False)
+    data: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
+    """The whole ``tune --json`` object (:func:`impactbench.tuning.output.as_json`)."""
+
+    def to_dict(self) -> dict[str, Any]:
+        """The object ``impactbench tune --json`` prints (JSON-ready)."""
+        from impactbench.cliutil import _jsonable
+
+        return _jsonable(self.data)
+
+
+# ------------------------------------------------------------------------------ keywords
+
+
+def _hint(name: str, valid: Iterable[str]) -> str:
+    close = difflib.get_close_matches(name, list(valid), n=1)
+    return f" (did you mean {close[0]!r}?)" if close else ""
+
+
+def _one_of(what: str, value: Any, allowed: Sequence[str]) -> None:
+    """One-line ValueError unless ``value`` is in ``allowed`` (with a "did you mean")."""
+    if value not in allowed:
+        hint = _hint(value, allowed) if isinstance(value, str) else ""
+        raise ValueError(f"{what} = {value!r}: must be one of {', '.join(allowed)}{hint}")
+
+
+@cache
+def _options(name: str) -> dict[str, Any]:
+    """Every field and further option of scenario ``name`` as its command-line flags have
+    them (dest → default: fields None, the ball's ``material`` None, ``gravity_m_s2`` 0)."""
+    from impactbench.flags import add_parameter_flags
+
+    parser = argparse.ArgumentParser(add_help=False)
+    add_parameter_flags(parser, name)
+    return {a.dest: a.default for a in parser._actions}
+
+
+def _scenario_name(scenario: str | None, study: str = "") -> str:
+    """The registered scenario ``scenario`` (default: the first, or the first serving
+    ``study``); a ValueError with a "did you mean" otherwise."""
+    if scenario is None:
+        return scenarios.for_study(study).name if study else scenarios.names()[0]
+    if not isinstance(scenario, str):
+        raise ValueError(f"scenario = {scenario!r}: must be a scenario name, one of "
+                         f"{', '.join(scenarios.names())}")
+    return scenarios.get(scenario).name
+
+
+def _scenario_keywords(name: str, *, point: bool = True) -> tuple[str, ...]:
+    """The scenario keywords of scenario ``name``: its fields (axes first; ``point = False``
+    leaves the axes out) and its further options."""
+    spec = scenarios.get(name)
+    axes = spec.axis_names if point else ()
+    fields = [f for f in spec.cls.field_names() if f not in spec.axis_names]
+    return tuple(dict.fromkeys([*axes, *fields, *_options(name)]))
+
+
+def _check_keywords(where: str, given: Mapping[str, Any], valid: Sequence[str]) -> None:
+    for key in given:
+        if key not in valid:
+            raise ValueError(f"{where}: unknown keyword {key!r}{_hint(key, valid)}; valid: "
+                             f"{', '.join(valid)}")
+
+
+def _build(name: str, values: Mapping[str, Any]) -> Any:
+    """The scenario ``name`` with ``values`` (fields, axes, further options) over its
+    defaults, validated: further options go through the spec's ``from_args`` (a material
+    gives mass and stiffness), then :meth:`ScenarioSpec.build`."""
+    spec = scenarios.get(name)
+    fields = set(spec.cls.field_names())
+    given = {k: v for k, v in values.items() if k in fields}
+    if spec.from_args:
+        args = argparse.Namespace(**{**_options(name), **values})
+        given = scenarios.load(spec.from_args)(args, given)
+    point = {a: given.pop(a) for a in spec.axis_names if a in given}
+    return spec.build(point, given)
+
+
+def _timestep(engine: str, mode: str, timestep_s: float | None) -> tuple[float | None, str]:
+    """(step, where it comes from), ``impactbench run``'s rule: the given step; in
+    ``default`` mode without one the engine's own default step (the first of its spec's
+    ``customary_timesteps_s``); otherwise None, the adapter's step for the scenario."""
+    if timestep_s is not None:
+        return timestep_s, "given"
+    if mode == "default":
+        from impactbench.engines.registry import spec
+
+        customary = spec(engine).customary_timesteps_s
+        if customary:
+            return float(customary[0]), "engine default"
+    return None, "adapter default for the scenario"
+
+
+def _yes(fn, *args: Any) -> Any:
+    """Call a cost check; its ``--yes`` advice becomes this API's ``yes=True``."""
+    try:
+        return fn(*args)
+    except ValueError as exc:
+        raise ValueError(str(exc).replace("pass --yes", "pass yes=True")) from None
+
+
+# ------------------------------------------------------------------------------ functions
+
+
+def reference_solution(scenario: str | None = None, **fields: Any) -> dict[str, Any]:
+    """The reference (ground truth) of a scenario: its metrics, status and message.
+
+    The keys are those of ``impactbench reference ball-on-plate --json``: the point's values
+    (``velocity_m_s``), the scenario's metrics, ``status`` (``unsupported`` where the
+    reference is outside its model, e.g. a ball indented beyond its radius) and ``message``.
+    ``scenario`` defaults to the first registered one (``ball-on-plate``); ``fields`` are its
+    fields, axes and further options (see the module's docstring).
+
+    >>> import impactbench
+    >>> ref = impactbench.reference_solution(scenario="ball-on-plate", velocity_m_s=2.0)
+    >>> list(ref)
+    ['velocity_m_s', 'restitution', 'duration_s', 'peak_force_n', 'max_penetration_m',
+     'energy_loss_fraction', 'status', 'message']
+    >>> round(ref["restitution"], 4), round(ref["duration_s"] * 1e6, 1), ref["status"]
+    (0.8822, 91.2, 'ok')
+
+    Your own ball, from a material (mass from the density, Hertz stiffness on a steel plate):
+
+    >>> rubber = impactbench.reference_solution(velocity_m_s=2.0, material="rubber",
+    ...                                         radius_m=0.03)
+    >>> rubber["duration_s"] > 10 * ref["duration_s"]  # a soft ball stays in contact longer
+    True
+
+    The 2-DOF rigid–flexible model, one law pair:
+
+    >>> rf = impactbench.reference_solution(scenario="rigid-flexible", velocity_m_s=10.0,
+    ...                            local="elastoplastic", structure="linear")
+    >>> rf["local"], rf["status"], rf["impacts"] >= 1
+    ('elastoplastic', 'ok', True)
+    """
+    name = _scenario_name(scenario)
+    _check_keywords(f"impactbench.reference_solution(scenario={name!r})", fields,
+                    ("scenario", *_scenario_keywords(name)))
+    spec = scenarios.get(name)
+    built = _build(name, fields)
+    ref = dict(spec.reference_metrics(built))
+    problem = spec.problem(built, ref)
+    status, message = ref.pop("status", "ok"), ref.pop("message", "")
+    return {**dict(spec.point_of(built)), **ref, "status": "unsupported" if problem else status,
+            "message": problem or message}
+
+
+def run(engine: str, scenario: str | None = None, mode: str | None = None, *,
+        params: Mapping[str, Any] | None = None, tuned_file: str | Path | None = None,
+        timestep_s: float | None = None, yes: bool = False, **fields: Any) -> RunResult:
+    """Run one scenario in one engine and compare it with the reference (``impactbench run``).
+
+    Args:
+        engine: the engine's registry name (``mujoco``, ``pybullet``, ``pymunk``, ``drake``,
+            and the extras').
+        scenario: the scenario's registry name (default: the first, ``ball-on-plate``).
+        mode: ``native``, ``injected``, ``tuned``, ``default`` or ``custom`` (default:
+            ``custom`` with ``params``, ``tuned`` with ``tuned_file``, else ``native``).
+        params: ``custom`` mode: engine parameters by the engine's own names (``run
+            --param``'s keys: ``solref``, ``contactStiffness``, ``elasticity``, …).
+        tuned_file: ``tuned`` mode: a tuned file (``tune(out=...)``); default the packaged
+            one fitted at ``timestep_s``. It applies only to the scenario and step it was
+            fitted for (else the status is ``unsupported``, naming the difference).
+        timestep_s: the integration step (s); default: in ``default`` mode the engine's own
+            default step (MuJoCo 2 ms, PyBullet 1/240 s, Drake 1 ms, pymunk 1/60 s), otherwise
+            the adapter's for the scenario.
+        yes: run even when the estimate exceeds 1e7 integration steps.
+        **fields: the scenario's fields, axes and further options (``velocity_m_s``,
+            ``mass_kg``, ``material``, …).
+
+    Returns a :class:`RunResult`; a failed run is a status, never an exception (bad input
+    is a one-line ``ValueError``).
+
+    >>> import impactbench
+    >>> r = impactbench.run(engine="pymunk", scenario="ball-on-plate", velocity_m_s=2.0,
+    ...                     timestep_s=1e-3)
+    >>> r.status, r.mode, round(r.rel_error["restitution"], 3)
+    ('ok', 'native', 0.063)
+    >>> r.resolved["restitution"], r.resolved["duration_s"]
+    (True, False)
+
+    ``custom`` mode with the engine's own parameters, and ``tuned`` mode with the packaged
+    file fitted at 1 ms:
+
+    >>> c = impactbench.run(engine="pymunk", scenario="ball-on-plate", velocity_m_s=2.0,
+    ...                     timestep_s=1e-3, params={"elasticity": 0.8})
+    >>> c.mode, c.params["elasticity"], round(c.metrics["restitution"], 2)
+    ('custom', 0.8, 0.8)
+    >>> t = impactbench.run(engine="pymunk", scenario="ball-on-plate", mode="tuned",
+    ...                     velocity_m_s=2.0, timestep_s=1e-3)
+    >>> t.status, abs(t.rel_error["restitution"]) < abs(r.rel_error["restitution"])
+    ('ok', True)
+    """
+    from impactbench.engines.base import RunSettings, parameter_keys
+    from impactbench.engines.registry import MODES, engine_names, stdout_to_stderr
+    from impactbench.evaluate import compare, reference_metrics
+
+    name = _scenario_name(scenario)
+    _check_keywords(f"impactbench.run(scenario={name!r})", fields,
+                    (*RUN_KEYWORDS, *_scenario_keywords(name)))
+    _one_of("engine", engine, engine_names())
+    mode = mode or ("custom" if params else "tuned" if tuned_file is not None else "native")
+    _one_of("mode", mode, MODES)
+    if params and mode != "custom":
+        raise ValueError(f"params = {dict(params)!r}: engine parameters need mode='custom' "
+                         f"(got {mode!r})")
+    if tuned_file is not None and mode != "tuned":
+        raise ValueError(f"tuned_file = {str(tuned_file)!r}: needs mode='tuned' "
+                         f"(got {mode!r})")
+    if params:
+        valid = parameter_keys(engine)
+        for key in params:
+            if key not in valid:
+                raise ValueError(f"params = {key!r}: not a {engine} parameter"
+                                 f"{_hint(key, valid)}; valid keys: "
+                                 f"{', '.join(valid) or '(none)'}")
+    built = _build(name, fields)
+    timestep_s, timestep_source = _timestep(engine, mode, timestep_s)
+    if mode == "tuned":
+        from impactbench.tuned import load_tuned_settings
+
+        tuned, provenance = load_tuned_settings(engine, name, timestep_s, tuned_file)
+        settings = RunSettings(timestep_s=timestep_s, tuned=tuned, tuned_for=provenance)
+    else:
+        settings = RunSettings(timestep_s=timestep_s, params=dict(params or {}) or None)
+    from impactbench.cliutil import check_cost
+    from impactbench.matrix import estimated_steps_of
+
+    ref = reference_metrics(built)
+    _yes(check_cost, estimated_steps_of(ref, timestep_s), f"timestep_s = {timestep_s!r}", yes,
+         "integration steps")
+    with stdout_to_stderr():  # engines print banners on stdout
+        out, record = compare(engine, built, mode, settings, ref)
+    return RunResult.from_compare(out, scenarios.get(name).metrics, built, record,
+                                  timestep_source)
+
+
+def tune(engine: str, scenario: str | None = None, *,
+         velocities_m_s: Sequence[float] | None = None,
+         targets: Sequence[str] | None = None, weights: Sequence[float] | None = None,
+         parameters: str | None = None, solref_form: str = "direct",
+         timestep_s: float | None = None, budget_s: float | None = None,
+         max_evals: int | None = None, params: Mapping[str, Any] | None = None,
+         out: str | Path | None = None, plot: str | Path | None = None,
+         store: str | Path | bool | None = None, fresh: bool = False, workers: int | None = 0,
+         scheduler: str | None = None, **fields: Any) -> TuneFit:
+    """Fit an engine's contact parameters to the reference (``impactbench tune``).
+
+    Args:
+        engine: the engine's registry name.
+        scenario: a scenario that serves tuning (default: the first, ``ball-on-plate``).
+        velocities_m_s: the impact velocities of the objective (default the paper's 0.5–5).
+        targets, weights: the metrics fitted (default restitution, duration, peak force)
+            and a weight ≥ 0 for each (default 1).
+        parameters: the engine's parameter set (``tune --parameters``; default its first).
+        solref_form: MuJoCo's solref form, ``direct`` or ``timeconst``.
+        timestep_s: the step to fit at (s); default the adapter's (1e-6 s for the ball). At
+            a step too coarse to resolve the contact only restitution is fitted.
+        budget_s, max_evals: wall-time (default 600 s) and evaluation budgets: the search
+            stops cleanly and keeps the best.
+        params: engine settings held fixed and written with the fit (``tune --param``).
+        out: write the tuned file here (``run(tuned_file=...)`` and reports read it).
+        plot: draw the residual plot (PNG) here.
+        store: the results store: a path, None for ``$IMPACTBENCH_STORE`` or the per-user
+            cache (as the command), False for none.
+        fresh: run everything again instead of serving stored runs.
+        workers, scheduler: where engine runs execute: 0 (default) in this process, N local
+            Dask workers, or an existing Dask scheduler. The fit is the same wherever it runs.
+        **fields: the scenario's fields and further options (``mass_kg``, ``material``, …).
+
+    Returns a :class:`TuneFit`.
+
+    >>> import impactbench, pathlib, tempfile
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "pymunk_1ms.toml"
+    >>> fit = impactbench.tune(engine="pymunk", timestep_s=1e-3, velocities_m_s=(1.0, 2.0),
+    ...                        targets=("restitution",), max_evals=5, out=path)
+    >>> fit.parameter_set, round(fit.parameters["elasticity"], 2), fit.stop
+    ('elasticity', 0.91, 'evaluation budget spent')
+    >>> print(fit.snippet)
+    ball_shape.elasticity = 0.91...
+    >>> [(row["velocity_m_s"], row["metric"]) for row in fit.residuals]
+    [(1.0, 'restitution'), (2.0, 'restitution')]
+    >>> fit.objective_tuned < fit.objective_start, fit.files["tuned"] == str(path)
+    (True, True)
+    >>> r = impactbench.run(engine="pymunk", tuned_file=path, velocity_m_s=2.0,
+    ...                     timestep_s=1e-3)
+    >>> e = fit.parameters["elasticity"]  # pymunk's restitution: the ball's, the plate's is 1
+    >>> r.mode, r.status, abs(r.metrics["restitution"] - e) < 1e-9
+    ('tuned', 'ok', True)
+    """
+    from impactbench.cluster import Runner
+    from impactbench.engines.registry import engine_names, stdout_to_stderr
+    from impactbench.publish import check_file_target
+    from impactbench.tuned import write_tuned
+    from impactbench.tuning import optimize, output
+    from impactbench.tuning.names import DEFAULT_BUDGET_S
+
+    name = _scenario_name(scenario, "tuning")
+    _check_keywords(f"impactbench.tune(scenario={name!r})", fields,
+                    (*TUNE_KEYWORDS, *_scenario_keywords(name, point=False)))
+    _one_of("engine", engine, engine_names())
+    if params:  # a key the engine's tuned mode does not read would be written and ignored
+        from impactbench.tuned import tuned_keys
+
+        valid = tuned_keys(engine)
+        for key in params:
+            if valid is not None and key not in valid:
+                raise ValueError(f"params = {key!r}: not a {engine} tuned key"
+                                 f"{_hint(key, valid)}; valid keys: {', '.join(valid)}")
+    built = _build(name, fields)
+    if isinstance(velocities_m_s, int | float):
+        velocities_m_s = (float(velocities_m_s),)
+    if isinstance(targets, str):
+        targets = (targets,)
+    files_to = {"tuned": Path(out) if out is not None else None,
+                "plot": Path(plot) if plot is not None else None}
+    for what, path in files_to.items():
+        if path is not None:
+            check_file_target(path, "out" if what == "tuned" else what)  # before the fit
+    if store is False:
+        results_store = None
+    else:
+        from impactbench.store import Store, default_path
+
+        results_store = Store(Path(store) if store not in (None, True) else default_path())
+    with stdout_to_stderr(), Runner(workers, scheduler,
+                                    min_dispatch_s=TUNE_DISPATCH_MIN_S) as runner:
+        result = optimize.tune(
+            engine, built, None if velocities_m_s is None else list(velocities_m_s),
+            None if targets is None else list(targets),
+            None if weights is None else list(weights), parameters=parameters,
+            solref_form=solref_form, timestep_s=timestep_s,
+            budget_s=DEFAULT_BUDGET_S if budget_s is None else budget_s, max_evals=max_evals,
+            fixed=dict(params) if params else None, store=results_store, fresh=fresh,
+            runner=runner)
+    files: dict[str, str] = {}
+    if files_to["tuned"] is not None:
+        header = (f"impactbench.tune: {result.space.engine} ({result.space.variant}) fitted "
+                  f"to the {name} reference.\nRead by `impactbench run --mode tuned` and the "
+                  "report; [parameters] uses the adapter's tuned keys.")
+        files["tuned"] = str(write_tuned(files_to["tuned"], output.tuned_tables(result),
+                                         header))
+    if files_to["plot"] is not None:
+        files["plot"] = str(output.plot(result, files_to["plot"]))
+    data = output.as_json(result, files)
+    return TuneFit(engine=data["engine"], engine_version=data["engine_version"],
+                   parameter_set=data["parameter_set"], parameters=data["parameters"],
+                   snippet=data["snippet"], start_parameters=data["start_parameters"],
+                   objective_start=data["objective_start"],
+                   objective_tuned=data["objective_tuned"], residuals=data["residuals"],
+                   summary=data["summary"], honesty=data["honesty"], stop=data["stop"],
+                   timestep_s=data["timestep_s"], files=files, result=result, data=data)
+
+
+def build_report(config: str | Path | Mapping[str, Any] | None = None,
+                 out: str | Path = "reports",
+           *, engines: Sequence[str] | str | None = None, workers: int | None = None,
+           scheduler: str | None = None, store: str | Path | bool | None = None,
+           fresh: bool = False, yes: bool = False, progress: bool = True) -> Any:
+    """Run a comparison matrix and write its report (``impactbench report``).
+
+    Args:
+        config: the matrix: None for the packaged default
+            (``impactbench/data/default.toml``), a TOML file (read as ``report --config``
+            reads it), or its tables as a dict (:func:`impactbench.config.parse`: the dict
+            is the whole matrix).
+        out: the report folder (written whole, atomically).
+        engines: restrict the config's engines (a list, or a comma string).
+        workers: local worker processes (default: ``[execution]``'s, else one per core;
+            0 runs everything in this process, without crash isolation).
+        scheduler: an existing Dask scheduler's address instead.
+        store: the results store: a path, None for ``[execution]``'s, ``$IMPACTBENCH_STORE``
+            or the per-user cache (as the command), False for none.
+        fresh: run everything again instead of serving stored runs.
+        yes: run even when the missing runs exceed 1e7 integration steps in all.
+        progress: show progress on stderr.
+
+    Returns the :class:`impactbench.report.Report`: ``results`` (the tidy DataFrame, one row
+    per run and metric, as ``results.csv``), ``files`` (every file written), ``out_dir`` and
+    ``wall_s``.
+
+    >>> import impactbench, tempfile
+    >>> small = {"report": {"engines": ["pymunk"], "modes": ["native"]},
+    ...          "ball_on_plate": {"velocities_m_s": [1.0, 2.0],
+    ...                            "timestep_s": {"pymunk": 1e-3}}}
+    >>> rep = impactbench.build_report(config=small, out=tempfile.mkdtemp(), workers=0,
+    ...                          store=False, progress=False)
+    >>> sorted(set(rep.results.engine)), sorted(set(rep.results.velocity_m_s))
+    (['pymunk'], [1.0, 2.0])
+    >>> sorted(f.name for f in rep.files if f.parent == rep.out_dir)
+    ['README.md', 'index.html', 'metadata.json', 'results.csv', 'results.parquet']
+    """
+    from impactbench import config as config_mod
+    from impactbench import publish
+    from impactbench import report as report_mod
+    from impactbench.cliutil import check_workers, execution_options
+    from impactbench.engines.registry import engine_names
+
+    out = Path(out)
+    publish.check_dir_target(out, "out")
+    if isinstance(config, Mapping):
+        cfg = config_mod.parse(dict(config))
+    elif config is None or isinstance(config, str | Path):
+        cfg = config_mod.load(config)
+    else:
+        raise ValueError(f"config = {config!r}: must be None, a TOML file's path or a dict "
+                         "of its tables")
+    chosen = None
+    if engines is not None:
+        chosen = [e.strip() for e in engines.split(",")] if isinstance(engines, str) \
+            else list(engines)
+        for e in chosen:
+            _one_of("engines", e, engine_names())
+    args = argparse.Namespace(workers=None, scheduler=scheduler, fresh=fresh, yes=yes,
+                              store=Path(store) if store not in (None, True, False) else None)
+    opts = execution_options(args, cfg)  # the [execution] table under the arguments
+    if workers is not None:
+        opts["workers"] = check_workers(workers)
+    if store is False:
+        opts["store"] = None
+    return _yes(lambda: report_mod.build(cfg, out, engines=chosen, show_progress=progress,
+                                         **opts))
+
