@@ -49,6 +49,7 @@ from pathlib import Path
 from typing import Any
 
 from impactbench import scenarios
+from impactbench.plausibility import Limits
 from impactbench.engines.registry import MODES, engine_names
 
 DEFAULT_CONFIG = Path(__file__).parent / "data" / "default.toml"
@@ -116,6 +117,8 @@ class ReportConfig:
     engine_params: dict[str, Params] = field(default_factory=dict)
     tuned_files: dict[str, str] = field(default_factory=dict)
     practical: Practical | None = None
+    limits: Limits = field(default_factory=Limits)
+    """``[plausibility]``: the limits runs are judged by (:mod:`impactbench.plausibility`)."""
     source: str = field(default="", compare=False)
     raw: dict[str, Any] = field(default_factory=dict, compare=False)
     execution: dict[str, Any] = field(default_factory=dict, compare=False)
@@ -273,7 +276,7 @@ def parse(data: dict[str, Any], source: str = "") -> ReportConfig:
     """Validate a parsed TOML document into a :class:`ReportConfig`."""
     tables = {s.table: s for s in scenarios.specs()}
     _check_keys(data, {"report", *tables, "work_precision", "engines", "tuned", "practical",
-                       "execution"}, "")
+                       "plausibility", "execution"}, "")
     for key, value in data.items():
         if not isinstance(value, dict):
             raise _fail(key, value, "must be a table")
@@ -322,8 +325,23 @@ def parse(data: dict[str, Any], source: str = "") -> ReportConfig:
         tuned_files[e] = str(full)
     practical = _practical(data["practical"]) if "practical" in data else None
     return ReportConfig(title, engines, modes, matrices, wp, engine_params, tuned_files,
-                        practical, source=source, raw=data,
+                        practical, limits=_limits(data.get("plausibility", {})),
+                        source=source, raw=data,
                         execution=_execution(data.get("execution", {})))
+
+
+def _limits(table: dict[str, Any]) -> Limits:
+    """``[plausibility]``: max_penetration_ratio, max_energy_ratio (:mod:`impactbench.
+    plausibility`; the defaults where absent)."""
+    fields = ("max_penetration_ratio", "max_energy_ratio")
+    _check_keys(table, set(fields), "plausibility.")
+    for key, value in table.items():
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise _fail(f"plausibility.{key}", value, "must be a number")
+    try:
+        return Limits(**{k: float(v) for k, v in table.items()})
+    except ValueError as exc:
+        raise ValueError(f"plausibility.{exc}") from None
 
 
 def _execution(table: dict[str, Any]) -> dict[str, Any]:

@@ -289,7 +289,7 @@ def estimated_steps(job: Job, reference: dict[str, Any]) -> float:
 def run_jobs(jobs: list[Job], workers: int | None = None,
              progress: Callable[[int], None] | None = None, *, store: Any = None,
              fresh: bool = False, scheduler: str | None = None,
-             yes: bool = True) -> list[JobResult]:
+             yes: bool = True, limits: Any = None) -> list[JobResult]:
     """Run ``jobs``; results sorted by job id.
 
     ``store`` (an :class:`impactbench.store.Store`) serves finished runs and keeps new ones;
@@ -298,6 +298,8 @@ def run_jobs(jobs: list[Job], workers: int | None = None,
     isolation); ``scheduler`` the address of an existing Dask scheduler instead.
     Ctrl-C raises :class:`Interrupted` after storing what finished. ``yes = False`` refuses
     (ValueError) when the missing runs need more than ``cliutil.COST_LIMIT`` steps in all.
+    ``limits`` (:class:`impactbench.plausibility.Limits`): judge every run, stored or new, by
+    these instead of the defaults (a stored run keeps its measures, not its verdict).
     """
     from impactbench import store as store_mod
 
@@ -380,7 +382,13 @@ def run_jobs(jobs: list[Job], workers: int | None = None,
         kept = sum(r.run["status"] != "crashed" for r in results.values())  # crashed: not stored
         raise Interrupted(kept, len(jobs), store is not None) from None
     flush()
-    return [results[j.id] for j in sorted(jobs, key=lambda j: j.id)]
+    out = [results[j.id] for j in sorted(jobs, key=lambda j: j.id)]
+    if limits is not None:
+        from impactbench.plausibility import judge
+
+        for r in out:
+            r.run = judge(r.run, limits)
+    return out
 
 
 def tidy(results: list[JobResult]) -> list[dict[str, Any]]:

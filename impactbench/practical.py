@@ -262,9 +262,9 @@ def settings_snippet(runs: list) -> tuple[str, str]:
 def your_timestep(ctx) -> dict[str, object] | None:
     """The report's first section: per engine at each of its steps (the config's practical
     steps), the best mode's restitution error, its plausibility and the settings to paste."""
-    from impactbench.plausibility import DEFAULT
     from impactbench.report_render import Cell, Table, band, format_error
 
+    limits = ctx.cfg.limits
     groups = _groups(ctx.results)
     if not groups:
         return None
@@ -290,7 +290,7 @@ def your_timestep(ctx) -> dict[str, object] | None:
         err = Cell(f"{100 * worst:.2g} %", band(worst)) if math.isfinite(worst) \
             else Cell("none plausible", "fail")
         pen = max(pens) if pens else math.nan
-        pen_cell = Cell(f"{pen:.2g} R", "good" if pen <= DEFAULT.max_penetration_ratio
+        pen_cell = Cell(f"{pen:.2g} R", "good" if pen <= limits.max_penetration_ratio
                         else "poor") if math.isfinite(pen) else Cell("—", "na")
         version = next((r.run.get("engine_version") for r in runs
                         if r.run.get("engine_version")), "")
@@ -309,7 +309,7 @@ def your_timestep(ctx) -> dict[str, object] | None:
         "and step (the config's `[practical]` steps), the mode with the most plausible runs "
         "and then the smallest worst restitution error over V0 = "
         f"{', '.join(f'{x:g}' for x in v)} m/s against the reference. A run is plausible "
-        f"when the ball sinks at most {DEFAULT.max_penetration_ratio:g} of its radius and "
+        f"when the ball sinks at most {limits.max_penetration_ratio:g} of its radius and "
         "no energy is created (`impactbench.plausibility`); an implausible run's error is "
         "not counted, however small. At a step longer than the contact, duration and peak "
         "force are not resolved: restitution is the answer here.")

@@ -266,7 +266,7 @@ def build(cfg: config_mod.ReportConfig, out_dir: Path, *, engines: list[str] | N
                                                                         (lambda: None))
         try:
             results = run_jobs(jobs, workers, progress=update, store=store, fresh=fresh,
-                               scheduler=scheduler, yes=yes)
+                               scheduler=scheduler, yes=yes, limits=cfg.limits)
         finally:
             close()
         try:

@@ -59,6 +59,12 @@ def register(top: argparse._SubParsersAction, groups: dict) -> None:
                    "max_time,unsupported (default: any status but ok exits 1)")
     p.add_argument("--yes", action="store_true",
                    help="run even when the estimate exceeds 1e7 integration steps")
+    p.add_argument("--max-penetration-ratio", type=number, default=None, metavar="R",
+                   help="plausibility: the largest overlap over the body's size before a run "
+                   "is implausible (default 0.1)")
+    p.add_argument("--max-energy-ratio", type=number, default=None, metavar="E",
+                   help="plausibility: the largest kinetic energy after over before "
+                   "(default 1.01)")
     p.set_defaults(func=main)
 
 
@@ -92,6 +98,12 @@ def main(args: argparse.Namespace) -> int:
                args.yes, "integration steps")
     with stdout_to_stderr():
         out, _ = compare(args.engine, scenario, mode, settings, reference)
+    limits = {k: v for k, v in (("max_penetration_ratio", args.max_penetration_ratio),
+                                ("max_energy_ratio", args.max_energy_ratio)) if v is not None}
+    if limits:
+        from impactbench.plausibility import Limits, judge
+
+        out = judge(out, Limits(**limits))
     at = list(out).index("timestep_s") + 1  # beside the step it explains
     out = dict([*list(out.items())[:at], ("timestep_source", timestep_source),
                 *list(out.items())[at:]])

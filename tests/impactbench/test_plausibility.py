@@ -124,3 +124,34 @@ def test_tuning_is_constrained_and_says_when_the_limits_bind() -> None:
     prov = output.tuned_tables(result)["provenance"]
     assert prov["plausibility_limit_binds"] == output.limits_bind(result)
     assert prov["max_penetration_ratio_tuned"] == pytest.approx(tuned.max_penetration_ratio)
+
+
+def test_the_user_sets_the_limits_in_a_config_and_on_the_command_line(capsys, tmp_path) -> None:
+    """``[plausibility]`` in a report config and ``run --max-penetration-ratio`` judge the
+    same measured run by the user's limits (MuJoCo's default contact at 2 ms: ~0.93 R)."""
+    require_engine("mujoco")
+    import json
+
+    from impactbench import config, report
+    from impactbench.cli import main
+
+    argv = ["run", "--engine", "mujoco", "--scenario", "ball-on-plate", "--mode", "default",
+            "--velocity", "2", "--timestep", "2e-3", "--json"]
+    assert main(argv) == 1
+    strict = json.loads(capsys.readouterr().out)
+    assert strict["status"] == "implausible"
+    assert main([*argv, "--max-penetration-ratio", "2"]) == 0
+    loose = json.loads(capsys.readouterr().out)
+    assert loose["status"] == "ok"
+    assert loose["plausibility"] == strict["plausibility"]  # the same measures, judged again
+    cfg = {"report": {"engines": ["mujoco"], "modes": ["custom"]},
+           "engines": {"mujoco": {"solref": [0.02, 1.0]}},
+           "ball_on_plate": {"velocities_m_s": [2.0], "timestep_s": {"mujoco": 2e-3}}}
+    default = report.build(config.parse(cfg), tmp_path / "a", show_progress=False, workers=0)
+    cfg["plausibility"] = {"max_penetration_ratio": 2.0}
+    looser = report.build(config.parse(cfg), tmp_path / "b", show_progress=False, workers=0)
+    assert set(default.results.status) == {"implausible"} and set(looser.results.status) == {"ok"}
+    with pytest.raises(ValueError, match=r"plausibility.max_penetratio: unknown key \(did"):
+        config.parse({"plausibility": {"max_penetratio": 1.0}})
+    with pytest.raises(ValueError, match="plausibility.max_energy_ratio = 0.5"):
+        config.parse({"plausibility": {"max_energy_ratio": 0.5}})
