@@ -49,8 +49,8 @@ from pathlib import Path
 from typing import Any
 
 from impactbench import scenarios
-from impactbench.plausibility import Limits
 from impactbench.engines.registry import MODES, engine_names
+from impactbench.plausibility import Limits
 
 DEFAULT_CONFIG = Path(__file__).parent / "data" / "default.toml"
 
