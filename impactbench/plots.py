@@ -169,8 +169,11 @@ def restitution_vs_velocity(df: pd.DataFrame, damping_s_per_m: float, how: str,
 def _point_label(row, spec) -> str:
     """A heatmap column's label: the categorical axes, one per line, then the numbers."""
     parts = [str(getattr(row, a.name)) for a in spec.axes if a.categorical]
-    parts += [f"{getattr(row, a.name):g}" + (" m/s" if a.name == "velocity_m_s" else "")
-              for a in spec.axes if not a.categorical]
+    for a in spec.axes:
+        if not a.categorical:
+            unit = a.column.partition(" (")[2].rstrip(")")
+            parts.append(f"{getattr(row, a.name):g}" + (f" {unit}" if unit not in ("", "°")
+                                                         else unit))
     return "\n".join(parts)
 
 

@@ -42,6 +42,7 @@ ENTRY_POINT_GROUP = "impactbench.scenarios"
 BUILTIN: dict[str, str] = {
     "ball-on-plate": "impactbench.scenarios.ball_on_plate:SPEC",
     "rigid-flexible": "impactbench.scenarios.rigid_flexible:SPEC",
+    "oblique": "impactbench.scenarios.oblique:SPEC",
 }
 """The packaged scenarios, in the report's order (registry name → ``"module:attr"``)."""
 
@@ -231,11 +232,19 @@ class ScenarioSpec:
         """``V0 = 1 m/s`` or ``elastoplastic/linear, v1 = 2 m/s`` (tables and captions)."""
         values = dict(point)
         cats = "/".join(str(values[a.name]) for a in self.axes if a.categorical)
-        nums = ", ".join(f"{self.velocity_symbol if a.name == 'velocity_m_s' else a.name} = "
-                         f"{float(values[a.name]):g}"
-                         + (" m/s" if a.name == "velocity_m_s" else "")
-                         for a in self.axes if not a.categorical)
+        nums = ", ".join(self._number_text(a, values[a.name]) for a in self.axes
+                         if not a.categorical)
         return f"{cats}, {nums}" if cats else nums
+
+    def _number_text(self, axis: Axis, value: Any) -> str:
+        """``V0 = 2 m/s`` (the impact velocity, by the spec's symbol) or, for another axis,
+        from its column ``θ (°)``: ``θ = 45°``."""
+        if axis.name == "velocity_m_s":
+            return f"{self.velocity_symbol} = {float(value):g} m/s"
+        symbol, _, unit = axis.column.partition(" (")
+        unit = unit.rstrip(")")
+        gap = "" if unit in ("°", "%") else " "
+        return f"{symbol} = {float(value):g}{gap + unit if unit else ''}"
 
     def figure_name(self, point: Point) -> str:
         """The file-name part of a per-point figure: ``ball_v2`` or ``rf_linear_linear_v2``."""

@@ -119,13 +119,16 @@ def test_a_circle_would_be_found() -> None:
     assert "impactbench.tuned" in graph["impactbench.evaluate"]  # imported inside a function
 
 
-SCENARIO_NAMES = {"ball-on-plate", "rigid-flexible", "ball_on_plate", "rigid_flexible"}
+SCENARIO_NAMES = {"ball-on-plate", "rigid-flexible", "ball_on_plate", "rigid_flexible",
+                  "oblique"}
 ALLOWED = {
     # the scenarios' own modules: their specs, their subcommands, their physics and solvers
     "impactbench.scenarios.ball_on_plate", "impactbench.scenarios.rigid_flexible",
     "impactbench.scenarios",  # BUILTIN: the registry of the packaged specs
     "impactbench.commands.ball_on_plate", "impactbench.commands.rigid_flexible",
     "impactbench.reference.scenarios",
+    "impactbench.scenarios.oblique", "impactbench.commands.oblique",
+    "impactbench.reference.oblique_scenario", "impactbench.reference.oblique",
 }
 
 

@@ -1,0 +1,153 @@
+"""``impactbench reference oblique``: a sphere hitting a plate at an angle (MODELS.md §3).
+
+Solves the oblique impact with the scenario's reference: the rigid tangential theory in closed
+form (``--tangential rigid``, the default) or the tangentially compliant Mindlin law, integrated
+(``--tangential mindlin``). Defaults are the preprint's steel ball at V = 2 m/s, θ = 45°,
+μ = 0.3; ``--case kharaz2001`` is Kharaz et al. (2001)'s alumina sphere (flags given override
+it).
+
+``reference oblique --json`` prints one JSON object with exactly the keys ``velocity_m_s``,
+``angle_deg`` (the inputs), the nine oblique metrics (``restitution, tangential_restitution,
+contact_point_ratio, rebound_angle_deg, spin_out_rad_s, regime, duration_s, peak_force_n,
+peak_tangential_force_n``; SI, angles in degrees, ``regime`` 1 = slide, 0 = stick), ``status``
+and ``message`` — or a list of such objects, angles outer and speeds inner, when several are
+given (repeated ``--angle-deg``/``--velocity`` or comma lists). ``status`` is ``unsupported``
+(the reason in ``message``) when the indentation exceeds the ball's radius. NaN (a tangential
+restitution at θ = 0) prints as null.
+
+The scenario need not be registered: :func:`main` runs this command on a parser of its own
+(the tests use it); once the spec is in the registry, ``impactbench.cli`` adds it through the
+spec's ``commands``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from collections.abc import Sequence
+from typing import Any
+
+from impactbench.cliutil import number, number_list, print_json, print_table
+
+REFERENCE_HELP = ("sphere hitting a plate at an angle, with friction and spin: rigid-Coulomb "
+                  "closed form or Mindlin reference")
+
+
+def _spec():
+    from impactbench.scenarios.oblique import SPEC
+
+    return SPEC
+
+
+def add_flags(parser: argparse.ArgumentParser) -> None:
+    """The scenario's field flags and options from its spec (as
+    :func:`impactbench.flags.add_parameter_flags` does for a registered scenario; defaults
+    None, so an explicit value can be told from the default)."""
+    from impactbench.scenarios import load
+
+    spec = _spec()
+    defaults = spec.cls()
+    group = parser.add_argument_group(f"{spec.title.lower()}: physical parameters (SI; "
+                                      "defaults are the paper's)")
+    for f in spec.flags:
+        if f"--{f.flag}" in parser._option_string_actions:
+            continue
+        group.add_argument(f"--{f.flag}", type=number, default=None, dest=f.field,
+                           metavar="X", help=f"{f.help}; default {getattr(defaults, f.field):g}")
+    load(spec.options)(group, False)
+
+
+def scenario_from_args(args: argparse.Namespace, **overrides: Any) -> Any:
+    """Build and validate the scenario from parsed flags (``overrides`` win)."""
+    from impactbench.scenarios import load
+
+    spec = _spec()
+    fields = set(spec.cls.field_names())
+    values = {k: v for k, v in vars(args).items() if k in fields and v is not None}
+    values = load(spec.from_args)(args, values)
+    values.update(overrides)
+    return spec.cls(**values)
+
+
+def register(top: argparse._SubParsersAction, groups: dict) -> None:
+    spec = _spec()
+    p = groups["reference"].add_parser(spec.name, help=REFERENCE_HELP,
+                                       description=REFERENCE_HELP + ".")
+    p.add_argument("--velocity", type=number_list, action="extend", dest="velocities",
+                   metavar="V", help="impact speed V in m/s; repeat the flag or give a comma "
+                   "list for several (default 2.0, or the --case's)")
+    p.add_argument("--angle-deg", type=number_list, action="extend", dest="angles",
+                   metavar="DEG", help="incidence angle θ from the plate normal in degrees, in "
+                   "[0, 90); repeat the flag or give a comma list for several (default 45)")
+    add_flags(p)
+    p.add_argument("--json", action="store_true",
+                   help="print JSON (one object, or a list for several points)")
+    p.set_defaults(func=reference_main)
+
+
+def _with_status(scenario: Any, metrics: dict) -> dict:
+    """The JSON object of one point: the inputs, the metrics, status and message."""
+    problem = _spec().problem(scenario, metrics)
+    return {"velocity_m_s": scenario.velocity_m_s, "angle_deg": scenario.angle_deg, **metrics,
+            "status": "unsupported" if problem else "ok", "message": problem}
+
+
+def reference_main(args: argparse.Namespace) -> int:
+    from impactbench.reference.oblique_scenario import CASE_POINTS
+
+    spec = _spec()
+    case_point = CASE_POINTS.get(args.case, {}) if args.case else {}
+    angles = args.angles or [case_point.get("angle_deg")]
+    velocities = args.velocities or [case_point.get("velocity_m_s")]
+    scenarios = []
+    for a in angles:
+        for v in velocities:
+            point = {k: x for k, x in (("angle_deg", a), ("velocity_m_s", v)) if x is not None}
+            scenarios.append(scenario_from_args(args, **point))
+    results = [_with_status(s, spec.reference_metrics(s)) for s in scenarios]
+    if args.json:
+        print_json(results[0] if len(results) == 1 else results)
+        return 0
+    s = scenarios[0]
+    damping = (f"nominal e = {s.nominal_restitution:g}" if s.nominal_restitution is not None
+               else f"b = {s.damping_s_per_m:g} s/m")
+    print(f"oblique impact, {s.tangential} tangential contact: m = {s.mass_kg:g} kg, "
+          f"R = {s.radius_m:g} m, c = {s.stiffness:g} N/m^n, n = {s.exponent:g}, {s.model} "
+          f"{damping}, μ = {s.friction:g}, ω0 = {s.spin_rad_s:g} rad/s")
+    print_table(results, ("angle_deg", "velocity_m_s", *spec.metrics, "status"),
+                floatfmt=".8g")
+    for r in results:
+        if r["message"]:
+            print(f"{r['status']}: {r['message']}", file=sys.stderr)
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """An ``impactbench`` parser with only this command (the scenario need not be
+    registered)."""
+    from impactbench.cli import GROUPS, Parser
+
+    parser = Parser(prog="impactbench")
+    top = parser.add_subparsers(dest="command", required=True, parser_class=Parser,
+                                metavar="COMMAND")
+    groups = {}
+    for name, help_text in GROUPS.items():
+        group = top.add_parser(name, help=help_text, description=help_text)
+        groups[name] = group.add_subparsers(dest="scenario", required=True, metavar="SCENARIO",
+                                            parser_class=Parser)
+    register(top, groups)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``impactbench reference oblique …`` without the registry; returns the exit code
+    (bad input: one line ``impactbench: error: …`` on stderr, exit 2, as the CLI)."""
+    try:
+        args = build_parser().parse_args(argv)
+        return int(args.func(args) or 0)
+    except ValueError as exc:
+        if os.environ.get("IMPACTBENCH_DEBUG"):
+            raise
+        print(f"impactbench: error: {exc}", file=sys.stderr)
+        return 2

@@ -1,0 +1,216 @@
+"""The oblique scenario: a sphere hitting a plate at an angle, with friction and spin
+(MODELS.md §3).
+
+Physics: :class:`~impactbench.reference.oblique_scenario.Oblique` (any normal law of the zoo,
+Coulomb friction μ, initial spin ω0); references: the rigid tangential theory in closed form
+(``tangential = "rigid"``, :mod:`impactbench.reference.oblique`) or the tangentially compliant
+Mindlin law, integrated (``tangential = "mindlin"``,
+:mod:`impactbench.reference.oblique_integrate`). One point per incidence angle θ (degrees from
+the normal) and impact speed V (m/s). Its subcommand (``reference oblique``) is in
+:mod:`impactbench.commands.oblique`.
+
+Not registered in :data:`impactbench.scenarios.BUILTIN` yet: no engine has a builder for it,
+so a registered scenario would fill the default report with ``unsupported`` rows.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from typing import Any
+
+from impactbench.scenarios import Axis, Flag, ScenarioSpec
+
+NAME = "oblique"
+
+METRICS: tuple[str, ...] = (
+    "restitution",
+    "tangential_restitution",
+    "contact_point_ratio",
+    "rebound_angle_deg",
+    "spin_out_rad_s",
+    "regime",
+    "duration_s",
+    "peak_force_n",
+    "peak_tangential_force_n",
+)
+"""The reference's ``OBLIQUE_METRICS`` (tested equal), named here without importing it."""
+
+FLAGS = (
+    Flag("angle-deg", "angle_deg", "incidence angle θ from the plate normal (degrees, in "
+         "[0, 90))"),
+    Flag("friction", "friction", "Coulomb friction coefficient μ (>= 0)"),
+    Flag("spin", "spin_rad_s", "initial spin ω0 about n × t (rad/s; positive: forward "
+         "rolling)"),
+    Flag("mass", "mass_kg", "ball mass (kg)"),
+    Flag("stiffness", "stiffness",
+         "Hunt–Crossley stiffness c (N/m^n; N/m for the linear models)"),
+    Flag("exponent", "exponent", "force-law exponent n (1.5 Hertz, 1 linear)"),
+    Flag("damping", "damping_s_per_m", "Hunt–Crossley damping b (s/m)"),
+    Flag("radius", "radius_m", "ball radius R (m)"),
+    Flag("youngs-modulus", "youngs_modulus_pa",
+         "ball Young's modulus E (Pa): Mindlin's G*, and the Hertz c unless --stiffness"),
+    Flag("poisson", "poisson", "ball Poisson's ratio ν"),
+    Flag("plate-youngs-modulus", "plate_youngs_modulus_pa",
+         "plate Young's modulus (Pa; the --case kharaz2001 plate is rigid, inf)"),
+    Flag("plate-poisson", "plate_poisson", "plate Poisson's ratio"),
+)
+
+MATERIAL_FIELDS = ("youngs_modulus_pa", "poisson", "plate_youngs_modulus_pa", "plate_poisson")
+
+DESCRIPTIONS = {
+    "velocity_m_s": "impact speed V (m/s)",
+    "tangential": "tangential contact: rigid (ideal Coulomb, closed form) or mindlin (no-slip "
+                  "spring k_t = 8·G*·a capped at μ·F_n, integrated)",
+    "model": "normal contact model of the zoo, set up at the normal velocity V·cos θ",
+    "nominal_restitution": "nominal restitution e of the normal law (its damping follows at "
+                           "V·cos θ); none: the paper's b",
+}
+
+
+def reference(scenario: Any) -> dict[str, Any]:
+    """The reference metrics: rigid closed form or the Mindlin integration."""
+    from impactbench.reference import oblique
+
+    return dict(oblique.solve(scenario))
+
+
+def history(scenario: Any) -> Any:
+    """The integrated impact as an ImpactRecord (tangential arrays in ``meta``)."""
+    from impactbench.reference import oblique_integrate
+
+    return oblique_integrate.history(scenario)
+
+
+def record_metrics(rec: Any, scenario: Any) -> dict[str, float]:
+    """The oblique metrics of a record (for the suite's per-scenario metrics hook)."""
+    from impactbench.reference import oblique
+
+    return oblique.record_metrics(rec, scenario)
+
+
+def plausibility(scenario: Any, rec: Any, metrics: dict[str, Any]) -> dict[str, float]:
+    """The largest overlap over the ball's radius (from the record), and the kinetic energy
+    after over before, translation and spin: (m·(v_n'² + v_t'²) + I·ω'²)/(m·V² + I·ω0²),
+    I = (2/5)·m·R², with v_n' = e·v_n and v_t' = v_n'·tan(rebound angle)."""
+    pen = float(rec.penetration_m.max()) if len(rec) else math.nan
+    e = float(metrics.get("restitution", math.nan))
+    angle = math.radians(float(metrics.get("rebound_angle_deg", math.nan)))
+    w = float(metrics.get("spin_out_rad_s", math.nan))
+    m, r = scenario.mass_kg, scenario.radius_m
+    inertia = 0.4 * m * r * r
+    vn = e * scenario.normal_velocity_m_s
+    vt = vn * math.tan(angle)
+    before = m * scenario.velocity_m_s**2 + inertia * scenario.spin_rad_s**2
+    after = m * (vn * vn + vt * vt) + inertia * w * w
+    return {"penetration_ratio": pen / r, "energy_ratio": after / before}
+
+
+def reference_problem(scenario: Any, ref: dict[str, Any]) -> str:
+    """An indentation beyond the ball's radius (the normal closed form's): no contact law
+    holds there."""
+    import numpy as np
+
+    from impactbench.reference.oblique import normal_sweep
+
+    normal = normal_sweep(scenario, np.asarray([scenario.normal_velocity_m_s]))
+    return scenario.penetration_problem(float(normal["max_penetration_m"].iloc[0]))
+
+
+def add_options(group: argparse._ArgumentGroup, with_gravity: bool = True) -> None:
+    """The normal contact model and nominal restitution (shared with the ball when both are
+    on one parser), the tangential model and a named case. No gravity: the reference is the
+    gravity-free impact (``with_gravity`` is accepted for the spec's signature)."""
+    from impactbench.cliutil import number
+    from impactbench.reference.oblique_scenario import CASES, OBLIQUE_MODELS, TANGENTIAL_MODELS
+
+    have = group._option_string_actions  # shared with the parser: another scenario's flags
+    if "--model" not in have:
+        group.add_argument("--model", choices=OBLIQUE_MODELS, default=None,
+                           help="normal contact model (default hunt-crossley; every other "
+                           "model needs --nominal-restitution)")
+    if "--nominal-restitution" not in have:
+        group.add_argument("--nominal-restitution", type=number, default=None,
+                           dest="nominal_restitution", metavar="E",
+                           help="nominal restitution e in (0, 1] the model's damping is set "
+                           "from at the normal velocity (replaces --damping)")
+    if "--tangential" not in have:
+        group.add_argument("--tangential", choices=TANGENTIAL_MODELS, default=None,
+                           help="tangential contact: rigid (ideal Coulomb, closed form; the "
+                           "default) or mindlin (no-slip spring k_t = 8·G*·a capped at μ·F_n, "
+                           "integrated)")
+    if "--case" not in have:
+        group.add_argument("--case", choices=tuple(CASES), default=None,
+                           help="a named set of fields (kharaz2001: Kharaz et al. 2001's "
+                           "alumina sphere, μ 0.092, e 0.98, rigid plate; `reference` runs it "
+                           "at its 3.9 m/s unless --velocity); flags given here override it")
+
+
+def from_args(args: argparse.Namespace, values: dict[str, Any]) -> dict[str, Any]:
+    """The fields of a named case (``--case``) under the explicit ones (``values``); the
+    Hertz c of the given elastic constants (ball and plate) when any is given and
+    ``--stiffness`` is not. An explicit ``--damping`` drops a case's nominal restitution.
+    The ball's material options (``--material``, ``--plate-material``, ``--scenario-file``,
+    ``--gravity``) do not apply here: a one-line error says so."""
+    from impactbench.reference import validation as check
+    from impactbench.reference.oblique_scenario import CASES, Oblique
+    from impactbench.reference.scenarios import hertz_stiffness
+
+    for option, flag in (("material", "--material"), ("plate_material", "--plate-material"),
+                         ("scenario_file", "--scenario-file")):
+        value = getattr(args, option, None)
+        if value is not None:
+            raise ValueError(f"{option} = {value!r}: {flag} does not apply to the {NAME} "
+                             "scenario (give --youngs-modulus/--poisson/--plate-youngs-modulus"
+                             "/--plate-poisson, or --case)")
+    gravity = getattr(args, "gravity_m_s2", None)
+    if gravity:
+        raise ValueError(f"gravity_m_s2 = {gravity!r}: the {NAME} scenario is gravity-free")
+    case = getattr(args, "case", None)
+    base: dict[str, Any] = {}
+    if case is not None:
+        check.one_of("case", case, tuple(CASES))
+        base = dict(CASES[case])
+        if "damping_s_per_m" in values and "nominal_restitution" not in values \
+                and values.get("model", base.get("model", "hunt-crossley")) == "hunt-crossley":
+            base.pop("nominal_restitution", None)  # an explicit b wins over the case's e
+    out = {**base, **values}
+    if any(k in values for k in MATERIAL_FIELDS) and "stiffness" not in values:
+        if out.get("exponent", 1.5) != 1.5:
+            raise ValueError(f"exponent = {out['exponent']!r}: elastic constants give the "
+                             "Hertz law; must be 1.5 (or give --stiffness)")
+        d = Oblique()
+        get = {k: out.get(k, getattr(d, k)) for k in (*MATERIAL_FIELDS, "radius_m")}
+        check.positive("radius_m", get["radius_m"])
+        check.positive("youngs_modulus_pa", get["youngs_modulus_pa"])
+        out["stiffness"] = hertz_stiffness(get["radius_m"], get["youngs_modulus_pa"],
+                                           get["poisson"], math.inf,
+                                           get["plate_youngs_modulus_pa"], get["plate_poisson"])
+        out["exponent"] = 1.5
+    return out
+
+
+SPEC = ScenarioSpec(
+    name=NAME,
+    title="Oblique impact",
+    summary="a sphere hitting a plate at an angle with friction and spin, rigid-Coulomb closed "
+            "form or Mindlin reference",
+    scenario="impactbench.reference.oblique_scenario:Oblique",
+    reference=f"{__name__}:reference",
+    reference_history=f"{__name__}:history",
+    metrics=METRICS,
+    headline=("rebound_angle_deg", "spin_out_rad_s", "tangential_restitution"),
+    axes=(Axis("angle_deg", "angles_deg", "θ (°)", short="a"),
+          Axis("velocity_m_s", "velocities_m_s", "V (m/s)", short="v")),
+    table="oblique",
+    flags=FLAGS,
+    gate_velocities_m_s=(2.0,),
+    figure_stem="oblique",
+    velocity_symbol="V",
+    commands="impactbench.commands.oblique",
+    reference_problem=f"{__name__}:reference_problem",
+    plausibility=f"{__name__}:plausibility",
+    options=f"{__name__}:add_options",
+    from_args=f"{__name__}:from_args",
+    descriptions=DESCRIPTIONS,
+)
