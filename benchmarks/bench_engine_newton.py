@@ -1,23 +1,60 @@
-"""Newton adapter overhead: adapter wall time against a bare Featherstone stepping loop.
+"""Newton adapter: per-step cost before and after device-side stepping, against MuJoCo; and
+the adapter's overhead over a bare Featherstone loop.
 
-For each shared case (:data:`benchmarks.overhead.CASES`) the adapter runs the scenario
-(building the model, stepping, reading the joint state, the m·Δv/dt force, the end search and
-the record); the bare loop builds the same model (same contact parameters, same initial state)
-and calls ``collide`` and ``SolverFeatherstone.step`` for as many steps
-as the adapter's record holds, reading nothing. Both are timed as the best of a few alternating
-repeats (the machine is shared). Kernel compilation is excluded (a warm-up run first).
+1. Before / after / MuJoCo. For each shared case (:data:`benchmarks.overhead.CASES`) three
+   sides run the same scenario, mode and timestep, alternating (before, after, MuJoCo) in
+   every repeat, and the medians are printed:
+
+   - before: the adapter as it was with Python-loop stepping (20-odd warp launches from Python
+     and three ``.numpy().tolist()`` copies per step), loaded from git at
+     :data:`BEFORE_COMMIT` or from the file named by ``$IMPACTBENCH_NEWTON_BEFORE`` (e.g.
+     ``git show 9d3db3b:engines/newton_adapter.py > /tmp/newton_old.py``); where neither
+     loads, the current adapter's step-by-step reference path (``graphs=False``: the same
+     kernels launched eagerly, the record still on the device), and the header says so;
+   - after: the current adapter (one warp CPU-graph launch per step, the record written on
+     the device and copied to numpy once per chunk);
+   - MuJoCo: its adapter on the same case (C++ rollout, or its Python loop where the mode
+     needs one).
+
+   ``µs/step`` is the stepping phase (the adapter's ``drive``: stepping, recording, the end
+   search) over the steps run; ``setup ms`` is the rest of the run (model build, Newton's
+   collision pipeline and its kernels, graph capture, the record). Kernel compilation is
+   excluded (a warm-up run of each side first). The ratios: before/after and after/MuJoCo
+   (target ≤ 5).
+
+2. Overhead: the adapter's stepping (its ``drive``, per step) against a bare loop over the
+   same model and initial state by the same per-step path (the two captured graphs of
+   collide + ``SolverFeatherstone.step``, replayed as many times as the adapter ran steps),
+   reading and recording nothing; the set-up times (model, collision pipeline, capture) of
+   both beside.
 
 Run: ``python -m benchmarks bench_engine_newton``.
 """
 
 from __future__ import annotations
 
+import functools
+import importlib.util
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable
+from pathlib import Path
+from types import ModuleType
 from typing import Any
 
 import numpy as np
+from impactbench.engines import mujoco_adapter
+from impactbench.engines import newton_adapter as after_module
 from impactbench.engines.base import RunSettings, get_adapter
 from impactbench.engines.common import NATIVE_REFERENCE_VELOCITY_M_S
 from impactbench.engines.newton_adapter import (
+    CONTACT_CAPACITY,
+    NARROW_PHASE_THREADS,
+    _capture,
     _newton,
     ball_model,
     contact_parameters,
@@ -26,15 +63,139 @@ from impactbench.engines.newton_adapter import (
 )
 from impactbench.reference.scenarios import BallOnPlate
 
-from benchmarks.bench_engine_mujoco import _best_pair
 from benchmarks.overhead import CASES
 
-REPEATS = 3  # a Python-stepped engine at ~10³ steps/s: a few repeats already take minutes
+REPEATS = 5  # the before side runs ~10³ steps/s: five repeats of every case take minutes
+BEFORE_COMMIT = "9d3db3bbdfb9a8189d77bf3c6b465f27b2c62e1e"
+"""The last commit whose Newton adapter stepped in a Python loop."""
+BEFORE_ENV = "IMPACTBENCH_NEWTON_BEFORE"
+
+Runner = Callable[[Any, str, RunSettings], Any]
 
 
-def bare_loop(scenario: Any, mode: str, dt: float, steps: int) -> None:
-    """The same model and initial state, stepped ``steps`` times with nothing recorded."""
-    newton = _newton()[1]
+# --------------------------------------------------------------------------- the sides
+
+
+def _load_before() -> tuple[ModuleType | None, str]:
+    """The pre-change adapter module and where it came from (None: not loadable)."""
+    path = os.environ.get(BEFORE_ENV)
+    source = f"${BEFORE_ENV} = {path}"
+    try:
+        if not path:
+            repo = Path(__file__).resolve().parent.parent
+            text = subprocess.run(
+                ["git", "show", f"{BEFORE_COMMIT}:engines/newton_adapter.py"], cwd=repo,
+                capture_output=True, text=True, check=True).stdout
+            handle = tempfile.NamedTemporaryFile("w", suffix="_newton_before.py", delete=False)
+            with handle:
+                handle.write(text)
+            path, source = handle.name, f"git {BEFORE_COMMIT[:7]}"
+        spec = importlib.util.spec_from_file_location("impactbench_newton_before", path)
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[spec.name] = module  # dataclasses look their module up
+        try:
+            spec.loader.exec_module(module)
+        finally:
+            if source.startswith("git"):
+                Path(path).unlink()
+        module.NewtonAdapter().version()
+    except Exception as exc:
+        return None, f"not loadable ({type(exc).__name__}: {exc})"
+    return module, source
+
+
+class _Timed:
+    """A side: runs a scenario, timing the whole run and its ``drive`` (the stepping)."""
+
+    def __init__(self, run: Runner, modules: tuple[ModuleType, ...]) -> None:
+        self.run, self.drive_s = run, 0.0
+        for module in modules:
+            inner = module.drive
+
+            @functools.wraps(inner)
+            def timed(*args: Any, _inner: Any = inner, **kwargs: Any) -> Any:
+                t0 = time.perf_counter()
+                try:
+                    return _inner(*args, **kwargs)
+                finally:
+                    self.drive_s += time.perf_counter() - t0
+
+            module.drive = timed
+
+    def __call__(self, scenario: Any, mode: str, settings: RunSettings) -> tuple[float, float,
+                                                                                  Any]:
+        """(wall s, drive s, record) of one run."""
+        self.drive_s = 0.0
+        t0 = time.perf_counter()
+        rec = self.run(scenario, mode, settings)
+        return time.perf_counter() - t0, self.drive_s, rec
+
+
+def _eager(scenario: Any, mode: str, settings: RunSettings) -> Any:
+    run = (after_module.run_ball if isinstance(scenario, BallOnPlate)
+           else after_module.run_rigid_flexible)
+    return run(scenario, mode, settings, graphs=False)
+
+
+def sides() -> tuple[dict[str, _Timed], str]:
+    """The three timed sides and a line saying what 'before' is."""
+    before, source = _load_before()
+    if before is not None:
+        old = before.NewtonAdapter()
+        before_side = _Timed(old.run, (before,))
+        what = f"before = Python-loop adapter ({source})"
+    else:
+        before_side = _Timed(_eager, (after_module,))
+        what = f"before = step-by-step reference path (graphs=False); old adapter {source}"
+    sides = {"before": before_side,
+             "after": _Timed(get_adapter("newton").run, (after_module,)),
+             "mujoco": _Timed(get_adapter("mujoco").run, (mujoco_adapter,))}
+    return sides, what
+
+
+def compare(repeats: int = REPEATS) -> list[dict[str, Any]]:
+    """One row per case: medians of wall and stepping time per side, alternating sides."""
+    timed, what = sides()
+    print(what)
+    rows = []
+    for label, scenario, mode, dt in CASES:
+        settings = RunSettings(timestep_s=dt)
+        steps, statuses = {}, {}
+        for name, side in timed.items():  # warm-up: kernels load or compile
+            _, _, rec = side(scenario, mode, settings)
+            steps[name], statuses[name] = int(rec.meta["steps"]), str(rec.status)
+        walls: dict[str, list[float]] = {name: [] for name in timed}
+        drives: dict[str, list[float]] = {name: [] for name in timed}
+        for _ in range(repeats):
+            for name, side in timed.items():
+                wall, drive, _ = side(scenario, mode, settings)
+                walls[name].append(wall)
+                drives[name].append(drive)
+        row: dict[str, Any] = {"case": label, "steps": steps["after"]}
+        per_step = {}
+        for name in timed:
+            per_step[name] = 1e6 * statistics.median(drives[name]) / steps[name]
+            row[f"{name} µs/step"] = per_step[name]
+        row["before/after"] = per_step["before"] / per_step["after"]
+        row["after/mujoco"] = per_step["after"] / per_step["mujoco"]
+        for name in timed:
+            row[f"{name} wall ms"] = 1e3 * statistics.median(walls[name])
+        row["after setup ms"] = 1e3 * statistics.median(
+            w - d for w, d in zip(walls["after"], drives["after"], strict=True))
+        row["status"] = "/".join(dict.fromkeys(statuses.values()))
+        if steps["before"] != steps["after"]:
+            row["status"] += f" (before {steps['before']} steps)"
+        rows.append(row)
+    return rows
+
+
+# --------------------------------------------------------------------------- overhead
+
+
+def bare_stepper(scenario: Any, mode: str, dt: float) -> Callable[[int], None]:
+    """The same model and initial state, set up for the adapter's per-step path (one captured
+    graph launch per step, collide + Featherstone step) recording nothing; returns the loop."""
+    wp, newton = _newton()
     ball = isinstance(scenario, BallOnPlate)
     values = {"ke": 0.0, "kd": 0.0, "kf": 0.0, "mu": 0.0}  # injected: ke is set per step
     if mode != "injected":
@@ -50,31 +211,71 @@ def bare_loop(scenario: Any, mode: str, dt: float, steps: int) -> None:
     s0.joint_qd.assign(np.array([-v0] if ball else [v0, 0.0], dtype=np.float32))
     newton.eval_fk(model, s0.joint_q, s0.joint_qd, s0)
     solver = newton.solvers.SolverFeatherstone(model)
-    pipeline = newton.CollisionPipeline(model)
+    pipeline = newton.CollisionPipeline(model, rigid_contact_max=CONTACT_CAPACITY)
+    pipeline.narrow_phase.total_num_threads = NARROW_PHASE_THREADS
     contacts = pipeline.contacts()
-    for _ in range(steps):
-        s0.clear_forces()
-        pipeline.collide(s0, contacts)
-        solver.step(s0, s1, control, contacts, dt)
-        s0, s1 = s1, s0
+
+    def advance(a: Any, b: Any) -> None:
+        a.clear_forces()
+        pipeline.collide(a, contacts)
+        solver.step(a, b, control, contacts, dt)
+
+    graphs = (_capture(wp, lambda: advance(s0, s1)), _capture(wp, lambda: advance(s1, s0)))
+    launch = wp.capture_launch
+
+    def loop(steps: int) -> None:
+        for i in range(steps):
+            launch(graphs[i & 1])
+
+    return loop
+
+
+def overhead(repeats: int = REPEATS) -> list[dict[str, Any]]:
+    """One row per case: the adapter's stepping (its ``drive``) against the bare loop, both
+    per step, medians over alternating repeats; and their set-up times."""
+    adapter = _Timed(get_adapter("newton").run, (after_module,))
+    rows = []
+    for label, scenario, mode, dt in CASES:
+        settings = RunSettings(timestep_s=dt)
+        _, _, rec = adapter(scenario, mode, settings)  # warm-up
+        steps = int(rec.meta["steps"])
+        drive, bare, setup, bare_setup = [], [], [], []
+        for _ in range(repeats):
+            wall, d, _ = adapter(scenario, mode, settings)
+            t0 = time.perf_counter()
+            loop = bare_stepper(scenario, mode, dt)
+            t1 = time.perf_counter()
+            loop(steps)
+            t2 = time.perf_counter()
+            drive.append(d)
+            setup.append(wall - d)
+            bare.append(t2 - t1)
+            bare_setup.append(t1 - t0)
+        a, b = statistics.median(drive), statistics.median(bare)
+        rows.append({"case": label, "steps": steps, "adapter µs/step": 1e6 * a / steps,
+                     "bare µs/step": 1e6 * b / steps, "ratio": a / b,
+                     "adapter setup ms": 1e3 * statistics.median(setup),
+                     "bare setup ms": 1e3 * statistics.median(bare_setup),
+                     "status": str(rec.status)})
+    return rows
+
+
+def _table(rows: list[dict[str, Any]]) -> str:
+    from tabulate import tabulate
+
+    return tabulate(rows, headers="keys", floatfmt=".3g")
 
 
 def main() -> None:
-    adapter = get_adapter("newton")
-    print(f"Newton {adapter.version()}: adapter vs bare Featherstone loop (best of {REPEATS})")
-    header = f"{'case':36s} {'steps':>7s} {'adapter ms':>10s} {'bare ms':>8s} {'ratio':>6s} " \
-             f"{'steps/s':>8s}"
-    print(header)
-    print("-" * len(header))
-    for label, scenario, mode, dt in CASES:
-        settings = RunSettings(timestep_s=dt)
-        rec = adapter.run(scenario, mode, settings)  # warm-up: kernels load or compile
-        steps = rec.meta["steps"]
-        t_adapter, t_bare = _best_pair(
-            lambda s=scenario, m=mode, st=settings: adapter.run(s, m, st),
-            lambda s=scenario, m=mode, h=dt, n=steps: bare_loop(s, m, h, n), REPEATS)
-        print(f"{label:36s} {steps:7d} {t_adapter * 1e3:10.1f} {t_bare * 1e3:8.1f} "
-              f"{t_adapter / t_bare:6.2f} {steps / t_adapter:8.0f} [{rec.status}]")
+    version = get_adapter("newton").version()
+    print(f"Newton {version} vs MuJoCo {get_adapter('mujoco').version()}: per-step cost, "
+          f"before and after device-side stepping (medians of {REPEATS}, sides alternating)")
+    print(_table(compare()))
+    print()
+    print(f"Newton {version}: adapter stepping (drive: graph launches, the record, the law in "
+          f"injected mode, the end search) vs a bare loop of the same graph launches "
+          f"(medians of {REPEATS})")
+    print(_table(overhead()))
 
 
 if __name__ == "__main__":

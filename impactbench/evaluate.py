@@ -40,10 +40,11 @@ def record_metrics(rec: ImpactRecord, scenario: Scenario) -> dict[str, Any]:
     ``rec.meta["not_comparable"]`` (metric → reason; e.g. a rigid contact's duration, which is
     one timestep by construction and says nothing about the physics).
     """
-    names = spec_of(scenario).metrics
+    spec = spec_of(scenario)
+    names = spec.metrics
     if rec.status not in (Status.OK, Status.MAX_TIME, Status.STRUCTURE_COLLAPSED):
         return {k: (0 if k == "impacts" else math.nan) for k in names}
-    got = metrics.compute(rec)
+    got = spec.metrics_of(rec, scenario)
     skip = rec.meta.get("not_comparable", {})
     return {k: (math.nan if k in skip else got[k]) for k in names}
 

@@ -381,9 +381,9 @@ def history(scenario: Oblique, samples: int = 2001, rtol: float = RTOL) -> Impac
     """The integrated impact as an :class:`ImpactRecord` in the scenario's tangential model.
 
     Normal quantities in the record's fields (``velocity_1_m_s`` = ẋ, the normal velocity
-    toward the plate); the tangential ones in ``meta["tangential"]`` (arrays aligned with
-    ``time_s``: ``tangential_velocity_m_s``, ``spin_rad_s``, ``tangential_force_n``,
-    ``slip_m_s``), as :func:`impactbench.reference.oblique.record_metrics` reads them.
+    toward the plate); the tangential ones in the record's tangential channels
+    (``tangential_velocity_m_s``, ``spin_rad_s``, ``tangential_force_n``; the contact point's
+    slip is v_t − R·ω), as :func:`impactbench.reference.oblique.record_metrics` reads them.
     ``samples`` nearly even samples cover the contact, each mode switch is a sample (two at a
     force jump), plus four samples of free flight on each side.
     """
@@ -426,8 +426,6 @@ def history(scenario: Oblique, samples: int = 2001, rtol: float = RTOL) -> Impac
         velocity_1_m_s=v, velocity_2_m_s=np.zeros_like(time), mass_1_kg=scenario.mass_kg,
         mass_2_kg=math.inf, status=Status.OK,
         meta={"engine": "reference", "mode": f"integrated_{scenario.tangential}",
-              "scenario": scenario.name, "parameters": scenario.to_dict(),
-              "tangential": {"tangential_velocity_m_s": vt, "spin_rad_s": w,
-                             "tangential_force_n": f_t,
-                             "slip_m_s": vt - scenario.radius_m * w}},
+              "scenario": scenario.name, "parameters": scenario.to_dict()},
+        tangential_velocity_m_s=vt, spin_rad_s=w, tangential_force_n=f_t,
     )

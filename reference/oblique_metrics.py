@@ -69,19 +69,17 @@ def record_metrics(rec: Any, scenario: Oblique) -> dict[str, float]:
 
     The normal part comes from the one metrics path
     (:func:`impactbench.reference.metrics.compute`: restitution, duration, peak force); the
-    tangential part from ``rec.meta["tangential"]``, a mapping of arrays aligned with
-    ``rec.time_s``: ``tangential_velocity_m_s`` (v_t of the centre), ``spin_rad_s`` (ω, signed
-    as :class:`Oblique`'s) and ``tangential_force_n`` (F_t on the ball). The velocities after
+    tangential part from the record's tangential channels (aligned with ``rec.time_s``):
+    ``tangential_velocity_m_s`` (v_t of the centre), ``spin_rad_s`` (ω, signed as
+    :class:`Oblique`'s) and ``tangential_force_n`` (F_t on the ball). The velocities after
     are read at the last sample (free flight after the contact)."""
     from impactbench.reference import metrics
 
-    normal = metrics.compute(rec)
-    tan = rec.meta.get("tangential", {}) if len(rec) else {}
-    if not tan:
+    if not len(rec) or rec.tangential_velocity_m_s is None or rec.spin_rad_s is None \
+            or rec.tangential_force_n is None:
         return dict.fromkeys(OBLIQUE_METRICS, math.nan)
-    vt = np.asarray(tan["tangential_velocity_m_s"], dtype=float)
-    w = np.asarray(tan["spin_rad_s"], dtype=float)
-    ft = np.asarray(tan["tangential_force_n"], dtype=float)
+    normal = metrics.compute(rec)
+    vt, w, ft = rec.tangential_velocity_m_s, rec.spin_rad_s, rec.tangential_force_n
     v_n = scenario.normal_velocity_m_s
     return metrics_of(scenario.velocity_m_s, scenario.angle_deg, scenario.spin_rad_s,
                       scenario.radius_m, normal_velocity_out=normal["restitution"] * v_n,

@@ -37,6 +37,11 @@ class Status(StrEnum):
     it (:mod:`impactbench.plausibility`), never an adapter."""
 
 
+OPTIONAL_CHANNELS = ("displacement_2_m", "tangential_velocity_m_s", "spin_rad_s",
+                     "tangential_force_n")
+"""Channels a record carries only where its scenario needs them (None otherwise)."""
+
+
 def _array(a: Any) -> np.ndarray:
     return np.ascontiguousarray(np.asarray(a, dtype=float).reshape(-1))
 
@@ -56,6 +61,10 @@ class ImpactRecord:
         message: human explanation of a non-ok status.
         displacement_2_m: optional displacement of body 2 from its rest position (m), for the
             structural energy of the 2-DOF model.
+        tangential_velocity_m_s, spin_rad_s, tangential_force_n: optional tangential channels
+            of an oblique impact: the centre's velocity along the plate (m/s, along the
+            incoming tangential direction t), the spin about n × t (rad/s; positive is forward
+            rolling) and the friction force on body 1 along t (N).
         meta: provenance (engine, engine_version, mode, timestep_s, wall_s, parameters, …).
     """
 
@@ -71,6 +80,9 @@ class ImpactRecord:
     message: str = ""
     displacement_2_m: np.ndarray | None = None
     meta: dict[str, Any] = field(default_factory=dict)
+    tangential_velocity_m_s: np.ndarray | None = None
+    spin_rad_s: np.ndarray | None = None
+    tangential_force_n: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         self.status = Status(self.status)
@@ -83,17 +95,19 @@ class ImpactRecord:
             "velocity_2_m_s",
         ):
             setattr(self, name, _array(getattr(self, name)))
-        if self.displacement_2_m is not None:
-            self.displacement_2_m = _array(self.displacement_2_m)
         n = self.time_s.size
+        for name in OPTIONAL_CHANNELS:
+            value = getattr(self, name)
+            if value is not None:
+                setattr(self, name, _array(value))
+                if getattr(self, name).size != n:
+                    raise ValueError(f"{name} has {getattr(self, name).size} samples: must "
+                                     f"match time_s ({n})")
         for name in ("penetration_m", "penetration_rate_m_s", "normal_force_n",
                      "velocity_1_m_s", "velocity_2_m_s"):
             if getattr(self, name).size != n:
                 raise ValueError(f"{name} has {getattr(self, name).size} samples: must match "
                                  f"time_s ({n})")
-        if self.displacement_2_m is not None and self.displacement_2_m.size != n:
-            raise ValueError(f"displacement_2_m has {self.displacement_2_m.size} samples: must "
-                             f"match time_s ({n})")
 
     @classmethod
     def failed(cls, status: Status | str, message: str, mass_1_kg: float = float("nan"),

@@ -137,6 +137,10 @@ class ScenarioSpec:
             to an argument group, ``f(group, with_gravity)``; "" for none.
         from_args: ``"module:function"`` (parsed args, field values) → field values: turns
             its further flags (a material, a scenario file) into fields; "" for none.
+        record_metrics: ``"module:function"`` (record, scenario) → its metrics from an
+            engine's record, where the one shared path
+            (:func:`impactbench.reference.metrics.compute`) does not give them all (the
+            oblique impact's tangential metrics); "" for that path.
         plausibility: ``"module:function"`` (scenario, record, metrics) → its plausibility
             measures, ``penetration_ratio`` and ``energy_ratio`` (NaN where a measure does not
             apply; :mod:`impactbench.plausibility`); "" for none.
@@ -168,6 +172,7 @@ class ScenarioSpec:
     report_figures: str = ""
     options: str = ""
     from_args: str = ""
+    record_metrics: str = ""
     plausibility: str = ""
     descriptions: Mapping[str, str] = field(default_factory=dict)
     studies: tuple[str, ...] = ()
@@ -199,6 +204,14 @@ class ScenarioSpec:
     def history(self, scenario: Any) -> Any:
         """The reference's time history of ``scenario`` (an ImpactRecord)."""
         return load(self.reference_history)(scenario)
+
+    def metrics_of(self, record: Any, scenario: Any) -> dict[str, Any]:
+        """The metrics of a record: the spec's own function, else the shared path."""
+        if self.record_metrics:
+            return dict(load(self.record_metrics)(record, scenario))
+        from impactbench.reference import metrics
+
+        return metrics.compute(record)
 
     def measure(self, scenario: Any, record: Any, metrics: Mapping[str, Any]) -> dict:
         """The plausibility measures of one run ({} when the spec has none)."""

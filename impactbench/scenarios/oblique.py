@@ -209,6 +209,7 @@ SPEC = ScenarioSpec(
     velocity_symbol="V",
     commands="impactbench.commands.oblique",
     reference_problem=f"{__name__}:reference_problem",
+    record_metrics=f"{__name__}:record_metrics",
     plausibility=f"{__name__}:plausibility",
     options=f"{__name__}:add_options",
     from_args=f"{__name__}:from_args",
