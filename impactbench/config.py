@@ -152,14 +152,15 @@ def _check_keys(table: dict[str, Any], allowed: set[str], prefix: str) -> None:
                              f"allowed: {', '.join(sorted(allowed))}")
 
 
-def _positive_list(key: str, value: Any) -> tuple[float, ...]:
+def _positive_list(key: str, value: Any, zero: bool = False) -> tuple[float, ...]:
+    """A list of finite numbers > 0 (>= 0 with ``zero``)."""
     if not isinstance(value, list):
         raise _fail(key, value, "must be a list of numbers")
     for v in value:
         if isinstance(v, bool) or not isinstance(v, int | float):
             raise _fail(key, value, "must be a list of numbers")
-        if not (math.isfinite(v) and v > 0):
-            raise _fail(key, v, "must be > 0 and finite")
+        if not (math.isfinite(v) and (v >= 0 if zero else v > 0)):
+            raise _fail(key, v, f"must be {'>=' if zero else '>'} 0 and finite")
     return tuple(float(v) for v in value)
 
 
@@ -207,7 +208,7 @@ def _scenario(spec: scenarios.ScenarioSpec, table: dict[str, Any],
             axes.append((a.name, _names(key, table.get(a.config_key, list(a.defaults())),
                                         a.allowed())))
         else:
-            axes.append((a.name, _positive_list(key, table.get(a.config_key, []))))
+            axes.append((a.name, _positive_list(key, table.get(a.config_key, []), a.zero)))
     return ScenarioMatrix(
         name=spec.name,
         axes=tuple(axes),

@@ -239,10 +239,12 @@ def _names(value: Any, field_name: str, choices: Iterable[str]) -> list[str]:
     return [check.one_of(field_name, v, tuple(choices)) for v in items]
 
 
-def _numbers(value: Any, field_name: str) -> list[float]:
+def _numbers(value: Any, field_name: str, zero: bool = False) -> list[float]:
     items = value if isinstance(value, list) else [value]
     if not items:
         raise ValueError(f"{field_name} = []: must hold at least one number")
+    if zero:
+        return [check.non_negative(field_name, v) for v in items]
     return [check.positive(field_name, v) for v in items]
 
 
@@ -386,7 +388,7 @@ def _expand_gate(n: int, gate: Mapping[str, Any], defaults: Mapping[str, float],
             if a.categorical:
                 values = _names(gate.get(key, a.defaults()[0]), key, a.allowed())
             elif key in gate:
-                values = _numbers(gate[key], key)
+                values = _numbers(gate[key], key, a.zero)
             elif a.name == "velocity_m_s":
                 values = list(spec.gate_velocities_m_s)
             else:

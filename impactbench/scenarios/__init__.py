@@ -72,6 +72,7 @@ class Axis:
         default: ``"module:attr"`` of the values a config table that omits the key gets
             (categorical axes); "" for none (a numeric axis then needs the key).
         short: the prefix of a numeric value in run ids and gate labels (``v`` → ``v2``).
+        zero: a numeric axis that may be 0 (an incidence angle); else its values are > 0.
     """
 
     name: str
@@ -80,6 +81,7 @@ class Axis:
     choices: str = ""
     default: str = ""
     short: str = ""
+    zero: bool = False
 
     @property
     def categorical(self) -> bool:

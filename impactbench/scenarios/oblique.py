@@ -200,7 +200,7 @@ SPEC = ScenarioSpec(
     reference_history=f"{__name__}:history",
     metrics=METRICS,
     headline=("rebound_angle_deg", "spin_out_rad_s", "tangential_restitution"),
-    axes=(Axis("angle_deg", "angles_deg", "θ (°)", short="a"),
+    axes=(Axis("angle_deg", "angles_deg", "θ (°)", short="a", zero=True),
           Axis("velocity_m_s", "velocities_m_s", "V (m/s)", short="v")),
     table="oblique",
     flags=FLAGS,
