@@ -84,7 +84,7 @@ def value_cell(row: Any) -> Cell:
 
 def _runs(rows: pd.DataFrame) -> pd.DataFrame:
     """One row per run (the tidy table has one per run and metric)."""
-    return rows.drop_duplicates(run_keys())
+    return rows.drop_duplicates([c for c in run_keys() if c in rows.columns])
 
 
 def _status_counts(runs: pd.DataFrame) -> str:
@@ -557,6 +557,163 @@ def your_timestep_section(ctx: ReportContext) -> dict[str, Any] | None:
     return your_timestep(ctx)
 
 
+# ----------------------------------------------------------------------------- real tosses
+
+
+def _section_store(cfg: Any) -> Any:
+    """The results store of a report's replays: the config's ``[execution] store``, else the
+    default one (``$IMPACTBENCH_STORE`` or the per-user cache). ``report --store`` does not
+    reach a section."""
+    from pathlib import Path
+
+    from impactbench.store import Store, default_path
+
+    path = (getattr(cfg, "execution", None) or {}).get("store")
+    return Store(Path(path) if path else default_path())
+
+
+def _quartiles(out: dict[str, Any], metric: str, fmt: str) -> Cell:
+    med, q1, q3 = (float(out.get(f"{metric}_{s}", math.nan)) for s in ("median", "q1", "q3"))
+    if not math.isfinite(med):
+        return Cell("—", "na")
+    return Cell(f"{med:{fmt}} [{q1:{fmt}}–{q3:{fmt}}]")
+
+
+def _selection_text(tosses: str) -> str:
+    return {"test": "the test split", "train": "the training split",
+            "all": "every toss"}.get(tosses, f"tosses {tosses}")
+
+
+def _picks(per_toss: list[dict[str, Any]]) -> list[tuple[str, int]]:
+    """(label, toss) of the best, the median and the worst toss by position error."""
+    ok = sorted((r for r in per_toss if r.get("status", "ok") == "ok"),
+                key=lambda r: float(r["position_error"]))
+    if not ok:
+        return []
+    picks = [("best", ok[0]), ("median", ok[len(ok) // 2]), ("worst", ok[-1])]
+    seen: set[int] = set()
+    return [(label, int(r["toss"])) for label, r in picks
+            if not (int(r["toss"]) in seen or seen.add(int(r["toss"])))]
+
+
+def _real_tosses_part(ctx: ReportContext, spec: scenarios.ScenarioSpec, sm: Any
+                      ) -> dict[str, Any]:
+    """One data-driven scenario's part of "Against real tosses" (see :func:`real_tosses`)."""
+    from impactbench.cube_tosses import plots as toss_plots
+    from impactbench.cube_tosses.scenario import trajectories
+    from impactbench.engines.registry import stdout_to_stderr
+
+    table = ctx.cfg.raw.get(spec.table, {})
+    engines = table.get("engines", list(ctx.cfg.engines))
+    modes = table.get("modes", ["default", "custom"])
+    sets = table.get("param_sets", [])
+    scenario = spec.build(parameters=sm.parameters)
+    hook = scenarios.load(spec.replay)
+    store = _section_store(ctx.cfg)
+    which = _selection_text(scenario.tosses)
+    rows, cdf, done = [], [], []
+    for engine in engines:
+        why = hook(engine, scenario, "default", check_only=True)
+        if why:  # no replay in this engine at all: one row
+            rows.append([Cell(engine), Cell("all"), Cell("—"), Cell("unsupported", "fail"),
+                         Cell("—", "na"), Cell("—", "na"), Cell("—", "na"),
+                         Cell(why, wrap=True)])
+            continue
+        for mode in modes:
+            choices: list[str | None] = [None]
+            if mode == "custom":
+                choices = []
+                for name in sets:
+                    try:
+                        if hook(engine, scenario, mode, param_set=name, check_only=True) == "":
+                            choices.append(name)
+                    except ValueError:
+                        pass  # this engine has no such set
+            for param_set in choices:
+                with stdout_to_stderr():
+                    out = hook(engine, scenario, mode, param_set=param_set, store=store)
+                status = str(out["status"])
+                numbers = status in ("ok", "partial")
+                label = f"{engine} {mode}" + (f" {param_set}" if param_set else "")
+                n_ok = out["tosses"] - len(out.get("failed") or [])
+                rows.append([
+                    Cell(f"{engine} {out.get('engine_version') or ''}".strip()), Cell(mode),
+                    Cell(param_set or "—"),
+                    Cell(f"{n_ok}/{out['tosses']}" if numbers else status,
+                         "" if status == "ok" else "fail"),
+                    _quartiles(out, "position_error", ".3f") if numbers else Cell("—", "na"),
+                    _quartiles(out, "rotation_error_deg", ".1f") if numbers
+                    else Cell("—", "na"),
+                    Cell(f"{out['position_error_mean']:.3f} / "
+                         f"{out['rotation_error_deg_mean']:.1f}") if numbers
+                    else Cell("—", "na"),
+                    Cell(str(out.get("message") or ""), wrap=True)])
+                if numbers:
+                    cdf.append((label, engine, mode, out["per_toss"]))
+                    done.append((label, engine, mode, param_set, out))
+    step = next((o for *_, o in done), {})
+    dt = float(step.get("timestep_s") or math.nan)
+    dt_text = (f"1/{round(1 / dt)} s" if abs(1 / dt - round(1 / dt)) < 1e-6 / dt
+               else f"{dt:.4g} s") if math.isfinite(dt) and dt > 0 else ""
+    how = (f"{which} ({len(cdf[0][3]) if cdf else 0} tosses), "
+           f"{'packaged ContactNets data' if not scenario.data else scenario.data}; "
+           f"DAIR's protocol" + (f", dt = {dt_text}" if dt_text else ""))
+    figures, trajs = [], []
+    stem = spec.figure_stem or spec.name.replace("-", "_")
+    if cdf:
+        path = toss_plots.error_cdf(cdf, how, ctx.fig_dir / f"report_{stem}_error_cdf.png")
+        figures.append(ctx.add_figure(path, f"Cumulative distribution of the errors across "
+                                      f"tosses, {spec.title.lower()}; {how}",
+                                      f"real_tosses:{spec.name}"))
+    for label, engine, mode, param_set, out in done:
+        picks = _picks(out["per_toss"])
+        with stdout_to_stderr():
+            got = trajectories(engine, scenario, mode, [t for _, t in picks],
+                               param_set=param_set)
+        name = "_".join(x for x in (stem, engine, mode, param_set) if x)
+        title = f"Measured and simulated, {label}"
+        path = toss_plots.trajectories(got, [p for p, _ in picks], engine, title, how,
+                                       ctx.fig_dir / f"report_{name}_trajectories.png")
+        trajs.append(ctx.add_figure(path, f"{title}: the best, median and worst toss by "
+                                    f"position error; {how}", f"real_tosses:{spec.name}"))
+    columns = ["engine", "mode", "parameter set", "tosses ok",
+               "position error / width: median [q1–q3]",
+               "rotation error (°): median [q1–q3]", "mean: position / rotation", "note"]
+    intro = (f"{spec.title}: {spec.summary}. Replayed: {which} of "
+             + ("the packaged ContactNets tosses (DAIR Lab, BSD-3; 89 test and 367 training "
+                "tosses by a hash of the toss id)" if not scenario.data
+                else f"`{scenario.data}`")
+             + f", cube h = {scenario.half_width_m:g} m, m = {scenario.mass_kg:g} kg, "
+             f"I = {scenario.inertia_kg_m2:g} kg·m². Each toss starts from its measured state "
+             "3 samples before the cube first comes within reach of the board (velocities "
+             "refitted from the free flight, DAIR's protocol) and runs to the end of the "
+             "recording; a toss's errors are the time means of |Δp| over the cube's width 2h "
+             "and of the rotation angle between the simulated and measured orientations. "
+             "Per engine: `default` is the engine out of the box at the protocol's step; "
+             "`custom` with a parameter set applies its published values (`dair2022`: "
+             "Acosta, Yang & Posa, RA-L 2022, fitted on all tosses, the test split included, "
+             "so their test errors are not held out).")
+    return {"title": f"{spec.title}: {which}", "intro": intro,
+            "table": Table(columns, rows, text_columns=3, prose_columns=1),
+            "cdf": figures, "trajectories": trajs}
+
+
+def real_tosses(ctx: ReportContext) -> dict[str, Any] | None:
+    """"Against real tosses": for each data-driven scenario (a spec with a ``replay`` hook)
+    whose table the config has (``[cube_toss]``: ``engines``, ``modes``, ``param_sets`` and the
+    scenario's fields, ``tosses`` the test split by default), per engine, mode and parameter
+    set the tosses' median and quartiles of position and rotation error, their cumulative
+    distribution across tosses, and measured against simulated trajectories (height and
+    rotation against time) of a best, a median and a worst toss. The replays go through the
+    results store (:func:`_section_store`)."""
+    parts = []
+    for spec in scenarios.specs():
+        sm = next((s for s in ctx.cfg.scenarios if s.name == spec.name), None)
+        if spec.replay and sm is not None:
+            parts.append(_real_tosses_part(ctx, spec, sm))
+    return {"parts": parts} if parts else None
+
+
 def sections() -> list[Section]:
     """The report in reading order: one section per registered scenario after the
     scoreboard. Insert a :class:`Section` here to add one."""
@@ -566,6 +723,7 @@ def sections() -> list[Section]:
         Section("how_to_read", "How to read it", how_to_read),
         *(Section("scenario", spec.title, partial(scenario_section, spec.name))
           for spec in scenarios.specs()),
+        Section("real_tosses", "Against real tosses", real_tosses),
         Section("practical", "At practical timesteps", practical_section),
         Section("work_precision", "Work–precision", work_precision),
         Section("meaning", "What this means", meaning),

@@ -7,6 +7,7 @@ scheduler) too; the others are closed forms.
 """
 
 FIGURE_MODULES: tuple[str, ...] = ("impactbench.figures.hunt_crossley",
+                                   "impactbench.figures.oblique",
                                    "impactbench.figures.rigid_flexible",
                                    "impactbench.figures.zoo")
 SOLVING_MODULES: frozenset[str] = frozenset({"impactbench.figures.rigid_flexible"})

@@ -9,8 +9,6 @@ Mindlin law, integrated (``tangential = "mindlin"``,
 the normal) and impact speed V (m/s). Its subcommand (``reference oblique``) is in
 :mod:`impactbench.commands.oblique`.
 
-Not registered in :data:`impactbench.scenarios.BUILTIN` yet: no engine has a builder for it,
-so a registered scenario would fill the default report with ``unsupported`` rows.
 """
 
 from __future__ import annotations
@@ -210,8 +208,80 @@ SPEC = ScenarioSpec(
     commands="impactbench.commands.oblique",
     reference_problem=f"{__name__}:reference_problem",
     record_metrics=f"{__name__}:record_metrics",
+    report_figures=f"{__name__}:report_figures",
     plausibility=f"{__name__}:plausibility",
     options=f"{__name__}:add_options",
     from_args=f"{__name__}:from_args",
     descriptions=DESCRIPTIONS,
 )
+
+
+FIGURE_METRICS = (("rebound_angle_deg", "rebound angle (°)"),
+                  ("spin_out_rad_s", "spin after (rad/s)"),
+                  ("tangential_restitution", "tangential restitution (–)"))
+"""The quantities of the oblique figures, against incidence angle."""
+
+
+def angle_figure(df: Any, scenario: Any, path: Any, how: str, kharaz: bool = False) -> Any:
+    """Rebound angle, spin and tangential restitution against incidence angle: both
+    references (rigid Coulomb, closed form; Mindlin, integrated) as curves, every engine and
+    mode of ``df``'s oblique rows at ``scenario``'s speed as points, and Kharaz et al.'s
+    measurements when ``kharaz`` (the experiment's own sphere)."""
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    from impactbench.plots import ENGINE_COLORS, MODE_MARKERS, _save
+    from impactbench.reference import oblique
+
+    fine = np.linspace(0.0, 85.0, 69)
+    rigid = oblique.sweep(scenario.replace(tangential="rigid"), fine)
+    coarse = np.linspace(0.0, 85.0, 18)
+    mindlin = oblique.sweep(scenario.replace(tangential="mindlin"), coarse)
+    fig, axes = plt.subplots(1, 3, figsize=(13.5, 4.2))
+    for ax, (key, label) in zip(axes, FIGURE_METRICS, strict=True):
+        ax.plot(rigid.angle_deg, rigid[key], color="black", lw=2, label="rigid Coulomb")
+        ax.plot(mindlin.angle_deg, mindlin[key], color="black", lw=1.5, ls="--",
+                label="Mindlin (compliant)")
+        if kharaz:
+            from impactbench.reference import kharaz2001
+
+            pts = kharaz2001.points(key)
+            ax.plot(pts.angle_deg, pts.value, "s", color="0.45", ms=5, mfc="none",
+                    label="Kharaz et al. 2001")
+        rows = df[(df.scenario == NAME) & (df.metric == key) & (df.status == "ok")] \
+            if len(df) else df
+        for (engine, mode), g in rows.groupby(["engine", "mode"]) if len(rows) else ():
+            g = g[np.isclose(g.velocity_m_s.astype(float), scenario.velocity_m_s)]
+            g = g.sort_values("angle_deg")
+            ax.plot(g.angle_deg, g.value.astype(float), MODE_MARKERS.get(mode, "o"),
+                    ls="none", ms=6, color=ENGINE_COLORS.get(engine),
+                    mfc="none" if mode == "native" else ENGINE_COLORS.get(engine),
+                    label=f"{engine} {mode}")
+        ax.set_xlabel("incidence angle θ (°)")
+        ax.set_ylabel(label)
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=7, ncol=1)
+    what = "references and engines" if len(df) else \
+        ("references and measurements" if kharaz else "references")
+    fig.suptitle(f"Oblique impact, V = {scenario.velocity_m_s:g} m/s, μ = "
+                 f"{scenario.friction:g}: {what}\n{how}", fontsize=9)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def report_figures(ctx: Any, spec: ScenarioSpec, runs: list, loops: list) -> None:
+    """The oblique figures: per configured speed, the quantities against incidence angle
+    beside both references."""
+    from impactbench.report import modes_text, timestep_text
+
+    if not runs:
+        return
+    sm = next((s for s in ctx.cfg.scenarios if s.name == spec.name), None)
+    params = sm.parameters if sm is not None else {}
+    for v in sorted({r.job.velocity_m_s for r in runs}):
+        at = [r for r in runs if r.job.velocity_m_s == v]
+        scenario = spec.build((("angle_deg", 0.0), ("velocity_m_s", v)), params)
+        how = f"{modes_text(at)}; {timestep_text(at)}"
+        path = angle_figure(ctx.df, scenario, ctx.fig_dir / f"report_oblique_v{v:g}.png", how)
+        ctx.add_figure(path, f"Rebound angle, spin and tangential restitution against "
+                       f"incidence angle, V = {v:g} m/s; {how}", f"extra:{spec.name}")
