@@ -46,8 +46,25 @@ stiffness m2·(2πf)² = k2; the softening structure's +β·x2³ is an applied f
   applied as −F1 to body 1, +F1 to body 2.
 - ``default`` (restitution 0: plastic), ``custom``, ``tuned``: as for the ball.
 
+Oblique impact (gravity off): the ball is a circle with the *sphere's* moment of inertia
+(2/5)·m·R² — a sphere's oblique impact on a plane is planar, so the circle carries its motion
+exactly and the sphere's references apply (a disc, k² = R²/2, would need references the
+scenario does not have yet) — moving along +x and −y; spin ω = −angularVelocity (about
+n × t = −z). The plate circle's top sits under the point of first touch (its curvature tilts
+the normal by the ball's travel over 1 m). Friction: Box2D's Coulomb in the rigid contact, the
+pair's μ = √(μ_ball·μ_plate) (both fixtures μ). Tangential force: the contact's own impulses
+on the ball (``PostSolve``'s normal and tangent impulses along the world manifold) / dt.
+
+- ``native``: the ball's native restitution and μ: the rigid Coulomb theory with the contact's
+  own restitution — 0 at normal velocities ≤ 1 m/s (the threshold: 60° and 80° at 2 m/s).
+- ``injected``: no fixture; the normal law and ideal Coulomb friction (−s·m_s/dt clipped to
+  ±μ·F_n, :func:`impactbench.engines.stepping.coulomb_force`) as a force and torque at the
+  contact point from the step's start state.
+- ``default``: Box2D's defaults (restitution 0) with the scenario's μ; ``custom``: that plus
+  ``settings.params``; ``tuned``: ``unsupported``.
+
 The run loop and stopping rules are :mod:`impactbench.engines.stepping`'s. Default timesteps:
-ball 1e-6 s, rigid–flexible 1e-5 s.
+ball and oblique 1e-6 s, rigid–flexible 1e-5 s.
 """
 
 from __future__ import annotations
@@ -59,6 +76,7 @@ from impactbench.engines import stepping
 from impactbench.engines.base import EngineUnavailable, RunSettings, Scenario
 from impactbench.engines.common import native_ball_restitution, reference_velocity
 from impactbench.reference import validation as check
+from impactbench.reference.oblique_scenario import Oblique
 from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
 
 PARAMETERS: dict[str, Any] = {
@@ -130,19 +148,22 @@ class Box2dWorld:
         self.iterations = (params["velocity_iterations"], params["position_iterations"])
 
     def circle(self, position: tuple[float, float], radius: float, mass: float,
-               restitution: float | None, static: bool = False) -> Any:
-        """A circle body; ``restitution`` ``None``: no fixture (injected forces only)."""
+               restitution: float | None, static: bool = False,
+               inertia: float | None = None) -> Any:
+        """A circle body; ``restitution`` ``None``: no fixture (injected forces only);
+        ``inertia`` None: fixed rotation, else its moment of inertia (kg·m²)."""
         w = self.world
         if static:
             body = w.CreateStaticBody(position=position)
         else:
-            body = w.CreateDynamicBody(position=position, fixedRotation=True, bullet=False)
+            body = w.CreateDynamicBody(position=position, fixedRotation=inertia is None,
+                                       bullet=False)
         if restitution is not None:
             body.CreateCircleFixture(radius=radius, density=1.0, restitution=restitution,
                                      friction=self.params["friction"])
         if not static:
             data = body.massData
-            data.mass, data.I = mass, 0.0
+            data.mass, data.I = mass, 0.0 if inertia is None else inertia
             body.massData = data
         return body
 
@@ -168,6 +189,33 @@ class Box2dWorld:
 
         self._listener = Listener()
         self.world.contactListener = self._listener
+
+    def listen_body(self, body: Any) -> None:
+        """As :meth:`listen`, and also sum the impulse the contacts apply to ``body`` along
+        x (``tangential``): each point's normal and tangent impulses along the world
+        manifold's normal n (from fixture A to B) and Box2D's tangent (n_y, −n_x), which
+        push body B and pull body A."""
+        b2 = self.b2
+
+        class Listener(b2.b2ContactListener):
+            impulse = 0.0
+            tangential = 0.0
+
+            def PostSolve(self, contact: Any, impulse: Any) -> None:  # Box2D names it
+                n = contact.manifold.pointCount
+                world = contact.worldManifold  # kept: .normal points into it (SWIG)
+                normal = tuple(world.normal)
+                jn, jt = sum(impulse.normalImpulses[:n]), sum(impulse.tangentImpulses[:n])
+                sign = 1.0 if contact.fixtureB.body == body else -1.0
+                self.impulse += jn
+                self.tangential += sign * (normal[0] * jn + normal[1] * jt)
+
+        self._listener = Listener()
+        self.world.contactListener = self._listener
+
+    def tangential_force_n(self) -> float:
+        """The last step's contact impulse on the listened body along x / dt (N)."""
+        return self._listener.tangential / self.dt
 
     def advance(self) -> None:
         """One step with the impulse sum reset first."""
@@ -259,6 +307,55 @@ class PairModel(stepping.WorldModel):
         return f
 
 
+class ObliqueModel:
+    """The oblique impact in the x–y plane: the ball (a circle with the sphere's moment of
+    inertia) moving along +x and −y onto the plate circle; ``contact`` set: no fixture and
+    the injected normal law and Coulomb friction act at the contact point."""
+
+    def __init__(self, scenario: Oblique, params: dict[str, Any], dt: float,
+                 contact: stepping.CoulombContact | None = None) -> None:
+        self.w = w = Box2dWorld(params, dt, 0.0)
+        self.radius = radius = scenario.radius_m
+        self.plate_thickness_m = 2.0 * PLATE_RADIUS_M
+        gap = stepping.gap_m(scenario.normal_velocity_m_s, dt)
+        # the plate circle's top (y = −R) right under the point of first touch, where its
+        # normal is the plate's: its curvature tilts the normal by the ball's travel / 1 m
+        touch = scenario.tangential_velocity_m_s * gap / scenario.normal_velocity_m_s
+        w.circle((touch, -radius - PLATE_RADIUS_M), PLATE_RADIUS_M, 0.0,
+                 PLATE_RESTITUTION, static=True)
+        self.body = w.circle((0.0, gap), radius,
+                             scenario.mass_kg,
+                             None if contact is not None else params["restitution"],
+                             inertia=scenario.moment_of_inertia_kg_m2)
+        self.body.linearVelocity = (scenario.tangential_velocity_m_s,
+                                    -scenario.normal_velocity_m_s)
+        self.body.angularVelocity = -scenario.spin_rad_s  # spin about n × t = −z
+        self.contact = contact
+        self.impulsive = contact is None  # Box2D contacts are rigid
+        if self.impulsive:
+            w.listen_body(self.body)
+
+    def state(self) -> tuple[float, float, float, float]:
+        (vx, vy), body = self.body.linearVelocity, self.body
+        return -body.position[1], -vy, vx, -body.angularVelocity
+
+    def step(self) -> tuple[float, float]:
+        """One step; returns (F_n, F_t): the injected forces, or the engine's contact
+        impulses / dt (normal, and the friction impulse on the ball along x)."""
+        if self.contact is None:
+            w = self.w
+            w._listener.tangential = 0.0
+            w.advance()
+            return w.contact_force_n(), w.tangential_force_n()
+        fn, ft = self.contact.forces(*self.state())
+        if fn > 0.0:
+            body = self.body
+            body.ApplyForceToCenter((ft, fn), True)
+            body.ApplyTorque(self.radius * ft, True)  # (0, −R) × (F_t, F_n) along z
+        self.w.step()
+        return fn, ft
+
+
 class Box2dAdapter(stepping.SteppedAdapter):
     """Box2D 2.3: rigid contacts (1 m/s restitution threshold) natively; injected forces."""
 
@@ -267,8 +364,11 @@ class Box2dAdapter(stepping.SteppedAdapter):
     parameter_keys = tuple(PARAMETERS)
     ball_model = BallModel
     pair_model = PairModel
+    oblique_model = ObliqueModel
     injection = ("cannot: Box2D's contacts are rigid impulses with no compliance; the law is a "
-                 "force on the body (no fixture) integrated by Box2D's semi-implicit Euler step")
+                 "force on the body (no fixture) integrated by Box2D's semi-implicit Euler step"
+                 "; oblique: Coulomb friction is a force too (the contact is off with the "
+                 "normal law), −s·m_s/dt clipped to ±μ·F_n at the contact point")
 
     def version(self) -> str:
         return str(_import_box2d().__version__)
@@ -276,6 +376,12 @@ class Box2dAdapter(stepping.SteppedAdapter):
     def parameters(self, scenario: Scenario, mode: str, settings: RunSettings, ball: bool
                    ) -> tuple[dict[str, Any], dict[str, Any]]:
         params, meta = parameters(scenario, mode, settings, ball)
+        meta["build_constants"] = build_constants()
+        return params, meta
+
+    def oblique_parameters(self, scenario: Oblique, mode: str, settings: RunSettings
+                           ) -> tuple[dict[str, Any], dict[str, Any]]:
+        params, meta = oblique_parameters(scenario, mode, settings)
         meta["build_constants"] = build_constants()
         return params, meta
 
@@ -312,3 +418,54 @@ def parameters(scenario: Scenario, mode: str, settings: RunSettings, ball: bool
         meta["tuned"] = tuned
     meta["restitution"] = native["restitution"]
     return native, meta
+
+
+FRICTION_MODEL = ("Coulomb in the rigid velocity-level contact (sequential impulses: the "
+                  "friction impulse clamped to ±μ times the step's normal impulse)")
+FRICTION_COMBINATION = "geometric"
+"""b2MixFriction: the pair's μ = √(μ_ball·μ_plate); both fixtures get μ."""
+
+
+def oblique_parameters(scenario: Oblique, mode: str, settings: RunSettings
+                       ) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The complete Box2D parameter set of the oblique impact for ``mode`` and its meta (the
+    friction facts in ``meta["engine_defaults"]``).
+
+    The ball is a circle with the sphere's moment of inertia (2/5)·m·R²: an oblique impact
+    of a sphere on a plane is planar, so the circle carries exactly the sphere's motion.
+    ``default``: Box2D's fixture defaults and the manual's iterations, with the scenario's μ
+    on both fixtures (the pair's √(μ·μ) = μ); ``custom``: that plus ``settings.params``;
+    ``native``: the ball's native restitution (at the reference velocity) and μ;
+    ``injected``: no fixtures, the normal law and Coulomb friction as forces."""
+    defaults = engine_defaults()
+    mu = scenario.friction
+    inertia = scenario.moment_of_inertia_kg_m2
+    rigid = {"contact": "rigid", "not_comparable": stepping.RIGID_OBLIQUE_ARTEFACTS}
+    threshold = float(_import_box2d().b2_velocityThreshold)
+    if mode in ("default", "custom"):
+        own = stepping.engine_params("params", settings.params, PARAMETERS) \
+            if mode == "custom" else {}
+        params = {**defaults, "friction": mu, **own}
+        facts = stepping.friction_facts(FRICTION_MODEL, FRICTION_COMBINATION,
+                                        params["friction"], params["friction"],
+                                        params["friction"], moment_of_inertia_kg_m2=inertia)
+        meta = {**rigid, "restitution": params["restitution"],
+                "engine_defaults": {**defaults, **facts}}
+        if mode == "custom":
+            meta["params"] = own
+        return params, meta
+    native = {**defaults, "friction": mu}
+    if mode == "injected":
+        facts = stepping.friction_facts(stepping.INJECTED_FRICTION, "none", mu, mu, mu,
+                                        moment_of_inertia_kg_m2=inertia)
+        return native, {"contact": "injected forces (no fixtures)",
+                        "injected_law": scenario.model, "engine_defaults": facts}
+    v_ref = reference_velocity(settings.options)
+    native["restitution"] = native_ball_restitution(scenario.normal_scenario(), v_ref)
+    facts = stepping.friction_facts(FRICTION_MODEL, FRICTION_COMBINATION, mu, mu, mu,
+                                    moment_of_inertia_kg_m2=inertia, **ITERATIONS)
+    return native, {**rigid, "reference_velocity_m_s": v_ref,
+                    "restitution": native["restitution"], "engine_defaults": facts,
+                    "not_expressible": ("contact stiffness and damping (Box2D contacts are "
+                                        f"rigid); any bounce at a normal velocity at or below "
+                                        f"{threshold:g} m/s")}

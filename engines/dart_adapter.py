@@ -44,8 +44,20 @@ softening structure's +β·x2³ a joint force each step.
   memory, then ``law.update(Δx)``) as joint forces −F1 on body 1, +F1 on body 2.
 - ``default`` (restitution 0: a plastic first impact), ``custom``, ``tuned``: as for the ball.
 
+Oblique impact (gravity off): a sphere with its own moment of inertia on a ``PlanarJoint``
+(z of the centre, x, rotation about +y = n × t) above the plate. Friction: DART's boxed-LCP
+Coulomb, the pair's μ the smaller of the two shapes' ``friction_coeff`` (measured; both get μ).
+Tangential force: DART's own ``Contact.force`` (impulse / dt) along x, taken on the ball.
+
+- ``native``: the ball's native restitution and μ: the rigid Coulomb theory with the
+  contact's own restitution.
+- ``injected``: no collision; the normal law and ideal Coulomb friction (−s·m_s/dt clipped to
+  ±μ·F_n, :func:`impactbench.engines.stepping.coulomb_force`) as joint forces and torque.
+- ``default``: DART's defaults (restitution 0) with the scenario's μ; ``custom``: that plus
+  ``settings.params``; ``tuned``: ``unsupported``.
+
 The run loop and stopping rules are :mod:`impactbench.engines.stepping`'s. Default timesteps:
-ball 1e-6 s, rigid–flexible 1e-5 s.
+ball and oblique 1e-6 s, rigid–flexible 1e-5 s.
 """
 
 from __future__ import annotations
@@ -56,6 +68,7 @@ from impactbench.engines import stepping
 from impactbench.engines.base import EngineUnavailable, RunSettings, Scenario
 from impactbench.engines.common import native_ball_restitution, reference_velocity
 from impactbench.reference import validation as check
+from impactbench.reference.oblique_scenario import Oblique
 from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
 
 COLLISION_DETECTORS: tuple[str, ...] = ("fcl", "dart", "bullet", "ode")
@@ -247,6 +260,68 @@ class PairModel(stepping.WorldModel):
         return f
 
 
+class ObliqueModel:
+    """The oblique impact in the z–x plane: the ball (a sphere with its own moment of
+    inertia) on a ``PlanarJoint`` (q = z of the centre, x, rotation about +y) moving along
+    +x and −z onto the plate; ``contact`` set: no collision aspect and the injected normal
+    law and Coulomb friction act as joint forces (F_n, F_t and the torque −R·F_t)."""
+
+    def __init__(self, scenario: Oblique, params: dict[str, Any], dt: float,
+                 contact: stepping.CoulombContact | None = None) -> None:
+        import numpy as np
+
+        self.w = w = DartWorld(params, dt, 0.0, axis=2)
+        d = w.dart.dynamics
+        self.radius = radius = scenario.radius_m
+        self.plate_thickness_m = 2.0
+        w.wall([0.0, 0.0, -radius - 1.0], 1.0)  # top face z = −R
+        self.skeleton = skeleton = d.Skeleton("ball")
+        self.joint, body = skeleton.createPlanarJointAndBodyNodePair()
+        self.joint.setZXPlane()  # dofs: z, x, rotation about +y (= n × t)
+        node = body.createShapeNode(d.SphereShape(radius))
+        if contact is None:
+            node.createCollisionAspect()
+            aspect = node.createDynamicsAspect()
+            aspect.setRestitutionCoeff(params["restitution_coeff"])
+            aspect.setFrictionCoeff(params["friction_coeff"])
+        inertia = d.Inertia()
+        inertia.setMass(scenario.mass_kg)
+        inertia.setMoment(np.eye(3) * scenario.moment_of_inertia_kg_m2)
+        body.setInertia(inertia)
+        w.world.addSkeleton(skeleton)
+        skeleton.setPositions([stepping.gap_m(scenario.normal_velocity_m_s, dt), 0.0, 0.0])
+        skeleton.setVelocities([-scenario.normal_velocity_m_s,
+                                scenario.tangential_velocity_m_s, scenario.spin_rad_s])
+        self.contact = contact
+        self.impulsive = contact is None  # DART contacts are rigid
+
+    def state(self) -> tuple[float, float, float, float]:
+        q, u = self.skeleton.getPositions(), self.skeleton.getVelocities()
+        return -float(q[0]), -float(u[0]), float(u[1]), float(u[2])
+
+    def step(self) -> tuple[float, float]:
+        """One step; returns (F_n, F_t): the injected forces, or the engine's contact forces
+        on the ball (``Contact.force``, impulse / dt: Σ|F_z| and Σ F_x, each contact's force
+        taken on the ball, the body it pushes up)."""
+        if self.contact is None:
+            self.w.world.step()
+            fn = ft = 0.0
+            for c in self.w.world.getLastCollisionResult().getContacts():
+                f = c.force
+                sign = 1.0 if f[2] >= 0.0 else -1.0
+                fn += sign * float(f[2])
+                ft += sign * float(f[0])
+            return fn, ft
+        fn, ft = self.contact.forces(*self.state())
+        if fn > 0.0:
+            joint = self.joint
+            joint.setForce(0, fn)
+            joint.setForce(1, ft)
+            joint.setForce(2, -self.radius * ft)  # (0, 0, −R) × (F_t, 0, F_n) along y
+        self.w.world.step()
+        return fn, ft
+
+
 class DartAdapter(stepping.SteppedAdapter):
     """DART 6: rigid LCP contacts natively; injected laws as joint forces."""
 
@@ -255,8 +330,11 @@ class DartAdapter(stepping.SteppedAdapter):
     parameter_keys = tuple(PARAMETERS)
     ball_model = BallModel
     pair_model = PairModel
+    oblique_model = ObliqueModel
     injection = ("cannot: DART's contacts are rigid LCP impulses with no compliance; the law is "
-                 "a joint force (collision off) integrated by DART's semi-implicit Euler step")
+                 "a joint force (collision off) integrated by DART's semi-implicit Euler step; "
+                 "oblique: Coulomb friction is a joint force and torque too (no contact with "
+                 "the normal law), −s·m_s/dt clipped to ±μ·F_n")
 
     def version(self) -> str:
         return str(_import_dart().__version__)
@@ -264,6 +342,10 @@ class DartAdapter(stepping.SteppedAdapter):
     def parameters(self, scenario: Scenario, mode: str, settings: RunSettings, ball: bool
                    ) -> tuple[dict[str, Any], dict[str, Any]]:
         return parameters(scenario, mode, settings, ball)
+
+    def oblique_parameters(self, scenario: Oblique, mode: str, settings: RunSettings
+                           ) -> tuple[dict[str, Any], dict[str, Any]]:
+        return oblique_parameters(scenario, mode, settings)
 
 
 def parameters(scenario: Scenario, mode: str, settings: RunSettings, ball: bool
@@ -298,3 +380,56 @@ def parameters(scenario: Scenario, mode: str, settings: RunSettings, ball: bool
         meta["tuned"] = tuned
     meta["restitution"] = native["restitution_coeff"]
     return native, meta
+
+
+FRICTION_MODEL = ("Coulomb in the rigid LCP (boxed: the friction impulse within ±μ times the "
+                  "normal impulse, a pyramid of two tangent directions)")
+FRICTION_COMBINATION = "min"
+"""DART's pair friction is the smaller of the two shapes' ``friction_coeff`` (measured): both
+shapes get μ."""
+
+
+def oblique_parameters(scenario: Oblique, mode: str, settings: RunSettings
+                       ) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The complete DART parameter set of the oblique impact for ``mode`` and its meta (the
+    friction facts in ``meta["engine_defaults"]``).
+
+    ``default``: DART's defaults (restitution 0 on both shapes) with the scenario's μ as both
+    shapes' ``friction_coeff``; ``custom``: that, the plate's restitution 1 (the pair's
+    product is the user's value) and ``settings.params``; ``native``: the ball's native
+    restitution (at the reference velocity) and μ; ``injected``: no collision, the normal law
+    and Coulomb friction as joint forces."""
+    defaults = engine_defaults()
+    mu = scenario.friction
+    inertia = scenario.moment_of_inertia_kg_m2
+    rigid = {"contact": "rigid", "not_comparable": stepping.RIGID_OBLIQUE_ARTEFACTS}
+    neutral = {"plate_restitution_coeff": 1.0}
+    if mode in ("default", "custom"):
+        own = stepping.engine_params("params", settings.params, PARAMETERS) \
+            if mode == "custom" else {}
+        plate = neutral if mode == "custom" else \
+            {"plate_restitution_coeff": defaults["restitution_coeff"]}
+        params = {**defaults, **plate, "friction_coeff": mu, **own}
+        f = params["friction_coeff"]
+        facts = stepping.friction_facts(FRICTION_MODEL, FRICTION_COMBINATION, f, f, f,
+                                        moment_of_inertia_kg_m2=inertia)
+        meta = {**rigid, "engine_defaults": {**defaults, **facts},
+                "restitution": params["restitution_coeff"] * params["plate_restitution_coeff"]}
+        if mode == "custom":
+            meta["params"] = own
+        return params, meta
+    native = {**defaults, **neutral, "friction_coeff": mu}
+    if mode == "injected":
+        facts = stepping.friction_facts(stepping.INJECTED_FRICTION, "none", mu, mu, mu,
+                                        moment_of_inertia_kg_m2=inertia)
+        return native, {"contact": "injected joint forces (no collision)",
+                        "injected_law": scenario.model, "engine_defaults": facts}
+    v_ref = reference_velocity(settings.options)
+    native["restitution_coeff"] = native_ball_restitution(scenario.normal_scenario(), v_ref)
+    facts = stepping.friction_facts(FRICTION_MODEL, FRICTION_COMBINATION, mu, mu, mu,
+                                    moment_of_inertia_kg_m2=inertia,
+                                    collision_detector=native["collision_detector"],
+                                    split_impulse=native["split_impulse"])
+    return native, {**rigid, "reference_velocity_m_s": v_ref,
+                    "restitution": native["restitution_coeff"], "engine_defaults": facts,
+                    "not_expressible": "contact stiffness and damping (DART contacts are rigid)"}

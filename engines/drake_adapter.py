@@ -94,6 +94,31 @@ Measurement and stopping
     the
     ball; + structural potential for the 2-DOF model) at the end against the start.
 
+Oblique impact (MODELS.md §3; frame and channels of :mod:`impactbench.engines.oblique_common`)
+    A free sphere (quaternion floating joint: q = [quaternion, position], v = [ω, v] in the
+    world frame) over the plate box, gravity off. Friction facts (the pair rule 2ab/(a + b),
+    the effective μ read back from the scene graph's properties, the stiction tolerance, the
+    discrete approximation read back from the plant) go to ``meta["engine_defaults"]``.
+
+    * native: the continuous plant with the ball's point contact (k, d = b) and
+      ``CoulombFriction(μ, μ)`` on both geometries; friction is Drake's regularised Stribeck
+      model with the stiction tolerance 1e-4 m/s (Drake's default; ``options
+      ["stiction_tolerance"]`` overrides it). Its slope 2μ·F_n/v_s is far stiffer than one RK3
+      step at 1e-6 s can follow, so in the stick phase the slip chatters at ~1e-2 m/s and the
+      sampled friction force flips between ±μ·F_n (its samples do not sum to the tangential
+      impulse); the chatter averages out: velocities within 1.4e-3 of the rigid theory.
+    * injected: no collision geometry; a LeafSystem applies the normal law along +z and
+      Coulomb friction along +x at the contact point (torque −R·F_t about +y) as a generalized
+      force, F_t = −μ·F_n·s/max(|s|, v_s) with v_s = 3.5·μ·F_n·dt/m, inside which the slip
+      decays at the rate 1/dt (RK3 damps it monotonically; the rigid limit as dt → 0).
+      Measured against the rigid reference (2 m/s, μ 0.3, dt 1e-6 s, 20°–80°): restitution
+      ≤ 4.8e-6, tangential restitution ≤ 7.3e-8, spin ≤ 6.2e-7, rebound angle ≤ 4.5e-6.
+    * default / custom: the discrete plant as for the ball (Drake's defaults: lagged, the
+      stiction tolerance 1e-4 m/s, point properties from the penetration allowance) with
+      ``CoulombFriction(μ, μ)`` on both geometries; custom takes the ball's keys
+      (``stiction_tolerance``, ``discrete_contact_approximation``, …).
+    * tuned: ``unsupported`` (no friction parameters are fitted yet).
+
 Cost
     Stepping runs inside one ``Simulator.AdvanceTo`` with a per-step monitor (no Python call
     per step besides the monitor); ``benchmarks/bench_engine_drake.py`` compares it with a bare
@@ -118,6 +143,16 @@ from impactbench.engines.base import (
     Scenario,
 )
 from impactbench.engines.common import NATIVE_REFERENCE_VELOCITY_M_S, Recorder, classify
+from impactbench.engines.oblique_common import (
+    REGULARISATION_STEPS,
+    coulomb_force,
+    elastic_duration_s,
+    finish,
+    friction_facts,
+    record,
+    start,
+    unsupported_tuned,
+)
 from impactbench.reference import validation as check
 from impactbench.reference.laws import LocalLaw, StructuralLaw, no_further_contact
 from impactbench.reference.record import ImpactRecord, Status
@@ -222,6 +257,9 @@ class DrakeModel:
     force: Callable[[], float]
     law: LocalLaw | None = None
     meta: dict[str, Any] = field(default_factory=dict)
+    forces: Callable[[], tuple[float, float]] | None = None
+    """Oblique models: (normal force, friction force along t) on the ball at the current
+    state (None for the other scenarios)."""
 
     def reset(self) -> None:
         plant_context = self.plant.GetMyMutableContextFromRoot(self.context)
@@ -530,6 +568,240 @@ def _force_reader(model: DrakeModel, axis: int, applied: Any = None, sign: float
     return read_contact
 
 
+# ----------------------------------------------------------------------------------------------
+# Oblique impact
+# ----------------------------------------------------------------------------------------------
+
+
+OBLIQUE_TIMESTEP_S = 1e-6
+DRAKE_STICTION_TOLERANCE_M_S = 1e-4
+"""Drake's default stiction tolerance (``MultibodyPlantConfig().stiction_tolerance``, Drake
+1.51), set explicitly on the continuous plant, which has no getter for it."""
+
+
+def _friction_props(d: Any, friction: float, stiffness: float | None = None,
+                    dissipation: float | None = None, relaxation: float | None = None) -> Any:
+    props = d.ProximityProperties()
+    material: dict[str, Any] = {}
+    if stiffness is not None:
+        material["point_stiffness"] = stiffness
+    if dissipation is not None:
+        material["dissipation"] = dissipation
+    d.AddContactMaterial(friction=d.CoulombFriction(friction, friction), properties=props,
+                         **material)
+    if relaxation is not None:
+        props.AddProperty("material", "relaxation_time", relaxation)
+    return props
+
+
+def _effective_friction(d: Any, plant: Any, scene_graph: Any, ids: list[Any]) -> float:
+    """The pair's μ Drake computes from the two geometries' properties (read back from the
+    scene graph; Drake's rule 2ab/(a + b))."""
+    inspector = scene_graph.model_inspector()
+    a, b = (inspector.GetProximityProperties(i).GetProperty("material", "coulomb_friction")
+            for i in ids)
+    return float(d.CalcContactFrictionFromSurfaceProperties(a, b).dynamic_friction())
+
+
+def _oblique_forces(d: Any, builder: Any, plant: Any, law: Any, s: Any, dt: float) -> Any:
+    """Injected: a LeafSystem mapping the free ball's state [q(7), v(6)] to its generalized
+    force [torque(3), force(3)] (world frame): the normal law F_n(x, ẋ) along +z and Coulomb
+    friction F_t (:func:`~impactbench.engines.oblique_common.coulomb_force`) along +x at the
+    contact point (0, 0, −R), whose torque about +y is −R·F_t."""
+    r, m, mu = s.radius_m, s.mass_kg, s.friction
+
+    class ObliqueForce(d.LeafSystem):
+        def __init__(self) -> None:
+            super().__init__()
+            self._state = self.DeclareVectorInputPort("state", 13)
+            self.DeclareVectorOutputPort("generalized_force", 6, self._calc)
+
+        def _calc(self, context: Any, output: Any) -> None:
+            st = self._state.Eval(context)
+            normal = law.force(r - st[6], -st[12])
+            tangential = coulomb_force(normal, st[10] - r * st[8], mu, m, dt)
+            output.SetFromVector([0.0, -r * tangential, 0.0, tangential, 0.0, normal])
+
+    applied = builder.AddSystem(ObliqueForce())
+    builder.Connect(plant.get_state_output_port(), applied.get_input_port(0))
+    builder.Connect(applied.get_output_port(0), plant.get_applied_generalized_force_input_port())
+    return applied
+
+
+def build_oblique(scenario: Any, mode: str, settings: RunSettings) -> DrakeModel:
+    """The oblique diagram for ``mode``: a free sphere over the plate box (module doc,
+    oblique section); ``model.forces()`` reads (F_n, F_t) on the ball."""
+    d = _drake()
+    s = scenario
+    dt = float(settings.timestep_s or OBLIQUE_TIMESTEP_S)
+    discrete = _discrete_parameters(mode, settings)
+    m, r, mu = s.mass_kg, s.radius_m, s.friction
+    builder = d.DiagramBuilder()
+    meta: dict[str, Any] = {"scenario": s.name}
+    if discrete is not None:
+        config_keys = ("discrete_contact_approximation", "contact_model",
+                       "penetration_allowance", "stiction_tolerance")
+        config = d.MultibodyPlantConfig(time_step=dt,
+                                        **{k: discrete[k] for k in config_keys if k in discrete})
+        plant, scene_graph = d.AddMultibodyPlant(config, builder)
+        stiction = config.stiction_tolerance
+        meta.update(plant=f"discrete (time_step = {dt!r} s), "
+                    f"{config.discrete_contact_approximation}", params=dict(discrete))
+    else:
+        plant, scene_graph = d.AddMultibodyPlantSceneGraph(builder, 0.0)
+        plant.set_contact_model(d.ContactModel.kPoint)
+        stiction = check.positive("options.stiction_tolerance", settings.options.get(
+            "stiction_tolerance", DRAKE_STICTION_TOLERANCE_M_S))
+        plant.set_stiction_tolerance(stiction)
+        meta["plant"] = "continuous (time_step = 0), point contact"
+    ball = plant.AddRigidBody("ball", d.SpatialInertia.SolidSphereWithMass(m, r))
+    plant.mutable_gravity_field().set_gravity_vector([0.0, 0.0, 0.0])
+    applied = None
+    if mode == "injected":
+        plant.Finalize()
+        applied = _oblique_forces(d, builder, plant, s.normal_scenario().law(), s, dt)
+        facts = friction_facts(
+            "Coulomb as an applied force: μ·F_n against the slip, regularised only within "
+            f"v_s = {REGULARISATION_STEPS:g}·3.5·μ·F_n·dt/m (the slip decays at the rate "
+            f"1/({REGULARISATION_STEPS:g}·dt) there)", "none", mu, mu, mu)
+        meta.update(force_source="applied generalized force (reference normal law and "
+                    "Coulomb friction)", engine_defaults=facts)
+    else:
+        if discrete is not None:
+            props = _friction_props(
+                d, mu, 2.0 * discrete["point_stiffness"] if "point_stiffness" in discrete
+                else None, discrete.get("hunt_crossley_dissipation"),
+                discrete.get("relaxation_time"))
+            law = (f"{config.discrete_contact_approximation} discrete contact solver: Coulomb "
+                   "friction solved with the contact impulses, regularised within the stiction "
+                   "tolerance")
+        else:
+            v_ref = settings.options.get("reference_velocity_m_s")
+            v_ref = check.positive("reference_velocity_m_s", v_ref) if v_ref is not None else None
+            k, diss = native_ball_point_contact(s.normal_scenario(), v_ref)
+            props = _friction_props(d, mu, 2.0 * k, diss)
+            law = ("regularised Coulomb (continuous plant's Stribeck model, static = dynamic "
+                   "= μ): the friction rises from 0 to μ·F_n over slip speeds up to the "
+                   "stiction tolerance")
+            meta.update(reference_velocity_m_s=v_ref or NATIVE_REFERENCE_VELOCITY_M_S,
+                        native_parameters={"point_stiffness_n_per_m": k,
+                                           "hunt_crossley_dissipation_s_per_m": diss,
+                                           "geometry_point_stiffness_n_per_m": 2.0 * k})
+        ids = [plant.RegisterCollisionGeometry(ball, d.RigidTransform(), d.Sphere(r), "ball",
+                                               props),
+               plant.RegisterCollisionGeometry(
+                   plant.world_body(), d.RigidTransform([0.0, 0.0, -PLATE_SIDE_M / 2.0]),
+                   d.Box(PLATE_SIDE_M, PLATE_SIDE_M, PLATE_SIDE_M), "plate", props)]
+        plant.Finalize()
+        facts = friction_facts(law, "harmonic", mu, mu,
+                               _effective_friction(d, plant, scene_graph, ids),
+                               stiction_tolerance_m_s=stiction)
+        if discrete is not None:  # read back from the plant where it has a getter
+            facts.update(time_step=plant.time_step(), contact_model=config.contact_model,
+                         discrete_contact_approximation=str(
+                             plant.get_discrete_contact_approximation().name).lower()[1:],
+                         penetration_allowance=config.penetration_allowance,
+                         contact_penalty_method_time_scale_s=(
+                             plant.get_contact_penalty_method_time_scale()))
+        meta.update(force_source="contact results output port (point pair contact force)",
+                    engine_defaults=facts)
+    integrator = DEFAULT_INTEGRATOR if discrete is not None else _integrator(settings)
+    sim, context = _simulator(d, builder, plant, dt, integrator)
+    if discrete is None:
+        meta["integrator"] = f"{integrator}, fixed step"
+    st = start(s, dt)
+    q0 = np.array([1.0, 0.0, 0.0, 0.0, 0.0, 0.0, r + st.gap_m])
+    v0 = np.array([0.0, st.spin_rad_s, 0.0, st.tangential_velocity_m_s, 0.0,
+                   -st.normal_velocity_m_s])
+    model = DrakeModel(sim, plant, context, dt, q0, v0, lambda: 0.0, meta=meta)
+    reader = _oblique_reader(model, ball, applied)
+    model.force = lambda: reader()[0]
+    model.forces = reader
+    return model
+
+
+def _oblique_reader(model: DrakeModel, ball: Any, applied: Any
+                    ) -> Callable[[], tuple[float, float]]:
+    """(F_n, F_t) on the ball at the current state: the applied system's output (injected) or
+    the plant's point-pair contact forces, each taken on the ball (+z normal, +x along t)."""
+    context = model.context
+    if applied is not None:
+        port, sub = applied.get_output_port(0), applied.GetMyContextFromRoot(context)
+
+        def read_injected() -> tuple[float, float]:
+            tau = port.Eval(sub)
+            return float(tau[5]), float(tau[3])
+
+        return read_injected
+    plant = model.plant
+    port, plant_context = plant.get_contact_results_output_port(), plant.GetMyContextFromRoot(
+        context)
+    index = ball.index()
+
+    def read_contact() -> tuple[float, float]:
+        results = port.Eval(plant_context)
+        normal = tangential = 0.0
+        for i in range(results.num_point_pair_contacts()):
+            info = results.point_pair_contact_info(i)
+            f = info.contact_force()  # on body B
+            sign = 1.0 if info.bodyB_index() == index else -1.0
+            normal += sign * float(f[2])
+            tangential += sign * float(f[0])
+        return normal, tangential
+
+    return read_contact
+
+
+def _run_oblique(model: DrakeModel, scenario: Any, settings: RunSettings) -> ImpactRecord:
+    """Step and record the oblique impact (the ball's stopping rules; state [q(7), v(6)])."""
+    s = scenario
+    r, dt = s.radius_m, model.timestep_s
+    read = model.forces
+    assert read is not None, "an oblique model reads both forces"
+    rows: list[tuple[float, ...]] = []
+    flags = {"tunneled": False}
+    context = model.context
+    discrete = model.plant.time_step() > 0.0
+    beyond = r + PLATE_SIDE_M / 2.0 if discrete else 2.0 * r
+    before: list[float] = []
+    st0 = start(s, dt)
+
+    def monitor(state: list[float]) -> bool:
+        x, rate, v_t, spin = r - state[6], -state[12], state[10], state[8]
+        normal, tangential = read()
+        now = context.get_time() - st0.flight_s
+        if not discrete:
+            rows.append((now, x, rate, normal, v_t, spin, tangential))
+        elif before:
+            rows.append((before[0], before[1], before[2], normal, before[3], before[4],
+                         tangential))
+        before[:] = (now, x, rate, v_t, spin)
+        if not math.isfinite(x + rate + normal + tangential + v_t + spin):
+            return True
+        if x < 0.0 and rate < 0.0:
+            return True  # outside the plate and moving away (no force there): separated
+        if x >= beyond:
+            flags["tunneled"] = True
+            return True
+        return False
+
+    t_cap = settings.max_time_s if settings.max_time_s is not None else (
+        (FREE_FLIGHT_STEPS + 1) * dt + max(BALL_TIME_CAP_DURATIONS * elastic_duration_s(s),
+                                           1000 * dt))
+    if discrete and settings.max_time_s is None:
+        scale = model.meta["engine_defaults"]["contact_penalty_method_time_scale_s"]
+        t_cap = max(t_cap, OUT_OF_BOX_CAP_TIME_SCALES * scale)
+    stopped, error = _advance(model, monitor, t_cap)
+    if discrete and before:
+        rows.append((*before[:3], 0.0, *before[3:], 0.0))  # the last state
+    cols = list(zip(*rows, strict=True)) if rows else [()] * 7
+    out = finish(record(s, *cols, meta=model.meta), s, tunneled=flags["tunneled"],
+                 timed_out=not stopped)
+    if error and out.status is not Status.DIVERGED:
+        out.status, out.message = Status.DIVERGED, f"Drake stopped: {error}"
+    return out
+
+
 @functools.cache
 def _version() -> str:
     from importlib.metadata import PackageNotFoundError, version
@@ -552,7 +824,8 @@ class DrakeAdapter(Adapter):
     injection: ClassVar[str] = (
         "cannot: its point contact is k·x·(1 + d·ẋ)₊ (no xⁿ, no memory); the law is a "
         "generalized force integrated by the same RK3 stages that integrate contact forces "
-        "in the continuous plant")
+        "in the continuous plant; oblique: Coulomb friction too (μ·F_n against the slip, "
+        "regularised only within the slip one explicit step would overshoot)")
     pip: ClassVar[str] = PIP["drake"]
     modes: ClassVar[tuple[str, ...]] = ("native", "injected", "tuned", "default", "custom")
     parameter_keys: ClassVar[tuple[str, ...]] = PARAMETER_KEYS
@@ -565,10 +838,12 @@ class DrakeAdapter(Adapter):
         "ball-on-plate": Builder("run_ball", BALL_TIMESTEP_S),
         "rigid-flexible": Builder("run_rigid_flexible", RIGID_FLEXIBLE_TIMESTEP_S,
                                   modes=("native", "injected", "tuned")),
+        "oblique": Builder("run_oblique", OBLIQUE_TIMESTEP_S),
     }
     model_builders: ClassVar[dict[str, Callable[[Any, str, RunSettings], DrakeModel]]] = {
         "ball-on-plate": build_ball,
         "rigid-flexible": build_rigid_flexible,
+        "oblique": build_oblique,
     }
     """Scenario name → the function that builds its diagram (:meth:`build`)."""
 
@@ -597,6 +872,11 @@ class DrakeAdapter(Adapter):
     def run_rigid_flexible(self, scenario: RigidFlexible, mode: str, settings: RunSettings
                            ) -> ImpactRecord:
         return self._run_with(_run_rigid_flexible, scenario, mode, settings)
+
+    def run_oblique(self, scenario: Scenario, mode: str, settings: RunSettings) -> ImpactRecord:
+        if mode == "tuned":
+            return unsupported_tuned()
+        return self._run_with(_run_oblique, scenario, mode, settings)
 
     def _run_with(self, run: Callable[[DrakeModel, Any, RunSettings], ImpactRecord],
                   scenario: Scenario, mode: str, settings: RunSettings) -> ImpactRecord:

@@ -34,6 +34,13 @@ scan. Sample k is the state at the start of step k and MuJoCo's ``contact`` sens
 force acting over step k), exactly as in the MuJoCo adapter, whose end-of-impact rules
 (:func:`~impactbench.engines.mujoco_adapter.drive`) are reused. MJX raises no instability
 warning: a blow-up shows as non-finite state, hence ``diverged``.
+
+Oblique impact (:func:`run_oblique`): MuJoCo's model, modes and friction settings
+(:func:`~impactbench.engines.mujoco_adapter.prepare_oblique`: pyramidal or elliptic cone,
+``impratio``, ``solreffriction`` on a contact pair — MJX implements them all), the whole
+contact sensor recorded inside the scan; injected writes the law's secant into the pair's
+solref inside the scan. MJX has no noslip solver (it would ignore ``noslip_iterations``, so
+that key is not offered). The records equal C MuJoCo's (tests).
 """
 
 from __future__ import annotations
@@ -53,6 +60,9 @@ from impactbench.engines.mujoco_adapter import (
     BALL_TIMESTEP_S,
     DEFAULT_TIME_CAP_S,
     GAP_STEPS,
+    OBLIQUE_KEYS,
+    OBLIQUE_SENSOR_WIDTH,
+    OBLIQUE_TIMESTEP_S,
     PARAMETER_KEYS,
     RIGID_FLEXIBLE_TIMESTEP_S,
     SOLIMP,
@@ -67,11 +77,16 @@ from impactbench.engines.mujoco_adapter import (
     measured_diag_a,
     native_ball,
     native_or_tuned,
+    oblique_end_finder,
+    oblique_outcome_record,
+    oblique_time_scale_s,
+    prepare_oblique,
     rigid_flexible_end_finder,
     rigid_flexible_mjcf,
     rigid_flexible_record,
     set_contact,
 )
+from impactbench.engines.oblique_common import reject_keys, start, unsupported_tuned
 from impactbench.reference.models import KelvinVoigt
 from impactbench.reference.record import ImpactRecord, Status
 from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
@@ -346,6 +361,98 @@ def _batched_scan() -> Any:
     return jax.jit(jax.vmap(one, in_axes=(None, None, 0, None)), static_argnames=("steps",))
 
 
+# --------------------------------------------------------------------------- oblique impact
+
+
+OBLIQUE_CHUNK = 512
+"""Steps per compiled scan for the oblique impact (one chunk covers the paper's ball)."""
+MJX_OBLIQUE_KEYS: tuple[str, ...] = tuple(k for k in OBLIQUE_KEYS if k != "noslip_iterations")
+"""The oblique ``custom`` keys MJX applies: MuJoCo's but ``noslip_iterations`` (MJX has no
+noslip solver; it would ignore the setting)."""
+
+
+def _pair_secant_control(mx: Any, dx: Any, p: Any) -> tuple[Any, Any]:
+    """The oblique injected law at the step's start, written into the contact pair's solref;
+    p = (c, n, b, d0, A, R) as :func:`_secant_control` plus the radius (free joint: the
+    penetration is R − z)."""
+    jnp = _mjx()[1].numpy
+    c, n, b, d0, a, r = p[0], p[1], p[2], p[3], p[4], p[5]
+    x = r - dx.qpos[2]
+    xp = jnp.maximum(x, 0.0)
+    inside = x > 0.0
+    k = jnp.where(inside, c * xp ** (n - 1.0), 0.0)
+    d = jnp.where(inside, k * xp * b + d0, 0.0)
+    solref = jnp.stack([-k * a, -d * a])
+    return mx.replace(pair_solref=mx.pair_solref.at[0].set(solref)), dx
+
+
+CONTROLS["pair_secant"] = _pair_secant_control
+
+
+@functools.lru_cache(maxsize=1)
+def _compiled_oblique_scan() -> Any:
+    """As :func:`_compiled_scan`, keeping the contact sensor's 9 values per step (force and
+    contact frame: :data:`~impactbench.engines.mujoco_adapter.OBLIQUE_SENSOR_WIDTH`)."""
+    _, jax, mjx = _mjx()
+
+    def scan(mx: Any, dx: Any, p: Any, length: int, control: str) -> Any:
+        change = CONTROLS[control]
+
+        def body(dx: Any, _: Any) -> Any:
+            mx_k, dx = change(mx, dx, p)
+            pre = (dx.qpos, dx.qvel)
+            dx = mjx.step(mx_k, dx)
+            return dx, (*pre, dx.sensordata[:OBLIQUE_SENSOR_WIDTH])
+
+        return jax.lax.scan(body, dx, None, length=length)
+
+    return jax.jit(scan, static_argnames=("length", "control"))
+
+
+@dataclass
+class _MjxObliqueSim(_MjxSim):
+    """:class:`_MjxSim` keeping the whole contact sensor (a 2-D force array)."""
+
+    def step_chunk(self, n: int) -> None:
+        scan = _compiled_oblique_scan()
+        for _ in range(max(1, math.ceil(n / self.length))):
+            self.dx, (q, v, f) = scan(self.mx, self.dx, self.params, self.length, self.control)
+            self.chunks.append((np.asarray(q), np.asarray(v), np.asarray(f)))
+            self.steps += self.length
+
+
+def run_oblique(s: Any, mode: str, settings: RunSettings) -> ImpactRecord:
+    """The oblique impact in MJX: MuJoCo's model and modes (:func:`~impactbench.engines.
+    mujoco_adapter.prepare_oblique`), stepped in compiled scans; injected writes the law's
+    secant into the contact pair's solref inside the scan."""
+    dt = float(settings.timestep_s or OBLIQUE_TIMESTEP_S)
+    model, data, meta, _ = prepare_oblique(s, mode, settings)
+    control, params = "none", np.zeros(6)
+    if mode == "injected":
+        injected = injected_parameters(s.normal_scenario().law(), meta["normal_compliance"])
+        if injected is None:
+            return ImpactRecord.failed(
+                Status.UNSUPPORTED, "mjx: injected needs a power-law or linear contact law "
+                "(an arbitrary elastic function cannot run inside the compiled step)")
+        control, params = "pair_secant", np.append(injected, s.radius_m)
+    meta["chunk_steps"] = OBLIQUE_CHUNK
+    t_est = oblique_time_scale_s(s, mode, meta, dt)
+    st = start(s, dt)
+    data.qpos[:7] = (0.0, 0.0, s.radius_m + st.gap_m, 1.0, 0.0, 0.0, 0.0)
+    data.qvel[:] = (st.tangential_velocity_m_s, 0.0, -st.normal_velocity_m_s, 0.0,
+                    st.spin_rad_s, 0.0)
+    out_of_box = mode in ("default", "custom")
+    cap = max(20.0 * t_est, DEFAULT_TIME_CAP_S) if out_of_box else 20.0 * t_est
+    max_time = settings.max_time_s or st.flight_s + cap
+    n_max = max(math.ceil(max_time / dt), math.ceil(GAP_STEPS) + 16)
+    first = math.ceil(GAP_STEPS) + math.ceil(t_est / dt) + 2
+    chunk = max(OBLIQUE_CHUNK, math.ceil(0.05 * t_est / dt))
+    sim = _MjxObliqueSim(model, data, control, params, OBLIQUE_CHUNK)
+    out = drive(sim, n_max, first, chunk, oblique_end_finder(s.radius_m))
+    meta.update(steps=sim.steps, stepping="lax.scan")
+    return oblique_outcome_record(s, out, dt, meta)
+
+
 # --------------------------------------------------------------------------- the adapter
 
 
@@ -356,14 +463,17 @@ class MjxAdapter(Adapter):
     pip = "pip install mujoco-mjx jax"
     injection = ("the law through MuJoCo's soft-contact solver in MJX: a direct solref written "
                  "into geom_solref inside the compiled step, the law's secant stiffness and "
-                 "damping at the start state (Euler)")
+                 "damping at the start state (Euler); oblique: into the contact pair's solref, "
+                 "with Coulomb friction through the elliptic cone as MuJoCo's (impratio 1e4, "
+                 "direct solreffriction)")
     modes = ("native", "injected", "tuned", "default", "custom")
-    parameter_keys = PARAMETER_KEYS
+    parameter_keys = PARAMETER_KEYS + MJX_OBLIQUE_KEYS
     # every mode reaches both builders: run_rigid_flexible gives its own reasons for the
     # rigid–flexible modes MJX does not run (injected, default, custom)
     builders: ClassVar[dict[str, Builder]] = {
         "ball-on-plate": Builder("run_ball", BALL_TIMESTEP_S),
         "rigid-flexible": Builder("run_rigid_flexible", RIGID_FLEXIBLE_TIMESTEP_S),
+        "oblique": Builder("run_oblique", OBLIQUE_TIMESTEP_S),
     }
 
     def version(self) -> str:
@@ -375,7 +485,14 @@ class MjxAdapter(Adapter):
     def run_ball(self, scenario: BallOnPlate, mode: str, settings: RunSettings) -> ImpactRecord:
         if mode == "tuned" and settings.tuned is None:
             return _no_tuned_file()
+        if mode == "custom":
+            reject_keys(settings.params, OBLIQUE_KEYS, scenario.name)
         return run_ball(scenario, mode, settings)
+
+    def run_oblique(self, scenario: Any, mode: str, settings: RunSettings) -> ImpactRecord:
+        if mode == "tuned":
+            return unsupported_tuned()
+        return run_oblique(scenario, mode, settings)
 
     def run_rigid_flexible(self, scenario: RigidFlexible, mode: str, settings: RunSettings
                            ) -> ImpactRecord:

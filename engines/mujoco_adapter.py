@@ -79,6 +79,41 @@ above the softening law's collapse energy, status ``structure_collapsed`` — on
 escaped past the potential's peak) or the time cap is reached (``max_time``).
 A MuJoCo instability warning (bad qpos/qvel/qacc, which makes MuJoCo reset the state) gives
 ``diverged``.
+
+Oblique impact (:func:`run_oblique`; frame and channels of
+:mod:`impactbench.engines.oblique_common`): a free sphere (``freejoint``) over the plane, gravity
+off, one contact; the contact sensor reports the force and the contact frame (``force normal
+tangent``), from which the record takes the normal force and the friction force on the ball
+along t; v_t and the spin ω_y come from qvel. A direct solref maps to the physical spring–damper
+through the normal compliance A measured on the compiled model (x/F at a static overlap with
+solref (−1, 0)): efc_diagA for the elliptic cone, about a quarter of an edge's diagA for the
+pyramidal one (its four edges share the normal force).
+
+- ``native``: the ball's native spring–damper on both geoms, condim 3, friction μ on both
+  (MuJoCo mixes the larger: the pair has μ), ``impratio`` 1, no ``solreffriction`` (the friction
+  rows take the normal's solref); the cone is MuJoCo's default pyramidal, or
+  ``options["cone"] = "elliptic"``. Measured (paper's ball, 2 m/s, μ 0.3, dt 1e-6 s): the soft
+  friction of the pyramidal cone barely acts during the 0.1 ms impact (spin −98 % at 20° and
+  60°), the elliptic one partly (−64 %, −65 %).
+- ``injected``: the law through an explicit contact ``<pair>`` whose solref is scheduled each
+  step (the ball's secant, times A) and Coulomb friction through MuJoCo's own elliptic cone:
+  ``impratio`` 1e4 makes the friction rows a hard constraint against the soft normal, and a
+  direct ``solreffriction`` (−1, −d·B) their reference aref = −B·v_slip with
+  B = min(20/T, 1/dt) (T: the reference normal duration), so the slip relaxes within 1/20 of
+  the contact. Why not "0.0001 1" (ENGINES.md, measured with solimp 0.99): with the constant
+  impedance d = 1e-4 a positive solref gives B = 2/(d·τ) = 2e8 1/s, and MuJoCo's elliptic cone
+  couples the sliding friction's reference into the normal force (the cone's middle zone):
+  restitution 0.78 for 0.91 at 45°. The coupling grows with B; at 20/T it costs ≤ 3e-4 of
+  restitution. Measured against the rigid reference at 20°, 45°, 60° (stick), 80° (slide):
+  restitution ≤ 3.2e-4, tangential restitution ≤ 4.2e-4, spin ≤ 5.6e-4, rebound angle
+  ≤ 3.4e-4 (MuJoCo's contact point sits at mid-overlap: its lever arm is R − x/2).
+- ``default``: the geoms' friction (μ, 0.005, 0.0001) on both and nothing else: condim 3,
+  pyramidal, impratio 1, solref (0.02, 1), solimp (0.9, 0.95, …) — the soft default contact
+  sinks deep (implausible at 2 m/s); ``custom``: that plus the ball's keys and
+  :data:`OBLIQUE_KEYS` (``condim``, ``cone``, ``impratio``, ``friction``,
+  ``noslip_iterations``, ``solreffriction`` — the last builds a ``<pair>``, where MuJoCo keeps
+  it), validated and read back from the compiled model into ``meta["engine_defaults"]``.
+- ``tuned``: ``unsupported`` (no friction parameters are fitted yet).
 """
 
 from __future__ import annotations
@@ -96,6 +131,18 @@ from impactbench.engines.common import (
     SpringDamper,
     classify,
     native_ball_spring_damper,
+    reference_velocity,
+)
+from impactbench.engines.oblique_common import (
+    elastic_duration_s,
+    finish,
+    friction_facts,
+    friction_relaxation_rate,
+    native_normal,
+    record,
+    reject_keys,
+    start,
+    unsupported_tuned,
 )
 from impactbench.reference import validation as check
 from impactbench.reference.laws import no_further_contact
@@ -256,6 +303,9 @@ class _Sim:
     commit: Callable[[float], None] | None = None
     steps: int = 0
     chunks: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = field(default_factory=list)
+    sensor_width: int = 1
+    """Sensor values kept per step: 1 (the contact sensor's normal force, a 1-D force array)
+    or more (the first ``sensor_width`` values of ``sensordata``, a 2-D array)."""
 
     def step_chunk(self, n: int) -> None:
         """Advance n steps, appending (pre-step qpos, pre-step qvel, force) arrays."""
@@ -278,13 +328,16 @@ class _Sim:
         mujoco.mj_setState(m, d, states[-1], spec)
         pre = np.vstack([s0[None], states[:-1]])
         nq = m.nq
-        self.chunks.append((pre[:, 1:1 + nq], pre[:, 1 + nq:1 + nq + m.nv], sensors[:, 0]))
+        w = self.sensor_width
+        self.chunks.append((pre[:, 1:1 + nq], pre[:, 1 + nq:1 + nq + m.nv],
+                            sensors[:, 0] if w == 1 else sensors[:, :w]))
 
     def _loop(self, n: int) -> None:
         mujoco = _mujoco()
         m, d, hook, commit = self.model, self.data, self.hook, self.commit
         q, v, sensor = d.qpos, d.qvel, d.sensordata
         step = mujoco.mj_step
+        w = self.sensor_width
         qs, vs, fs = [], [], []
         for _ in range(n):
             qk, vk = q.tolist(), v.tolist()
@@ -294,7 +347,7 @@ class _Sim:
                 commit(arg)
             qs.append(qk)
             vs.append(vk)
-            fs.append(sensor[0])
+            fs.append(sensor[0] if w == 1 else sensor[:w].tolist())
         self.chunks.append((np.array(qs), np.array(vs), np.array(fs, dtype=float)))
 
     def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -668,6 +721,349 @@ def _first_separated(free: np.ndarray, separated: Callable[[int], bool]) -> int 
     return None
 
 
+# --------------------------------------------------------------------------- oblique impact
+
+
+OBLIQUE_TIMESTEP_S = 1e-6
+CONES = ("pyramidal", "elliptic")
+CONDIMS = (1, 3, 4, 6)
+OBLIQUE_KEYS: tuple[str, ...] = ("condim", "cone", "impratio", "friction",
+                                 "noslip_iterations", "solreffriction")
+"""``custom``-mode keys of the oblique scenario only (MJCF names; ``friction`` is the geoms'
+sliding, torsional, rolling triple or its sliding value)."""
+DEFAULT_FRICTION: tuple[float, float, float] = (1.0, 0.005, 0.0001)
+"""MuJoCo's default geom friction (sliding, torsional, rolling)."""
+INJECTED_IMPRATIO = 1e4
+"""Injected: the friction rows' regulariser is the normal's / 1e4 (R_t = R_n/impratio), so
+the elliptic cone's friction is a hard velocity constraint beside the soft scheduled normal
+(with impratio 100 the stick is 5 % short: tangential restitution +4.7e-2 at 20°)."""
+OBLIQUE_SENSOR_WIDTH = 9
+"""The contact sensor's ``force normal tangent``: the force in the contact frame (3), the
+frame's normal and tangent (3 + 3), all of the first contact between ball and plate."""
+
+
+@dataclass(frozen=True)
+class ObliqueContact:
+    """The contact settings written into the oblique model (None: MuJoCo's default)."""
+
+    condim: int | None = None
+    friction: tuple[float, float, float] | None = None
+    solref: tuple[float, ...] | None = None
+    solimp: tuple[float, ...] | None = None
+    solreffriction: tuple[float, ...] | None = None
+    cone: str | None = None
+    impratio: float | None = None
+    noslip_iterations: int | None = None
+
+    @property
+    def pair(self) -> bool:
+        """A ``<pair>``: ``solreffriction`` exists on explicit pairs only."""
+        return self.solreffriction is not None
+
+
+def oblique_mjcf(s: Any, timestep_s: float, integrator: str, c: ObliqueContact) -> str:
+    """The oblique model: a plane at z = 0 and a free sphere (mass m, I = (2/5)·m·R²), one
+    contact between them (the geoms' own, or an explicit ``<pair>`` when ``solreffriction`` is
+    set), a contact sensor reporting the force and the contact frame."""
+    r, m = s.radius_m, s.mass_kg
+    inertia = s.moment_of_inertia_kg_m2
+    option = "".join(f' {k}="{v}"' for k, v in (
+        ("cone", c.cone), ("impratio", None if c.impratio is None else repr(float(c.impratio))),
+        ("noslip_iterations", c.noslip_iterations)) if v is not None)
+    geom = "".join(f' {k}="{v}"' for k, v in (
+        ("condim", c.condim), ("friction", c.friction and _fmt(c.friction)),
+        ("solref", c.solref and _fmt(c.solref)), ("solimp", c.solimp and _fmt(c.solimp)))
+        if v is not None)
+    off = ' contype="0" conaffinity="0"' if c.pair else ""
+    pair = ""
+    if c.pair:
+        sliding, torsional, rolling = c.friction or DEFAULT_FRICTION
+        pair = (f'<contact><pair geom1="ball" geom2="plate" condim="{c.condim or 3}" '
+                f'friction="{_fmt((sliding, sliding, torsional, rolling, rolling))}" '
+                f'solref="{_fmt(c.solref or (0.02, 1.0))}" '
+                f'solimp="{_fmt(c.solimp or (0.9, 0.95, 0.001, 0.5, 2.0))}" '
+                f'solreffriction="{_fmt(c.solreffriction)}"/></contact>')
+    return f"""<mujoco model="oblique">
+  <option timestep="{timestep_s!r}" gravity="0 0 0" integrator="{integrator}"{option}/>
+  <default><geom{geom}/></default>
+  <worldbody>
+    <geom name="plate" type="plane" size="1 1 0.1"{off}/>
+    <body name="ball">
+      <freejoint name="ball"/>
+      <inertial pos="0 0 0" mass="{m!r}" diaginertia="{inertia!r} {inertia!r} {inertia!r}"/>
+      <geom name="ball" type="sphere" size="{r!r}"{off}/>
+    </body>
+  </worldbody>
+  {pair}
+  <sensor><contact name="contact" geom1="ball" geom2="plate" data="force normal tangent"
+                   num="1"/></sensor>
+</mujoco>"""
+
+
+def oblique_parameters(params: dict[str, Any]) -> dict[str, Any]:
+    """Validated ``custom`` parameters of the oblique scenario: the ball's (solref, solimp,
+    integrator) and :data:`OBLIQUE_KEYS` (one-line ValueError naming the key)."""
+    out = custom_parameters(params)
+    if "condim" in params:
+        value = params["condim"]
+        if isinstance(value, bool) or value not in CONDIMS:
+            raise ValueError(f"param condim = {value!r}: must be one of 1, 3, 4, 6")
+        out["condim"] = int(value)
+    if "cone" in params:
+        out["cone"] = check.one_of("param cone", params["cone"], CONES)
+    if "impratio" in params:
+        out["impratio"] = check.positive("param impratio", params["impratio"])
+    if "noslip_iterations" in params:
+        value = params["noslip_iterations"]
+        if isinstance(value, bool) or not isinstance(value, int | float) \
+                or value != int(value) or value < 0:
+            raise ValueError(f"param noslip_iterations = {value!r}: must be an integer >= 0")
+        out["noslip_iterations"] = int(value)
+    if "friction" in params:
+        value = params["friction"]
+        values = list(value) if isinstance(value, list | tuple) else [value]
+        if not 1 <= len(values) <= 3:
+            raise ValueError(f"param friction = {value!r}: must be a number or 1 to 3 numbers "
+                             "(sliding, torsional, rolling)")
+        got = [check.non_negative(f"param friction[{i}]", v) for i, v in enumerate(values)]
+        out["friction"] = got + list(DEFAULT_FRICTION[len(got):])
+    if "solreffriction" in params:
+        value = params["solreffriction"]
+        if not isinstance(value, list | tuple) or len(value) != 2:
+            raise ValueError(f"param solreffriction = {value!r}: must be a list of 2 numbers")
+        out["solreffriction"] = [check.finite(f"param solreffriction[{i}]", v)
+                                 for i, v in enumerate(value)]
+    return out
+
+
+def oblique_contact(s: Any, mode: str, settings: RunSettings, user: dict[str, Any]
+                    ) -> ObliqueContact:
+    """What each mode writes into the model (module doc of the adapter, oblique section)."""
+    mu = s.friction
+    if mode in ("default", "custom"):
+        friction = tuple(user.get("friction", (mu, *DEFAULT_FRICTION[1:])))
+        return ObliqueContact(
+            condim=user.get("condim"), friction=friction,
+            solref=None if "solref" not in user else tuple(user["solref"]),
+            solimp=None if "solimp" not in user else tuple(user["solimp"]),
+            solreffriction=None if "solreffriction" not in user
+            else tuple(user["solreffriction"]),
+            cone=user.get("cone"), impratio=user.get("impratio"),
+            noslip_iterations=user.get("noslip_iterations"))
+    if mode == "injected":
+        # the solref is scheduled each step; the friction rows' reference (−1, −D) gives
+        # aref = −(D/d)·v_slip = −B·v_slip (direct solref, impedance d)
+        rate = friction_relaxation_rate(s, float(settings.timestep_s or OBLIQUE_TIMESTEP_S))
+        return ObliqueContact(condim=3, friction=(mu, 0.0, 0.0), solref=(-1.0, 0.0),
+                              solimp=SOLIMP, solreffriction=(-1.0, -IMPEDANCE * rate),
+                              cone="elliptic", impratio=INJECTED_IMPRATIO)
+    cone = check.one_of("options.cone", settings.options.get("cone", "pyramidal"), CONES)
+    return ObliqueContact(condim=3, friction=(mu, 0.0, 0.0), solref=(-1.0, 0.0),
+                          solimp=SOLIMP, cone=cone)
+
+
+def _set_oblique_solref(model: Any, pair: bool, solref: tuple[float, float]) -> None:
+    if pair:
+        model.pair_solref[0] = solref
+    else:
+        model.geom_solref[:] = solref
+
+
+def oblique_readback(model: Any, data: Any, pair: bool, calibrate: bool) -> dict[str, Any]:
+    """At a touching pose (1 nm overlap): the compiled contact's dimension and friction
+    (what MuJoCo mixed from the geoms or took from the pair), the normal row's efc_diagA and,
+    with ``calibrate``, the normal compliance A (1/kg) with which a direct solref (−S, −D)
+    makes the physical spring–damper K = S/A, D_phys = D/A: measured as x/F at a static
+    overlap x with solref (−1, 0), the pair's or both geoms' (restored afterwards). A is
+    efc_diagA for the elliptic cone; for the pyramidal one the four edges share the normal
+    force (A ≈ diagA_edge/4)."""
+    mujoco = _mujoco()
+    saved = (model.pair_solref[0].copy() if pair else model.geom_solref.copy())
+    overlap = 1e-9
+    data.qpos[:7] = (0.0, 0.0, model.geom_size[1][0] - overlap, 1.0, 0.0, 0.0, 0.0)
+    data.qvel[:] = 0.0
+    if calibrate:
+        _set_oblique_solref(model, pair, (-1.0, 0.0))
+    mujoco.mj_forward(model, data)
+    if data.ncon != 1:
+        raise RuntimeError(f"expected one contact at a touching pose, got {data.ncon}")
+    con = data.contact[0]
+    out: dict[str, Any] = {"condim": int(con.dim), "friction_effective": float(con.friction[0]),
+                           "efc_diagA": float(data.efc_diagA[con.efc_address])}
+    if calibrate:
+        f6 = np.zeros(6)
+        mujoco.mj_contactForce(model, data, 0, f6)
+        out["normal_compliance"] = overlap / float(f6[0])
+        if pair:
+            model.pair_solref[0] = saved
+        else:
+            model.geom_solref[:] = saved
+    mujoco.mj_resetData(model, data)
+    return out
+
+
+def oblique_facts(model: Any, mode: str, c: ObliqueContact, back: dict[str, Any],
+                  mu: float) -> dict[str, Any]:
+    """The friction facts of the compiled model (``meta["engine_defaults"]``)."""
+    mujoco = _mujoco()
+    cone = mujoco.mjtCone(model.opt.cone).name[len("mjCONE_"):].lower()
+    pair = c.pair
+    if back["condim"] == 1:
+        law = "none (condim 1: frictionless)"
+    elif mode == "injected":
+        law = ("rigid-limit Coulomb: elliptic cone, friction rows a hard velocity constraint "
+               f"(impratio {model.opt.impratio:g}) relaxing the slip at "
+               f"B = {-model.pair_solreffriction[0][1] / IMPEDANCE:.4g} 1/s "
+               "(solreffriction direct (−1, −d·B))")
+    else:
+        law = (f"soft Coulomb, {cone} cone: the friction rows share the normal's impedance"
+               + (f" (÷ impratio {model.opt.impratio:g})" if cone == "elliptic" else "")
+               + " and take their reference from "
+               + ("solreffriction" if pair else "the normal's solref (solreffriction unset)"))
+    extra: dict[str, Any] = {
+        "cone": cone, "condim": back["condim"], "impratio": float(model.opt.impratio),
+        "noslip_iterations": int(model.opt.noslip_iterations),
+        "solref": [float(v) for v in (model.pair_solref[0] if pair else model.geom_solref[1])],
+        "solimp": [float(v) for v in (model.pair_solimp[0] if pair else model.geom_solimp[1])],
+        "solreffriction": ([float(v) for v in model.pair_solreffriction[0]] if pair
+                           else "unset (the normal's solref)"),
+        "geom_friction": [float(v) for v in model.geom_friction[1]],
+        "integrator": mujoco.mjtIntegrator(model.opt.integrator).name[len("mjINT_"):]}
+    if pair:
+        extra["pair_friction"] = [float(v) for v in model.pair_friction[0]]
+    if mode == "injected":
+        extra["solref"] = "scheduled each step: (−k·A, −d·A), the law's secant at the start state"
+    rule = "max"  # MuJoCo: the larger of the two geoms' values (equal priority); a pair: its own
+    return friction_facts(law, rule, mu, mu, back["friction_effective"],
+                          pair="explicit <pair> (its own friction)" if pair else "geoms",
+                          **extra)
+
+
+def oblique_end_finder(radius_m: float) -> EndFinder:
+    """End of an oblique run (free joint: qpos[2] = z of the centre, qvel[2] = ż, the force
+    array's column 0 = the normal force): the first sample after first touch with zero normal
+    force, the ball moving away and apart from the plate (z > R)."""
+    touch: list[int] = []
+
+    def find_end(q: np.ndarray, v: np.ndarray, f: np.ndarray, start: int) -> int | None:
+        fn = f[:, 0]
+        if not touch:
+            touched = np.flatnonzero(fn[start:] > 0.0)
+            if touched.size == 0:
+                return None
+            touch.append(start + int(touched[0]))
+        lo = max(start, touch[0])
+        away = np.flatnonzero((fn[lo:] <= 0.0) & (v[lo:, 2] > 0.0) & (q[lo:, 2] > radius_m))
+        return lo + int(away[0]) if away.size else None
+
+    return find_end
+
+
+def oblique_forces(f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(normal force, friction force on the ball along +x) from the contact sensor's
+    ``force normal tangent`` rows: the sensor gives the force of geom1 (the ball) on geom2 in
+    a frame whose normal points from the ball to the plate, so the force on the ball is
+    −(f0·n + f1·t + f2·(n × t)); its normal component is f0 (≥ 0)."""
+    n, t = f[:, 3:6], f[:, 6:9]
+    b = np.cross(n, t)
+    tangential = -(f[:, 0] * n[:, 0] + f[:, 1] * t[:, 0] + f[:, 2] * b[:, 0])
+    return f[:, 0].copy(), tangential
+
+
+def prepare_oblique(s: Any, mode: str, settings: RunSettings) -> tuple[Any, Any, dict[str, Any],
+                                                                        ObliqueContact]:
+    """Build the oblique model for ``mode`` (MuJoCo's and MJX's): compiled, its native solref
+    or the calibration the injected schedule needs, and the metadata."""
+    dt = float(settings.timestep_s or OBLIQUE_TIMESTEP_S)
+    user = oblique_parameters(settings.params or {}) if mode == "custom" else {}
+    integrator = str(user.get("integrator", settings.options.get("integrator", INTEGRATOR)))
+    c = oblique_contact(s, mode, settings, user)
+    model, data = _new_model(oblique_mjcf(s, dt, integrator, c))
+    calibrate = mode in ("native", "injected")
+    back = oblique_readback(model, data, c.pair, calibrate)
+    meta: dict[str, Any] = {"integrator": integrator, "efc_diagA": back["efc_diagA"],
+                            "scenario": s.name}
+    mu = c.friction[0] if c.friction else DEFAULT_FRICTION[0]  # set on both geoms
+    if mode in ("default", "custom"):
+        meta["params"] = user
+    elif mode == "native":
+        v_ref = reference_velocity(settings.options)
+        sd = native_normal(s, v_ref)
+        a = back["normal_compliance"]
+        solref = (-sd.stiffness_n_per_m * a, -sd.damping_ns_per_m * a)
+        set_contact(model, solref, SOLIMP)
+        meta.update(stiffness_n_per_m=sd.stiffness_n_per_m, damping_ns_per_m=sd.damping_ns_per_m,
+                    reference_velocity_m_s=v_ref, normal_compliance=a, solref=list(solref),
+                    solimp=list(SOLIMP), cone=c.cone)
+    else:
+        meta.update(law=s.model, normal_compliance=back["normal_compliance"],
+                    solimp=list(SOLIMP), cone=c.cone,
+                    friction_relaxation_rate_per_s=-c.solreffriction[1] / IMPEDANCE)
+    meta["engine_defaults"] = oblique_facts(model, mode, c, back, mu)
+    return model, data, meta, c
+
+
+def oblique_time_scale_s(s: Any, mode: str, meta: dict[str, Any], dt: float) -> float:
+    """A contact duration estimate (s) for chunks and the time cap."""
+    t_est = elastic_duration_s(s)
+    if mode == "native":
+        return SpringDamper(meta["stiffness_n_per_m"], meta["damping_ns_per_m"]).duration_s(
+            s.mass_kg)
+    if mode in ("default", "custom"):
+        solref = meta["engine_defaults"]["solref"]
+        return max(t_est, contact_time_scale_s(solref, meta["efc_diagA"], s.mass_kg, dt))
+    return t_est
+
+
+def oblique_outcome_record(s: Any, out: _Outcome, dt: float, meta: dict[str, Any]
+                           ) -> ImpactRecord:
+    """The oblique record of a driven run (free joint), classified (MuJoCo's and MJX's)."""
+    r = s.radius_m
+    st = start(s, dt)
+    z = out.qpos[:, 2]
+    x, rate = r - z, -out.qvel[:, 2]
+    normal, tangential = oblique_forces(out.force_n)
+    t = np.arange(x.size) * dt - st.flight_s
+    rec = record(s, t, x, rate, normal, out.qvel[:, 0], out.qvel[:, 4], tangential, meta)
+    return finish(rec, s, tunneled=bool(x.size and x[-1] > r and rate[-1] >= 0.0),
+                  timed_out=out.timed_out)
+
+
+def run_oblique(s: Any, mode: str, settings: RunSettings) -> ImpactRecord:
+    """The oblique impact in MuJoCo; see the adapter's module doc (oblique section)."""
+    dt = float(settings.timestep_s or OBLIQUE_TIMESTEP_S)
+    model, data, meta, _ = prepare_oblique(s, mode, settings)
+    hook = None
+    if mode == "injected":
+        ref = model.pair_solref[0]
+        law = s.normal_scenario().law()
+        a = meta["normal_compliance"]
+        r = s.radius_m
+
+        def hook(q: list[float], v: list[float]) -> None:
+            x = r - q[2]
+            if x > 0.0:
+                k, d = spring_damper(law, x)  # F = k·x + d·ẋ at this x
+                ref[0] = -k * a
+                ref[1] = -d * a
+
+    t_est = oblique_time_scale_s(s, mode, meta, dt)
+    st = start(s, dt)
+    data.qpos[:7] = (0.0, 0.0, s.radius_m + st.gap_m, 1.0, 0.0, 0.0, 0.0)
+    data.qvel[:] = (st.tangential_velocity_m_s, 0.0, -st.normal_velocity_m_s, 0.0,
+                    st.spin_rad_s, 0.0)
+    out_of_box = mode in ("default", "custom")
+    cap = max(20.0 * t_est, DEFAULT_TIME_CAP_S) if out_of_box else 20.0 * t_est
+    max_time = settings.max_time_s or st.flight_s + cap
+    n_max = max(math.ceil(max_time / dt), math.ceil(GAP_STEPS) + 16)
+    first = math.ceil(GAP_STEPS) + math.ceil(t_est / dt) + 2
+    chunk = max(8, math.ceil(0.05 * t_est / dt))
+    sim = _Sim(model, data, hook, sensor_width=OBLIQUE_SENSOR_WIDTH)
+    out = drive(sim, n_max, first, chunk, oblique_end_finder(s.radius_m))
+    meta.update(steps=sim.steps, stepping="python loop" if hook else "rollout")
+    return _mark_unstable(oblique_outcome_record(s, out, dt, meta), out)
+
+
 # --------------------------------------------------------------------------- the adapter
 
 
@@ -677,13 +1073,17 @@ class MujocoAdapter(Adapter):
     name = "mujoco"
     pip = "pip install mujoco"
     modes = ("native", "injected", "tuned", "default", "custom")
-    parameter_keys = PARAMETER_KEYS
+    parameter_keys = PARAMETER_KEYS + OBLIQUE_KEYS
     injection = ("the law through MuJoCo's soft-contact solver: a direct solref scheduled each "
-                 "step to the law's secant stiffness and damping at the start state (Euler)")
+                 "step to the law's secant stiffness and damping at the start state (Euler); "
+                 "oblique: Coulomb friction through MuJoCo's elliptic cone, its friction rows "
+                 "a hard velocity constraint (impratio 1e4, direct solreffriction relaxing the "
+                 "slip within 1/20 of the contact)")
     builders: ClassVar[dict[str, Builder]] = {
         "ball-on-plate": Builder("run_ball", BALL_TIMESTEP_S),
         "rigid-flexible": Builder("run_rigid_flexible", RIGID_FLEXIBLE_TIMESTEP_S,
                                   modes=("native", "injected", "tuned")),
+        "oblique": Builder("run_oblique", OBLIQUE_TIMESTEP_S),
     }
 
     def version(self) -> str:
@@ -692,7 +1092,14 @@ class MujocoAdapter(Adapter):
     def run_ball(self, scenario: BallOnPlate, mode: str, settings: RunSettings) -> ImpactRecord:
         if mode == "tuned" and settings.tuned is None:
             return _no_tuned_file()
+        if mode == "custom":
+            reject_keys(settings.params, OBLIQUE_KEYS, scenario.name)
         return run_ball(scenario, mode, settings)
+
+    def run_oblique(self, scenario: Any, mode: str, settings: RunSettings) -> ImpactRecord:
+        if mode == "tuned":
+            return unsupported_tuned()
+        return run_oblique(scenario, mode, settings)
 
     def run_rigid_flexible(self, scenario: RigidFlexible, mode: str, settings: RunSettings
                            ) -> ImpactRecord:

@@ -53,6 +53,16 @@ Modes:
   ``default``: Newton's ``ShapeConfig`` defaults (ke = 2.5e3 N/m, kd = 100 N·s/m, kf = 1e3,
   mu = 1), recorded in ``meta["engine_defaults"]``.
 
+Oblique impact (:func:`run_oblique`, gravity off): the ball on a D6 joint (z of the centre − R,
+x, rotation about +y = n × t) with its own moment of inertia. Newton's friction in the same
+kernel: F_t = −kf·v_slip capped at μ·F_n (F_n with its damping term), the shapes' mu and kf
+averaged (both get the same). ``native``: the ball's native ke, kd, mu = μ and kf = m_s/dt
+(:func:`deadbeat_kf`: the regularisation stops a slip within one step, ideal Coulomb for the
+step); ``injected``: the law's secant ke and the same friction — the law and Coulomb both
+through Newton's own contact; ``default``: ShapeConfig defaults (kf 1e3) with mu = μ;
+``custom``: that plus ``settings.params``; ``tuned``: ``unsupported``. Forces: m·Δv/dt, normal
+and tangential.
+
 Stepping (:class:`NewtonSim`) stays on warp's CPU device: one step (a record kernel, then
 ``clear_forces``, ``collide``, ``SolverFeatherstone.step``) is captured once per direction of
 the two-state swap as a warp CPU graph (warp ≥ 1.19 records CPU launches and replays them in
@@ -79,6 +89,7 @@ from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 import numpy as np
+from impactbench.engines import oblique_common
 from impactbench.engines.base import Adapter, Builder, EngineUnavailable, RunSettings
 from impactbench.engines.common import (
     NATIVE_REFERENCE_VELOCITY_M_S,
@@ -95,6 +106,7 @@ from impactbench.engines.mujoco_adapter import (
     rigid_flexible_record,
 )
 from impactbench.reference import validation as check
+from impactbench.reference.oblique_scenario import Oblique
 from impactbench.reference.record import ImpactRecord, Status
 from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
 from scipy import optimize
@@ -548,6 +560,134 @@ def run_rigid_flexible(s: RigidFlexible, mode: str, settings: RunSettings, *,
     return rigid_flexible_record(s, structure, out, dt, gap, meta, collapsed)
 
 
+# --------------------------------------------------------------------------- oblique impact
+
+OBLIQUE_FRICTION_MODEL = ("regularised Coulomb in Newton's penalty contact: F_t = −kf·v_slip "
+                          "capped at μ·F_n (F_n with its damping)")
+OBLIQUE_FRICTION_COMBINATION = "average"
+"""Newton averages the two shapes' mu and kf (and ke, kd): both shapes get the same values."""
+
+
+def deadbeat_kf(scenario: Oblique, dt: float) -> float:
+    """kf = m_s/dt (N·s/m, m_s the ball's effective mass at the contact point along the
+    plate): the explicit step then stops a slip within one step, F_t = −s·m_s/dt capped at
+    μ·F_n — ideal Coulomb friction for this step (a smaller kf lets the ball slip on, a
+    larger one overshoots and, beyond 2·m_s/dt, diverges)."""
+    from impactbench.engines.stepping import slip_mass_kg
+
+    return slip_mass_kg(scenario) / dt
+
+
+def oblique_model(s: Oblique, values: dict[str, float]) -> Any:
+    """Plane at z = 0 and the ball on a D6 joint whose frame sits at the ball's centre at
+    first touch: q = (z of the centre − R, x, rotation about +y = n × t), so the
+    penetration is −q[0] and q[2]'s rate is the spin."""
+    wp, newton = _newton()
+    b = newton.ModelBuilder(gravity=(0.0, 0.0, 0.0))
+    cfg = _shape_config(newton, values)
+    b.add_ground_plane(cfg=cfg)
+    r, m = s.radius_m, s.mass_kg
+    i = s.moment_of_inertia_kg_m2
+    body = b.add_link(mass=m, com=(0.0, 0.0, 0.0), inertia=wp.mat33(i, 0, 0, 0, i, 0, 0, 0, i))
+    dof = newton.ModelBuilder.JointDofConfig
+    joint = b.add_joint_d6(-1, body, linear_axes=[dof(axis=newton.Axis.Z),
+                                                  dof(axis=newton.Axis.X)],
+                           angular_axes=[dof(axis=newton.Axis.Y)],
+                           parent_xform=wp.transform((0.0, 0.0, r), wp.quat_identity()))
+    b.add_articulation([joint])
+    b.add_shape_sphere(body, radius=r, cfg=cfg)
+    return b.finalize(device="cpu")
+
+
+def oblique_parameters(s: Oblique, mode: str, settings: RunSettings, dt: float
+                       ) -> tuple[dict[str, float], dict[str, Any]]:
+    """The shape contact parameters of a non-injected oblique run and its meta: ``native``
+    the ball's native ke, kd (at the reference velocity), mu = μ and the deadbeat kf;
+    ``default`` Newton's ShapeConfig defaults with mu = μ; ``custom`` that plus
+    ``settings.params``."""
+    mu = s.friction
+    if mode == "native":
+        v_ref = float(settings.options.get("reference_velocity_m_s",
+                                           NATIVE_REFERENCE_VELOCITY_M_S))
+        sd = native_ball(s.normal_scenario(v_ref))
+        values = {"ke": sd.stiffness_n_per_m, "kd": sd.damping_ns_per_m,
+                  "kf": deadbeat_kf(s, dt), "mu": mu}
+        return values, {**values, "reference_velocity_m_s": v_ref,
+                        "kf_rule": "m_s/dt (deadbeat: the slip stops within one step)"}
+    defaults = newton_contact_defaults()
+    given = (settings.params or {}) if mode == "custom" else {}
+    values = {**defaults, "mu": mu}
+    for key, value in given.items():
+        values[key] = check.non_negative(f"param.{key}", value)
+    meta: dict[str, Any] = {**values, "engine_defaults": dict(defaults)}
+    if mode == "custom":
+        meta["params"] = dict(given)
+    return values, meta
+
+
+def run_oblique(s: Oblique, mode: str, settings: RunSettings, *,
+                graphs: bool = True) -> ImpactRecord:
+    """The oblique impact in Newton (Featherstone, the ball on a D6 joint, one warp CPU graph
+    launch per step as the ball's): ``native``, ``default``, ``custom`` with Newton's own
+    contact and friction (:func:`oblique_parameters`); ``injected`` the normal law through
+    the contact's ke (the secant, as the ball's) and Coulomb friction through Newton's own
+    friction with mu = μ and the deadbeat kf (:func:`deadbeat_kf`), which is ideal Coulomb
+    for the step. Forces: m·Δv/dt of the ball where in contact, normal and tangential (Newton
+    reports no contact force)."""
+    dt = float(settings.timestep_s or BALL_TIMESTEP_S)
+    v0, v_t, m = s.normal_velocity_m_s, s.tangential_velocity_m_s, s.mass_kg
+    meta: dict[str, Any] = {"solver": SOLVER, "float": "float32",
+                            "moment_of_inertia_kg_m2": s.moment_of_inertia_kg_m2}
+    normal = s.normal_scenario()
+    t_est = hertz_duration_s(normal, v0)
+    secant = None
+    if mode == "injected":
+        law = normal.law()
+        values = {"ke": 0.0, "kd": 0.0, "kf": deadbeat_kf(s, dt), "mu": s.friction}
+
+        def secant(q: list[float], qd: list[float]) -> float:
+            x = -q[0]  # ke·x = F(x, ẋ) at the start state; kd = 0
+            return law.force(x, -qd[0]) / x if x > 0.0 else 0.0
+
+        meta.update(law=s.model, kf=values["kf"], mu=values["mu"],
+                    kf_rule="m_s/dt (deadbeat: ideal Coulomb for the step)")
+    else:
+        values, more = oblique_parameters(s, mode, settings, dt)
+        meta.update(more)
+        if values["ke"] > 0.0:
+            t_est = approach_damped_duration_s(values["ke"], values["kd"], m)
+    mu = values["mu"]
+    facts = oblique_common.friction_facts(
+        OBLIQUE_FRICTION_MODEL, OBLIQUE_FRICTION_COMBINATION, mu, mu, mu, kf=values["kf"],
+        kd=values["kd"], moment_of_inertia_kg_m2=s.moment_of_inertia_kg_m2)
+    meta["engine_defaults"] = {**meta.get("engine_defaults", {}), **facts}
+    meta.update(force_output="m·Δv/dt of the ball where in contact, normal and tangential "
+                             "(no contact output)")
+
+    def force(q: np.ndarray, qd: np.ndarray, qd_next: np.ndarray) -> np.ndarray:
+        return np.where(q[:, 0] < 0.0, m * (qd_next[:, 0] - qd[:, 0]) / dt, 0.0)
+
+    gap = GAP_STEPS * v0 * dt
+    sim = NewtonSim(oblique_model(s, values), dt, (gap, 0.0, 0.0), (-v0, v_t, s.spin_rad_s),
+                    force, secant=secant, graphs=graphs)
+    max_time = settings.max_time_s or gap / v0 + 20.0 * t_est
+    n_max = max(math.ceil(max_time / dt), math.ceil(GAP_STEPS) + 16)
+    first = math.ceil(GAP_STEPS) + math.ceil(t_est / dt) + 2
+    chunk = max(8, math.ceil(0.05 * t_est / dt))
+    out = drive(sim, n_max, first, chunk, ball_end_finder())
+    x, rate = -out.qpos[:, 0], -out.qvel[:, 0]
+    vt, spin = out.qvel[:, 1], out.qvel[:, 2]
+    ft = np.zeros_like(x)
+    if x.size > 1:
+        ft[:-1] = np.where(x[:-1] > 0.0, m * np.diff(vt) / dt, 0.0)
+    t = np.arange(x.size) * dt - gap / v0
+    meta.update(steps=sim.steps, stepping=sim.stepping)
+    rec = oblique_common.record(s, t, x, rate, out.force_n, vt, spin, ft, meta)
+    return oblique_common.finish(rec, s, tunneled=bool(x.size and x[-1] > s.radius_m
+                                                       and rate[-1] >= 0.0),
+                                 timed_out=out.timed_out)
+
+
 # --------------------------------------------------------------------------- the adapter
 
 
@@ -558,12 +698,15 @@ class NewtonAdapter(Adapter):
     pip = "pip install newton"
     injection = ("the law through Newton's penalty contact: each shape's ke set every step to "
                  "the law's secant F(x, ẋ)/x at the start state (kd = 0), stepped by "
-                 "Featherstone's semi-implicit Euler")
+                 "Featherstone's semi-implicit Euler; oblique: Coulomb friction through "
+                 "Newton's own friction, mu = μ and kf = m_s/dt (capped −kf·v_slip: ideal "
+                 "Coulomb for the step)")
     modes = ("native", "injected", "tuned", "default", "custom")
     parameter_keys = PARAMETER_KEYS
     builders: ClassVar[dict[str, Builder]] = {
         "ball-on-plate": Builder("run_ball", BALL_TIMESTEP_S),
         "rigid-flexible": Builder("run_rigid_flexible", RIGID_FLEXIBLE_TIMESTEP_S),
+        "oblique": Builder("run_oblique", BALL_TIMESTEP_S),
     }
 
     def version(self) -> str:
@@ -580,6 +723,12 @@ class NewtonAdapter(Adapter):
         if mode == "tuned" and settings.tuned is None:
             return _no_tuned_file()
         return run_rigid_flexible(scenario, mode, settings)
+
+    def run_oblique(self, scenario: Oblique, mode: str, settings: RunSettings
+                    ) -> ImpactRecord:
+        if mode == "tuned":
+            return oblique_common.unsupported_tuned()
+        return run_oblique(scenario, mode, settings)
 
 
 def _no_tuned_file() -> ImpactRecord:

@@ -94,6 +94,37 @@ run stops once it moves away, out of the overlap, with zero force; the rigid–f
 ``impactbench.reference.laws.no_further_contact`` holds (after a collapse — body 2's energy
 above the softening potential's peak → ``structure_collapsed`` — once body 2 has escaped past
 the peak), or at the time cap (``max_time``).
+
+Oblique impact (``_run_oblique``; frame and channels of
+:mod:`impactbench.engines.oblique_common`): the free sphere starts along +x and −z with spin
+about +y over a box plate 2 m wide, gravity off. Friction: ``lateralFriction`` μ on the ball
+and 1 on the plate (Bullet multiplies the two, so the pair has μ); Bullet's friction is rigid
+Coulomb at the velocity level (lateral friction rows clamped at μ times the normal impulse).
+The record's friction force is ``getContactPoints()`` lateral friction 1 and 2 along their
+directions (impulse/dt; Bullet reports it on the plate, so it is negated for the ball).
+
+* ``native``: the ball's native pair K, D; rolling/spinning friction and damping 0; Bullet's
+  clamp of the ball's velocities (``maxJointVelocity`` 100, the spin in rad/s) lifted; the
+  ``contactBreakingThreshold`` is 0.01 (Bullet scales it by the sphere's bounding radius), not
+  the ball's 1e-12: with that, a rolling ball's manifold keeps adding points (up to four, each a
+  full spring of the soft contact), so once the contact sticks the normal force doubles to
+  quadruples (restitution 1.57 for 0.90 at 45°). The larger threshold merges each new point
+  into the old one (:data:`OBLIQUE_MERGE_FRACTION`).
+* ``injected``: the ball's secant scheduling (or ``injection = "explicit"``) for the normal law
+  and Bullet's own Coulomb friction. Measured against the rigid reference (2 m/s, μ 0.3,
+  dt 1e-6 s): the tangential outcome in stick is exact to round-off (1e-14) at 20°, 45° and
+  60°; the restitution carries Bullet's implicit contact step (−3.7 % to −2.8 %; −0.37 % at
+  1e-7 s), and at 80° (slide) the tangential impulse μ·(1 + e)·v_n with it (spin −1.4 %);
+  with the engine's own e the slide is exact too. ``explicit``: restitution −1.1e-4, spin
+  −1.2e-5.
+* ``default``: Bullet out of the box (rigid ERP contact, restitution 0, its breaking threshold,
+  damping 0.04, the 100 rad/s spin clamp) with the pair's μ as above; at 1e-6 s the ball never
+  leaves (restitution 0: ``max_time``), at 1/240 s the ERP push-out gives e ≈ 0.04.
+  ``custom``: the ball's keys plus :data:`OBLIQUE_KEYS` (``lateralFriction``,
+  ``rollingFriction``, ``spinningFriction``, ``frictionAnchor``, ``angularDamping``,
+  ``maxJointVelocity``), set on the ball, read back with ``getDynamicsInfo`` into
+  ``meta["engine_defaults"]``.
+* ``tuned``: ``unsupported`` (no friction parameters are fitted yet).
 """
 
 from __future__ import annotations
@@ -109,7 +140,20 @@ from impactbench.engines.common import (
     NATIVE_REFERENCE_VELOCITY_M_S,
     Recorder,
     classify,
+    reference_velocity,
     silenced_fds,
+)
+from impactbench.engines.oblique_common import (
+    combined,
+    elastic_duration_s,
+    finish,
+    friction_facts,
+    native_normal,
+    neutral_plate,
+    record,
+    reject_keys,
+    start,
+    unsupported_tuned,
 )
 from impactbench.reference import validation as check
 from impactbench.reference.models import spring_damper
@@ -148,6 +192,11 @@ PARAMETER_KEYS: tuple[str, ...] = BODY_KEYS + ENGINE_KEYS
 """``custom``-mode keys: pybullet's own ``changeDynamics`` / ``setPhysicsEngineParameter``
 argument names."""
 INTEGER_KEYS = ("numSolverIterations", "useSplitImpulse", "numSubSteps")
+OBLIQUE_DT_S = 1e-6
+OBLIQUE_KEYS: tuple[str, ...] = ("lateralFriction", "rollingFriction", "spinningFriction",
+                                 "frictionAnchor", "angularDamping", "maxJointVelocity")
+"""``custom``-mode keys of the oblique scenario only (``changeDynamics`` names, set on the
+ball; the plate gets the combination's neutral value so the pair has the given number)."""
 RF_MIN_RADIUS_M = 0.05
 INJECTIONS = ("secant", "explicit")
 BALL_DEFAULT_DT_S = 1e-6
@@ -379,21 +428,31 @@ class PybulletAdapter(Adapter):
 
     name = "pybullet"
     modes = ("native", "injected", "tuned", "default", "custom")
-    parameter_keys = PARAMETER_KEYS
+    parameter_keys = PARAMETER_KEYS + OBLIQUE_KEYS
     injection = ("the law through Bullet's soft contact: its secant stiffness and damping "
                  "scheduled each step, applied by Bullet's implicit (backward-Euler) contact "
-                 "step")
+                 "step; oblique: with Bullet's own rigid Coulomb friction (lateral friction "
+                 "rows clamped at μ times the normal impulse)")
     builders: ClassVar[dict[str, Builder]] = {
         "ball-on-plate": Builder("run_ball", BALL_DEFAULT_DT_S),
         "rigid-flexible": Builder("run_rigid_flexible", RF_DEFAULT_DT_S,
                                   modes=("native", "injected", "tuned")),
+        "oblique": Builder("run_oblique", OBLIQUE_DT_S),
     }
 
     def version(self) -> str:
         return _version()
 
     def run_ball(self, scenario: BallOnPlate, mode: str, settings: RunSettings) -> ImpactRecord:
+        if mode == "custom":
+            reject_keys(settings.params, OBLIQUE_KEYS, scenario.name)
         return self._run_with(_run_ball, scenario, mode, settings)
+
+    def run_oblique(self, scenario: Scenario, mode: str, settings: RunSettings
+                    ) -> ImpactRecord:
+        if mode == "tuned":
+            return unsupported_tuned()
+        return self._run_with(_run_oblique, scenario, mode, settings)
 
     def run_rigid_flexible(self, scenario: RigidFlexible, mode: str, settings: RunSettings
                            ) -> ImpactRecord:
@@ -411,6 +470,239 @@ class PybulletAdapter(Adapter):
         p = _import_engine()
         dt = float(settings.timestep_s or self.default_timestep_s(scenario, mode))
         return run(p, scenario, mode, settings, dt, injection)
+
+
+# --------------------------------------------------------------------------- oblique impact
+
+
+OBLIQUE_PLATE_HALF_SIDE_M = 1.0
+"""Half side of the plate box along the plate (m): room for the ball's travel along t."""
+OBLIQUE_MERGE_FRACTION = 0.01
+"""native/injected ``contactBreakingThreshold``: max(this, 5·V·dt/(√3·R)). Bullet scales the
+setting by each shape's bounding radius (√3·R for the sphere's box), so two manifold points
+closer than ~1.7 % of R (or five steps of travel) merge. With the ball's 1e-12 a rolling
+(stuck) ball keeps its old manifold points — they do not drift apart, so they are never
+removed — and each new point is added beside them (up to four), each a full spring of the
+soft contact: the normal force doubles to quadruples (measured at 45°: restitution 1.57 for
+0.90; Kharaz's 2.5 mm sphere at 1e-7 s even while sliding, with a 2.5e-5 setting:
+``diverged``). Merged, the contact keeps one point, as a soft contact needs. The price is a
+speculative contact from that distance on, which a soft contact softens by its cfm (native:
+−0.1 % of restitution against the ball; injected has no stiffness before touch, so none)."""
+
+
+BULLET_MAX_JOINT_VELOCITY = 100.0
+"""Bullet's default clamp on a multibody's velocities (``maxJointVelocity``; the free ball's
+spin too, in rad/s): ``default`` keeps it, ``native``/``injected`` lift it."""
+
+
+def oblique_speed_limit(s: Any) -> float:
+    """native/injected ``maxJointVelocity``: ten times the largest speed or spin the impact
+    can reach (V, |ω0| + 3.5·V/R), at least Bullet's default."""
+    spin = abs(s.spin_rad_s) + 3.5 * s.velocity_m_s / s.radius_m
+    return max(BULLET_MAX_JOINT_VELOCITY, 10.0 * max(s.velocity_m_s, spin))
+
+
+def oblique_breaking_threshold(s: Any, dt: float) -> float:
+    """native/injected ``contactBreakingThreshold``: :data:`OBLIQUE_MERGE_FRACTION`."""
+    return max(OBLIQUE_MERGE_FRACTION,
+               5.0 * s.velocity_m_s * dt / (math.sqrt(3.0) * s.radius_m))
+
+
+def oblique_parameters(params: dict[str, Any]) -> dict[str, Any]:
+    """Validated ``custom`` parameters of the oblique scenario: the ball's and
+    :data:`OBLIQUE_KEYS` (``frictionAnchor`` 0 or 1, the others numbers ≥ 0)."""
+    out = custom_parameters({k: v for k, v in params.items() if k not in OBLIQUE_KEYS})
+    for key in OBLIQUE_KEYS:
+        if key not in params:
+            continue
+        if key == "frictionAnchor":
+            value = params[key]
+            if isinstance(value, bool) or value not in (0, 1):
+                raise ValueError(f"param frictionAnchor = {value!r}: must be 0 or 1")
+            out[key] = int(value)
+        else:
+            out[key] = check.non_negative(f"param {key}", params[key])
+    return out
+
+
+class ObliqueWorld(BallWorld):
+    """A free sphere above a static box plate, moving at the oblique start (along +x and −z,
+    spin about +y); pair contact K, D (native/injected) or Bullet's defaults plus the user's
+    parameters (``out_of_box``). Friction: μ on the ball, 1 on the plate (Bullet multiplies
+    the two: the pair has μ). The ball's world's helpers (defaults read back, custom keys,
+    contact setting) apply as they are; the world itself is built here (no gravity)."""
+
+    def __init__(self, p: Any, s: Any, dt: float, k: float, d: float,
+                 out_of_box: dict[str, Any] | None = None) -> None:
+        self.p, self.dt, self.radius = p, dt, s.radius_m
+        self.out_of_box = out_of_box
+        self.speed_limit = oblique_speed_limit(s)
+        if out_of_box is None:
+            self.cid = _connect(p, dt)
+            self.threshold = oblique_breaking_threshold(s, dt)
+            p.setPhysicsEngineParameter(contactBreakingThreshold=self.threshold,
+                                        physicsClientId=self.cid)
+        else:
+            self.cid = p.connect(p.DIRECT)
+            self.threshold = None
+            p.setPhysicsEngineParameter(fixedTimeStep=dt, physicsClientId=self.cid)
+            p.setGravity(0.0, 0.0, 0.0, physicsClientId=self.cid)
+        try:
+            self._build(s, k, d)
+        except BaseException:
+            self.close()
+            raise
+
+    def _build(self, s: Any, k: float, d: float) -> None:  # type: ignore[override]
+        p, cid, dt = self.p, self.cid, self.dt
+        h = self.plate_half_m = plate_half_thickness_m(s, dt)
+        side = OBLIQUE_PLATE_HALF_SIDE_M
+        box = p.createCollisionShape(p.GEOM_BOX, halfExtents=[side, side, h],
+                                     physicsClientId=cid)
+        self.plate = p.createMultiBody(0.0, box, basePosition=[0.0, 0.0, -h],
+                                       physicsClientId=cid)
+        sphere = p.createCollisionShape(p.GEOM_SPHERE, radius=s.radius_m, physicsClientId=cid)
+        st = start(s, dt)
+        self.gap_m = st.gap_m
+        self.ball = p.createMultiBody(s.mass_kg, sphere,
+                                      basePosition=[0.0, 0.0, s.radius_m + st.gap_m],
+                                      physicsClientId=cid)
+        if self.out_of_box is not None:
+            p.changeDynamics(self.ball, -1, lateralFriction=s.friction, physicsClientId=cid)
+            p.changeDynamics(self.plate, -1, lateralFriction=neutral_plate("product", s.friction),
+                             physicsClientId=cid)
+            self.defaults = self.engine_defaults()
+            self._apply_custom(self.out_of_box)
+            self._apply_friction(self.out_of_box)
+        else:
+            for body in (self.plate, self.ball):
+                _plain(p, cid, body, -1)
+            p.changeDynamics(self.ball, -1, lateralFriction=s.friction, physicsClientId=cid)
+            p.changeDynamics(self.plate, -1, lateralFriction=neutral_plate("product", s.friction),
+                             physicsClientId=cid)
+            p.changeDynamics(self.plate, -1, contactStiffness=math.inf, contactDamping=0.0,
+                             physicsClientId=cid)
+            self.set_contact(k, d)
+            # Bullet clamps a multibody's velocities at 100 (rad/s for the spin): lift it
+            # (its own call: passed with the contact stiffness it drops the stiffness)
+            p.changeDynamics(self.ball, -1, maxJointVelocity=oblique_speed_limit(s),
+                             physicsClientId=cid)
+        p.resetBaseVelocity(self.ball, [st.tangential_velocity_m_s, 0.0,
+                                        -st.normal_velocity_m_s],
+                            [0.0, st.spin_rad_s, 0.0], physicsClientId=cid)
+
+    def _apply_friction(self, params: dict[str, Any]) -> None:
+        p, cid = self.p, self.cid
+        friction = {k: params[k] for k in OBLIQUE_KEYS if k in params
+                    and k != "maxJointVelocity"}
+        if friction:
+            p.changeDynamics(self.ball, -1, **friction, physicsClientId=cid)
+        if "maxJointVelocity" in params:  # its own call (see _build)
+            p.changeDynamics(self.ball, -1, maxJointVelocity=params["maxJointVelocity"],
+                             physicsClientId=cid)
+
+    def friction_facts(self, anchor: int) -> dict[str, Any]:
+        """Bullet's friction read back (``getDynamicsInfo``): lateral friction of each body
+        and the pair's product, rolling/spinning friction, the anchor flag as set."""
+        p, cid = self.p, self.cid
+        ball = p.getDynamicsInfo(self.ball, -1, physicsClientId=cid)
+        plate = p.getDynamicsInfo(self.plate, -1, physicsClientId=cid)
+        model = ("rigid Coulomb, velocity level: two lateral friction rows per contact point "
+                 "clamped to ±μ times the point's normal impulse (Bullet's sequential impulse)"
+                 + ("; friction anchor: the contact point is kept where it was created"
+                    if anchor else ""))
+        return friction_facts(
+            model, "product", ball[1], plate[1], min(10.0, combined("product", ball[1], plate[1])),
+            rollingFriction_ball=ball[6], spinningFriction_ball=ball[7],
+            rollingFriction_pair=ball[6] * plate[1] + plate[6] * ball[1],
+            frictionAnchor=anchor,
+            contactBreakingThreshold=(self.threshold if self.threshold is not None
+                                      else "Bullet's default (0.02, not reported)"),
+            angularDamping_ball="0 (set)" if self.out_of_box is None else
+            self.out_of_box.get("angularDamping", "0.04 (Bullet's default)"),
+            maxJointVelocity_ball=(self.speed_limit if self.out_of_box is None else
+                                   self.out_of_box.get("maxJointVelocity",
+                                                       f"{BULLET_MAX_JOINT_VELOCITY:g} "
+                                                       "(Bullet's default clamp)")))
+
+
+def _run_oblique(p: Any, s: Any, mode: str, settings: RunSettings, dt: float,
+                 injection: str) -> ImpactRecord:
+    """Record the oblique impact (normal channels as the ball's, the ball's velocity along t,
+    its spin about +y and the friction force Bullet reports on it)."""
+    injected = mode == "injected"
+    meta: dict[str, Any] = {"scenario": s.name}
+    out_of_box = None
+    if mode in ("default", "custom"):
+        out_of_box = oblique_parameters(settings.params or {}) if mode == "custom" else {}
+        k0 = out_of_box.get("contactStiffness", 0.0)
+        d0 = out_of_box.get("contactDamping", 0.0)
+        meta["params"] = dict(out_of_box)
+    elif injected:
+        k0, d0 = 0.0, 0.0
+        meta["injection"] = injection
+    else:
+        v_ref = reference_velocity(settings.options)
+        sd = native_normal(s, v_ref)
+        k0, d0 = sd.stiffness_n_per_m, sd.damping_ns_per_m
+        meta.update(contact_stiffness=k0, contact_damping=d0, reference_velocity_m_s=v_ref)
+    t_cap = settings.max_time_s or (
+        FLIGHT_STEPS * dt + 5.0 * elastic_duration_s(s)
+        + (0.0 if injected else OUT_OF_BOX_TIME_CAP_S if out_of_box is not None and k0 == 0.0
+           else 5.0 * math.pi * math.sqrt(s.mass_kg / k0)))
+    n_max = max(MIN_STEPS, math.ceil(t_cap / dt))
+    m, radius = s.mass_kg, s.radius_m
+    law = s.normal_scenario().law()
+    world = ObliqueWorld(p, s, dt, k0, d0, out_of_box)
+    beyond = radius if injected else radius + world.plate_half_m
+    anchor = int((out_of_box or {}).get("frictionAnchor", 0))
+    meta["engine_defaults"] = {**(world.defaults if out_of_box is not None else {}),
+                               **world.friction_facts(anchor)}
+    rows: list[tuple[float, ...]] = []
+    try:
+        ball, plate, cid = world.ball, world.plate, world.cid
+        get_pos, get_vel = p.getBasePositionAndOrientation, p.getBaseVelocity
+        contacts, step, set_contact = p.getContactPoints, p.stepSimulation, world.set_contact
+        touched = timed_out = tunneled = False
+        scheduled = False
+        for i in range(n_max):
+            x = radius - get_pos(ball, physicsClientId=cid)[0][2]
+            lin, ang = get_vel(ball, physicsClientId=cid)
+            v = -lin[2]
+            if injected and x > 0.0:
+                if injection == "explicit":
+                    target = law.force(x, v)
+                    x_end = x + dt * (v - target * dt / m)
+                    set_contact(target / x_end if x_end > 0.0 and target > 0.0 else 0.0, 0.0)
+                else:
+                    set_contact(*spring_damper(law, x))  # F = k·x + d·ẋ at this x
+                scheduled = True
+            elif scheduled:
+                set_contact(0.0, 0.0)
+                scheduled = False
+            step(physicsClientId=cid)
+            normal = tangential = 0.0
+            for cp in contacts(ball, plate, physicsClientId=cid):
+                normal += cp[9]
+                # the lateral friction Bullet reports acts on body B (the plate): negate
+                tangential -= cp[10] * cp[11][0] + cp[12] * cp[13][0]
+            rows.append((i * dt - FLIGHT_STEPS * dt, x, v, normal, lin[0], ang[1], tangential))
+            if normal > 0.0:
+                touched = True
+            elif touched and v < 0.0 and x <= 0.0:
+                break
+            if x > beyond or not math.isfinite(x):
+                tunneled = x > beyond
+                break
+        else:
+            timed_out = True
+        x_end = radius - get_pos(ball, physicsClientId=cid)[0][2]
+    finally:
+        world.close()
+    cols = list(zip(*rows, strict=True)) if rows else [()] * 7
+    rec = record(s, *cols, meta=meta)
+    return finish(rec, s, tunneled=tunneled or x_end > beyond,
+                  timed_out=timed_out and not tunneled)
 
 
 def _tuned_pair(tuned: dict[str, Any]) -> tuple[float, float]:

@@ -105,13 +105,31 @@ cap (``settings.max_time_s`` or ``scenario.max_time_s``; status ``max_time``). T
 stops a few steps after it lets go (moving away, no force, no overlap), or as ``tunneled``
 once its centre is past the plate.
 
+Oblique impact (:class:`~impactbench.reference.oblique_scenario.Oblique`, gravity off): the
+ball is a circle with the *sphere's* moment of inertia (2/5)·m·R² — a sphere's oblique impact
+on a plane is planar, so the circle carries its motion exactly and the sphere's references
+apply (a disc, k² = R²/2, would need references the scenario does not have yet) — moving
+along +x and −y onto the same segment; spin ω about n × t = −z (ω = −angular_velocity).
+Friction: Chipmunk's Coulomb in the rigid contact, the pair's μ the product of the shapes'
+(ball μ, plate 1). Tangential force: pymunk's own contact impulse (``total_impulse``'s x) / dt.
+
+- ``native``: rigid contact with the ball's native elasticity and μ: the rigid Coulomb theory
+  to round-off with the contact's own restitution (e at 1 m/s).
+- ``injected``: the normal law as the penalty force and ideal Coulomb friction as a force and
+  torque at the contact point, −s·m_s/dt clipped to ±μ·F_n from the state the handler sees
+  (:func:`impactbench.engines.stepping.coulomb_force`); ``injection = "restitution"``: the
+  rigid contact with the law's restitution k(b·ẋ) and pymunk's own friction μ.
+- ``default``: out of the box (elasticity 0, slop 0.1 m, …) with the scenario's μ;
+  ``custom``: that plus ``settings.params`` (``friction`` the pair's μ); ``tuned``:
+  ``unsupported`` (no fit covers friction).
+
 Options (``settings.options``): ``injection`` (ball, injected mode: penalty | restitution),
 ``reference_velocity_m_s`` (native ball), ``iterations`` (pymunk solver iterations, default
 10). Tuned keys (``settings.tuned``): ``elasticity`` (pair restitution, both scenarios).
 
-Default timesteps: ball 1e-6 s in every mode; rigid–flexible 1e-5 s (injected at 3.3 m/s:
-linear/linear and elastoplastic/linear within 2e-7 of the reference on peak, pulse width and
-impulse, mutation within 4e-5).
+Default timesteps: ball and oblique 1e-6 s in every mode; rigid–flexible 1e-5 s (injected at
+3.3 m/s: linear/linear and elastoplastic/linear within 2e-7 of the reference on peak, pulse
+width and impulse, mutation within 4e-5).
 """
 
 from __future__ import annotations
@@ -122,10 +140,12 @@ from functools import lru_cache
 from typing import Any, ClassVar
 
 import numpy as np
+from impactbench.engines import oblique_common, stepping
 from impactbench.engines.base import Adapter, Builder, EngineUnavailable, RunSettings, Scenario
 from impactbench.engines.common import NATIVE_REFERENCE_VELOCITY_M_S, classify
 from impactbench.reference import validation as check
 from impactbench.reference.laws import no_further_contact
+from impactbench.reference.oblique_scenario import Oblique
 from impactbench.reference.record import ImpactRecord, Status
 from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
 
@@ -142,8 +162,11 @@ BALL_TIME_CAP_S = 2e-3
 """Default ball time cap after first touch (s): ~20 contact durations of the paper's ball."""
 
 PARAMETER_KEYS: tuple[str, ...] = ("elasticity", "collision_slop", "collision_bias",
-                                   "iterations", "damping")
-"""``custom``-mode keys (pymunk's Shape/Space attribute names)."""
+                                   "iterations", "damping", "friction")
+"""``custom``-mode keys (pymunk's Shape/Space attribute names; ``friction``: the pair's, the
+ball's shape with the plate's 1, as ``elasticity``; oblique scenario only)."""
+OBLIQUE_KEYS: tuple[str, ...] = ("friction",)
+"""``custom`` keys only the oblique scenario uses (a head-on ball has no friction)."""
 THICK_PLATE_RADIUS_M = 0.5
 MIN_CAP_STEPS = 50
 """The ball's time cap is at least this many steps (a coarse step: 2 ms is two steps)."""
@@ -331,6 +354,101 @@ class RigidFlexibleModel:
         self.force_n = arbiter.total_impulse.length / self.dt
 
 
+class ObliqueModel:
+    """The oblique impact's space: the ball (a circle with the sphere's moment of inertia
+    (2/5)·m·R²: a sphere's oblique impact on a plane is planar, so the circle carries its
+    motion exactly) moving along +x and −y onto the plate segment; spin ω about n × t = −z.
+
+    Args:
+        scenario: the oblique impact.
+        contact: ``"rigid"`` (elasticity ``elasticity``, pymunk's Coulomb friction),
+            ``"penalty"`` (the normal law and ideal Coulomb friction as forces, the contact
+            rejected) or ``"restitution"`` (rigid, restitution k(b·ẋ) set each step, pymunk's
+            friction).
+        dt: the timestep (s).
+        friction: the pair's μ (the ball's shape; the plate's is 1, pymunk multiplies them).
+        out_of_box: as :class:`BallModel`'s (default and custom modes).
+
+    ``force_n``, ``force_t`` hold the normal and tangential force on the ball of the last
+    step in which the handler ran; the caller zeroes them before each step.
+    """
+
+    def __init__(self, scenario: Oblique, contact: str, dt: float, *, friction: float,
+                 elasticity: float = 1.0, iterations: int = 10,
+                 out_of_box: dict[str, Any] | None = None) -> None:
+        pymunk = _import_pymunk()
+        self.scenario, self.contact, self.dt = scenario, contact, dt
+        v_n = scenario.normal_velocity_m_s
+        self.gap_m = GAP_STEPS * v_n * dt
+        if out_of_box is None:
+            self.space = space = _space(pymunk, iterations, 0.0)
+        else:
+            self.space = space = pymunk.Space()
+        self.radius = radius = scenario.radius_m
+        self.body = body = pymunk.Body(scenario.mass_kg, scenario.moment_of_inertia_kg_m2)
+        body.position = (0.0, radius + self.gap_m)
+        body.velocity = (scenario.tangential_velocity_m_s, -v_n)
+        body.angular_velocity = -scenario.spin_rad_s
+        ball = pymunk.Circle(body, radius)
+        h = THICK_PLATE_RADIUS_M
+        plate = pymunk.Segment(space.static_body, (-10.0, -h), (10.0, -h), h)
+        if out_of_box is None:
+            ball.elasticity, plate.elasticity = elasticity, 1.0
+        else:
+            self.defaults = {"elasticity": ball.elasticity,
+                             "plate_elasticity": plate.elasticity,
+                             "friction": ball.friction, "plate_friction": plate.friction,
+                             "collision_slop": space.collision_slop,
+                             "collision_bias": space.collision_bias,
+                             "iterations": space.iterations, "damping": space.damping}
+            for key in ("collision_slop", "collision_bias", "iterations", "damping"):
+                if key in out_of_box:
+                    setattr(space, key, out_of_box[key])
+            if "elasticity" in out_of_box:
+                ball.elasticity, plate.elasticity = out_of_box["elasticity"], 1.0
+        ball.friction, plate.friction = friction, 1.0
+        self.out_of_box = out_of_box is not None
+        self.beyond_m = radius + THICK_PLATE_RADIUS_M
+        space.add(body, ball, plate)
+        self.force_n = self.force_t = 0.0
+        if contact == "penalty":
+            self._law = stepping.CoulombContact(scenario, dt)
+            space.on_collision(pre_solve=self._penalty)
+        elif contact == "restitution":
+            from impactbench.reference.hunt_crossley import restitution
+
+            self._restitution = restitution
+            self._b = scenario.normal_scenario().law().damping
+            space.on_collision(pre_solve=self._set_restitution, post_solve=self._impulse)
+        elif contact == "rigid":
+            space.on_collision(post_solve=self._impulse)
+        else:
+            raise ValueError(f"contact = {contact!r}: must be rigid, penalty or restitution")
+
+    def state(self) -> tuple[float, float, float, float]:
+        """(x, ẋ, v_t, ω): penetration, its rate, tangential velocity and spin."""
+        body = self.body
+        (vx, vy), (_, y) = body.velocity, body.position
+        return self.radius - y, -vy, vx, -body.angular_velocity
+
+    def _penalty(self, arbiter: Any, _space: Any, _data: Any) -> None:
+        arbiter.process_collision = False
+        fn, ft = self._law.forces(*self.state())
+        body = self.body
+        body.force = (ft, fn)
+        body.torque = self.radius * ft  # (0, −R) × (F_t, F_n) along z
+        self.force_n, self.force_t = fn, ft
+
+    def _set_restitution(self, arbiter: Any, _space: Any, _data: Any) -> None:
+        vy = self.body.velocity.y
+        arbiter.restitution = float(self._restitution(max(0.0, -self._b * vy)))
+
+    def _impulse(self, arbiter: Any, _space: Any, _data: Any) -> None:
+        jx, jy = arbiter.total_impulse
+        sign = 1.0 if jy >= 0.0 else -1.0  # the impulse on the ball pushes it up
+        self.force_n, self.force_t = sign * jy / self.dt, sign * jx / self.dt
+
+
 class PymunkAdapter(Adapter):
     """pymunk 7 (Chipmunk2D): rigid contacts natively, penalty forces when injected."""
 
@@ -338,11 +456,15 @@ class PymunkAdapter(Adapter):
     modes = ("native", "injected", "tuned", "default", "custom")
     parameter_keys = PARAMETER_KEYS
     injection = ("cannot: pymunk's contacts are rigid impulses with no compliance; the law is "
-                 "a penalty force (contact rejected) integrated by pymunk's drift–kick step")
+                 "a penalty force (contact rejected) integrated by pymunk's drift–kick step; "
+                 "oblique: Coulomb friction is a force and torque too, −s·m_s/dt clipped to "
+                 "±μ·F_n (options injection = restitution: pymunk's own rigid contact and "
+                 "Coulomb friction, with the law's restitution)")
     builders: ClassVar[dict[str, Builder]] = {
         "ball-on-plate": Builder("run_ball", 1e-6),
         "rigid-flexible": Builder("run_rigid_flexible", 1e-5,
                                   modes=("native", "injected", "tuned")),
+        "oblique": Builder("run_oblique", 1e-6),
     }
 
     def version(self) -> str:
@@ -355,6 +477,12 @@ class PymunkAdapter(Adapter):
                            ) -> ImpactRecord:
         return self._run_with(rigid_flexible_model, run_rigid_flexible, scenario, mode,
                               settings)
+
+    def run_oblique(self, scenario: Oblique, mode: str, settings: RunSettings
+                    ) -> ImpactRecord:
+        if mode == "tuned":
+            return oblique_common.unsupported_tuned()
+        return self._run_with(oblique_model, run_oblique, scenario, mode, settings)
 
     def _run_with(self, build: Callable[..., tuple[Any, dict[str, Any]]],
                   run: Callable[[Any, RunSettings, dict[str, Any]], ImpactRecord],
@@ -395,7 +523,7 @@ def _reference_restitution(scenario: BallOnPlate) -> float:
 def custom_parameters(params: dict[str, Any]) -> dict[str, Any]:
     """Validated ``custom`` parameters (pymunk's names; see :data:`PARAMETER_KEYS`)."""
     out: dict[str, Any] = {}
-    for key in ("elasticity", "collision_slop"):
+    for key in ("elasticity", "collision_slop", "friction"):
         if key in params:
             out[key] = check.non_negative(f"param {key}", params[key])
     for key in ("collision_bias", "damping"):
@@ -415,6 +543,7 @@ def ball_model(scenario: BallOnPlate, mode: str, settings: RunSettings, dt: floa
                iterations: int, measure: bool = True) -> tuple[BallModel, dict[str, Any]]:
     """Build the ball space for ``mode``; returns it and the meta of its parameters."""
     if mode in ("default", "custom"):
+        oblique_common.reject_keys(settings.params, OBLIQUE_KEYS, scenario.name)
         params = custom_parameters(settings.params or {}) if mode == "custom" else {}
         model = BallModel(scenario, "rigid", dt, measure=measure, out_of_box=params)
         return model, {"contact": "rigid", "params": params,
@@ -626,3 +755,120 @@ def run_rigid_flexible(model: RigidFlexibleModel, settings: RunSettings,
         out.status = Status.STRUCTURE_COLLAPSED
         out.message = "body 2's energy passed the softening potential's peak k2²/(4β)"
     return out
+
+
+FRICTION_MODEL = ("Coulomb in the rigid velocity-level contact (Chipmunk's sequential "
+                  "impulses: the friction impulse clamped to ±μ times the normal impulse)")
+FRICTION_COMBINATION = "product"
+"""Chipmunk multiplies the shapes' frictions: the ball gets μ, the plate 1."""
+
+
+def _facts(model: str, rule: str, mu: float, **extra: Any) -> dict[str, Any]:
+    plate = oblique_common.neutral_plate(rule, mu) if rule != "none" else mu
+    return stepping.friction_facts(model, rule, mu, plate, mu, **extra)
+
+
+def oblique_model(scenario: Oblique, mode: str, settings: RunSettings, dt: float,
+                  iterations: int) -> tuple[ObliqueModel, dict[str, Any]]:
+    """Build the oblique space for ``mode``; returns it and the meta of its parameters (the
+    friction facts in ``meta["engine_defaults"]``).
+
+    ``native``: rigid contact with the ball's native elasticity (the reference's restitution
+    at the reference velocity) and pymunk's Coulomb friction μ; ``injected``: the penalty
+    normal law with ideal Coulomb friction as forces (``options["injection"] =
+    "restitution"``: the rigid contact with the law's restitution k(b·ẋ) and pymunk's
+    friction μ); ``default``: pymunk out of the box (elasticity 0, slop 0.1 m, …) with the
+    scenario's μ; ``custom``: that plus ``settings.params``."""
+    mu = scenario.friction
+    inertia = scenario.moment_of_inertia_kg_m2
+    if mode in ("default", "custom"):
+        params = custom_parameters(settings.params or {}) if mode == "custom" else {}
+        friction = params.get("friction", mu)
+        model = ObliqueModel(scenario, "rigid", dt, friction=friction, out_of_box=params)
+        facts = _facts(FRICTION_MODEL, FRICTION_COMBINATION, friction,
+                       moment_of_inertia_kg_m2=inertia)
+        meta = {"contact": "rigid", "engine_defaults": {**model.defaults, **facts},
+                "not_comparable": stepping.RIGID_OBLIQUE_ARTEFACTS}
+        if mode == "custom":
+            meta["params"] = params
+        return model, meta
+    meta: dict[str, Any] = {"iterations": iterations, "collision_slop": 0.0}
+    if mode == "injected":
+        injection = settings.options.get("injection", "penalty")
+        check.one_of("options.injection", injection, INJECTIONS)
+        if injection == "penalty":
+            meta.update(injection=injection, contact="penalty",
+                        engine_defaults=_facts(stepping.INJECTED_FRICTION, "none", mu,
+                                               moment_of_inertia_kg_m2=inertia))
+            return ObliqueModel(scenario, "penalty", dt, friction=mu,
+                                iterations=iterations), meta
+        meta.update(injection=injection, contact="restitution",
+                    not_comparable=stepping.RIGID_OBLIQUE_ARTEFACTS,
+                    engine_defaults=_facts(FRICTION_MODEL, FRICTION_COMBINATION, mu,
+                                           moment_of_inertia_kg_m2=inertia))
+        return ObliqueModel(scenario, "restitution", dt, friction=mu,
+                            iterations=iterations), meta
+    v_ref = check.positive(
+        "options.reference_velocity_m_s",
+        settings.options.get("reference_velocity_m_s", NATIVE_REFERENCE_VELOCITY_M_S))
+    e = _reference_restitution(scenario.normal_scenario(v_ref))
+    meta.update(contact="rigid", elasticity=e, reference_velocity_m_s=v_ref,
+                not_comparable=stepping.RIGID_OBLIQUE_ARTEFACTS,
+                engine_defaults=_facts(FRICTION_MODEL, FRICTION_COMBINATION, mu,
+                                       moment_of_inertia_kg_m2=inertia))
+    return ObliqueModel(scenario, "rigid", dt, friction=mu, elasticity=e,
+                        iterations=iterations), meta
+
+
+def run_oblique(model: ObliqueModel, settings: RunSettings, meta: dict[str, Any]
+                ) -> ImpactRecord:
+    """Step the oblique impact from its gap until the ball has let go (or tunnels,
+    diverges, times out), as :func:`run_ball`, with the tangential channels: the centre's
+    tangential velocity, the spin and the tangential force on the ball (pymunk's own
+    friction impulse / dt for a rigid contact, the injected Coulomb force for the penalty)."""
+    sc, dt = model.scenario, model.dt
+    v0 = sc.normal_velocity_m_s
+    cap_s = settings.max_time_s or (model.gap_m / v0 + max(
+        OUT_OF_BOX_TIME_CAP_S if model.out_of_box else BALL_TIME_CAP_S, MIN_CAP_STEPS * dt))
+    rests = model.out_of_box
+    n_max = max(1, math.ceil(cap_s / dt))
+    step, state = model.space.step, model.state
+    impulsive = model.contact != "penalty"
+    x, v, vt, w = -model.gap_m, v0, sc.tangential_velocity_m_s, sc.spin_rad_s
+    flat = [] if impulsive else [x, v, 0.0, vt, w, 0.0]
+    push = flat.extend
+    touched = tunneled = nonfinite = False
+    tail = -1
+    for _ in range(n_max):
+        model.force_n = model.force_t = 0.0
+        step(dt)
+        f, ft = model.force_n, model.force_t
+        if impulsive:
+            push((x, v, f, vt, w, ft))
+            x, v, vt, w = state()
+        else:  # sample k: the post-drift position with the velocities entering the kick
+            x = state()[0]
+            push((x, v, f, vt, w, ft))
+            _, v, vt, w = state()
+        if f > 0.0:
+            touched = True
+        elif tail > 0:
+            tail -= 1
+            if tail == 0:
+                break
+        elif touched and tail < 0 and ((v < 0.0 and x <= 0.0) or (rests and v <= 0.0)):
+            tail = TAIL_STEPS
+        if x > model.beyond_m:
+            tunneled = True
+            break
+        if not all(map(math.isfinite, (x, v, vt, w))):
+            nonfinite = True
+            break
+    if impulsive:
+        push((x, v, 0.0, vt, w, 0.0))
+    xs, vs, fs, vts, ws, fts = _columns(flat, 6)
+    steps = xs.size - 1
+    timed_out = steps == n_max and tail != 0 and not (tunneled or nonfinite)
+    out = oblique_common.record(sc, np.arange(xs.size) * dt, xs, vs, fs, vts, ws, fts,
+                                dict(meta, steps=steps))
+    return oblique_common.finish(out, sc, tunneled=tunneled, timed_out=timed_out)

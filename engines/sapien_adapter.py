@@ -57,8 +57,23 @@ force each step. Positions from first touch: x1 = sphere front − 0, x2 = box f
 - ``default`` / ``custom`` / ``tuned``: as for the ball (default: restitution 0.1, applied only
   above 2 m/s).
 
+Oblique impact (gravity off): a sphere with its own moment of inertia moving along +x and −z
+onto the plate; spin ω = ω_y (about n × t = +y). Friction: PhysX's patch friction (static and
+dynamic μ, ``enable_friction_every_iteration``), the pair's μ the average of the two materials'
+(both get μ). PhysX reports a contact point's normal impulse only: the tangential force is
+m·Δv_t/dt. PhysX damps spin (``angular_damping`` 0.05 /s) and clamps it
+(``max_angular_velocity`` 100 rad/s) by default: native and injected set 0 and 1e7.
+
+- ``native``: the ball's native contact (compliant undamped spring, or ``options["contact"] =
+  "rigid"``) with μ. The rigid contact's patch friction overshoots the rigid theory (45°:
+  spin 97 against 69.6 rad/s).
+- ``injected``: no shape; the normal law and ideal Coulomb friction (−s·m_s/dt clipped to
+  ±μ·F_n, :func:`impactbench.engines.stepping.coulomb_force`) as a force and torque.
+- ``default``: PhysX's defaults (rigid, restitution 0.1 above the 2 m/s bounce threshold) with
+  the scenario's μ; ``custom``: that plus ``settings.params``; ``tuned``: ``unsupported``.
+
 The run loop and stopping rules are :mod:`impactbench.engines.stepping`'s. Default timesteps:
-ball 1e-6 s, rigid–flexible 1e-5 s.
+ball and oblique 1e-6 s, rigid–flexible 1e-5 s.
 """
 
 from __future__ import annotations
@@ -75,6 +90,7 @@ from impactbench.engines.common import (
     reference_velocity,
 )
 from impactbench.reference import validation as check
+from impactbench.reference.oblique_scenario import Oblique
 from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
 
 PARAMETERS: dict[str, Any] = {
@@ -89,8 +105,15 @@ PARAMETERS: dict[str, Any] = {
     "solver_position_iterations": stepping.count,
     "solver_velocity_iterations": stepping.count,
     "sleep_threshold": check.non_negative,
+    "enable_friction_every_iteration": stepping.flag,  # scene: friction in every iteration
+    "angular_damping": check.non_negative,  # 1/s, the dynamic bodies'
+    "max_angular_velocity": check.positive,  # rad/s, the dynamic bodies' clamp
 }
 """SAPIEN's own parameter names accepted in ``custom`` and ``tuned`` mode, with their checks."""
+
+ROTATION_FREE = {"angular_damping": 0.0, "max_angular_velocity": 1e7}
+"""Native and injected oblique runs: no spin damping (PhysX's default 0.05 /s) and no clamp of
+the spin (PhysX's default 100 rad/s)."""
 
 CONTACTS: tuple[str, ...] = ("compliant", "rigid")
 """``options["contact"]`` for the native ball."""
@@ -115,6 +138,7 @@ def engine_defaults() -> dict[str, Any]:
     _, px = _import_sapien()
     scene, shape, body = px.PhysxSceneConfig(), px.PhysxShapeConfig(), px.PhysxBodyConfig()
     material = px.get_default_material()
+    probe = px.PhysxRigidDynamicComponent()
     return {
         "restitution": float(material.restitution),
         "static_friction": float(material.static_friction),
@@ -127,6 +151,9 @@ def engine_defaults() -> dict[str, Any]:
         "solver_position_iterations": int(body.solver_position_iterations),
         "solver_velocity_iterations": int(body.solver_velocity_iterations),
         "sleep_threshold": float(body.sleep_threshold),
+        "enable_friction_every_iteration": bool(scene.enable_friction_every_iteration),
+        "angular_damping": float(probe.get_angular_damping()),
+        "max_angular_velocity": float(probe.get_max_angular_velocity()),
     }
 
 
@@ -139,6 +166,7 @@ def _scene_config(px: Any, params: dict[str, Any], gravity_z: float):
     cfg.bounce_threshold = params["bounce_threshold"]
     cfg.enable_tgs = params["enable_tgs"]
     cfg.enable_pcm = params["enable_pcm"]
+    cfg.enable_friction_every_iteration = params["enable_friction_every_iteration"]
     px.set_scene_config(cfg)
     try:
         yield
@@ -180,8 +208,10 @@ class PhysxWorld:
             np.full(3, half, dtype=np.float32), self.material))
 
     def add(self, position: list[float], mass: float, shape: Any | None = None,
-            static: bool = False) -> Any:
-        """A body at ``position`` (m) with ``shape`` (``None``: no collision)."""
+            static: bool = False, inertia: float = 1.0) -> Any:
+        """A body at ``position`` (m) with ``shape`` (``None``: no collision) and the
+        principal moments of inertia ``inertia`` (kg·m²; 1 where rotations are locked or
+        never excited)."""
         px, p = self.px, self.params
         entity = self.sapien.Entity()
         body = px.PhysxRigidStaticComponent() if static else px.PhysxRigidDynamicComponent()
@@ -192,10 +222,12 @@ class PhysxWorld:
         self.scene.add_entity(entity)
         if not static:
             body.set_mass(mass)
-            body.set_inertia([1.0, 1.0, 1.0])  # rotations are locked or never excited
+            body.set_inertia([inertia] * 3)
             body.set_solver_position_iterations(p["solver_position_iterations"])
             body.set_solver_velocity_iterations(p["solver_velocity_iterations"])
             body.set_sleep_threshold(p["sleep_threshold"])
+            body.set_angular_damping(p["angular_damping"])
+            body.set_max_angular_velocity(p["max_angular_velocity"])
         return body
 
     def contact_force_n(self) -> float:
@@ -329,6 +361,59 @@ class PairModel:
         return f
 
 
+class ObliqueModel:
+    """The oblique impact: the ball (a sphere with its own moment of inertia) moving along +x
+    and −z onto the plate; ``contact`` set: no collision shape and the injected normal law
+    and Coulomb friction act at the contact point."""
+
+    def __init__(self, scenario: Oblique, params: dict[str, Any], dt: float,
+                 contact: stepping.CoulombContact | None = None) -> None:
+        import numpy as np
+
+        self.world = w = PhysxWorld(params, dt, 0.0, axis=2)
+        self.radius = radius = scenario.radius_m
+        self.mass, self.dt = scenario.mass_kg, dt
+        self.plate_thickness_m = 2.0
+        w.add([0.0, 0.0, -radius - 1.0], 0.0, w.box(1.0), static=True)  # top face z = −R
+        shape = None if contact is not None else w.sphere(radius)
+        self.body = w.add([0.0, 0.0, stepping.gap_m(scenario.normal_velocity_m_s, dt)],
+                          scenario.mass_kg, shape, inertia=scenario.moment_of_inertia_kg_m2)
+        self.body.set_linear_velocity([scenario.tangential_velocity_m_s, 0.0,
+                                       -scenario.normal_velocity_m_s])
+        self.body.set_angular_velocity([0.0, scenario.spin_rad_s, 0.0])  # n × t = +y
+        self.contact = contact
+        self.impulsive = contact is None and params["restitution"] >= 0.0  # rigid
+        self._force = np.zeros(3, dtype=np.float32)
+        self._torque = np.zeros(3, dtype=np.float32)
+        self._reach = params["contact_offset"]
+        self._last = self.state()
+
+    def state(self) -> tuple[float, float, float, float]:
+        body = self.body
+        v, w = body.linear_velocity, body.angular_velocity
+        self._last = out = (-float(body.entity_pose.p[2]), -float(v[2]), float(v[0]),
+                            float(w[1]))
+        return out
+
+    def step(self) -> tuple[float, float]:
+        """One step from the state last read; returns (F_n, F_t): the injected forces, or
+        the engine's normal contact impulse / dt (read only within reach of the plate) and
+        m·Δv_t/dt (PhysX reports the normal impulse of a contact point only)."""
+        x, rate, v_t, spin = self._last
+        w = self.world
+        if self.contact is not None:
+            fn, ft = self.contact.forces(x, rate, v_t, spin)
+            if fn > 0.0:
+                self._force[0], self._force[2] = ft, fn
+                self._torque[1] = -self.radius * ft  # (0, 0, −R) × (F_t, 0, F_n)
+                self.body.add_force_torque(self._force, self._torque)
+            w.scene.step()
+            return fn, ft
+        w.scene.step()
+        fn = w.contact_force_n() if x + self._reach + 2.0 * abs(rate) * w.dt > 0.0 else 0.0
+        return fn, self.mass * (float(self.body.linear_velocity[0]) - v_t) / self.dt
+
+
 class SapienAdapter(stepping.SteppedAdapter):
     """PhysX 5 (SAPIEN 3): compliant (undamped) or rigid contacts; injected laws as forces."""
 
@@ -337,9 +422,11 @@ class SapienAdapter(stepping.SteppedAdapter):
     parameter_keys = tuple(PARAMETERS)
     ball_model = BallModel
     pair_model = PairModel
+    oblique_model = ObliqueModel
     injection = ("cannot: PhysX's compliant contact is an undamped spring (no damping to "
                  "schedule); the law is an external force (collision off) integrated by PhysX's "
-                 "semi-implicit Euler step")
+                 "semi-implicit Euler step; oblique: Coulomb friction is a force and torque "
+                 "too (no contact with the normal law), −s·m_s/dt clipped to ±μ·F_n")
 
     def version(self) -> str:
         sapien, _ = _import_sapien()
@@ -348,6 +435,10 @@ class SapienAdapter(stepping.SteppedAdapter):
     def parameters(self, scenario: Scenario, mode: str, settings: RunSettings, ball: bool
                    ) -> tuple[dict[str, Any], dict[str, Any]]:
         return parameters(scenario, mode, settings, ball)
+
+    def oblique_parameters(self, scenario: Oblique, mode: str, settings: RunSettings
+                           ) -> tuple[dict[str, Any], dict[str, Any]]:
+        return oblique_parameters(scenario, mode, settings)
 
 
 def _physx_version() -> str:
@@ -408,4 +499,72 @@ def _artefacts(params: dict[str, Any], ball: bool) -> dict[str, Any]:
     return {"not_comparable": stepping.rigid_artefacts(ball)}
 
 
+FRICTION_MODEL = ("PhysX patch friction: velocity-level Coulomb in the contact solver, static "
+                  "μ_s until the patch slips, dynamic μ_d while it slides")
+FRICTION_COMBINATION = "average"
+"""PhysX's default combine mode (SAPIEN exposes no other): both materials get μ."""
 
+
+def _facts(params: dict[str, Any], mu: float, model: str = FRICTION_MODEL,
+           rule: str = FRICTION_COMBINATION, **extra: Any) -> dict[str, Any]:
+    """The friction facts (``meta["engine_defaults"]``) of a PhysX parameter set."""
+    keys = ("static_friction", "dynamic_friction", "enable_friction_every_iteration",
+            "enable_tgs", "angular_damping", "max_angular_velocity")
+    return stepping.friction_facts(model, rule, mu, mu, mu, **{k: params[k] for k in keys},
+                                   **extra)
+
+
+def oblique_parameters(scenario: Oblique, mode: str, settings: RunSettings
+                       ) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The complete PhysX parameter set of the oblique impact for ``mode`` and its meta (the
+    friction facts in ``meta["engine_defaults"]``).
+
+    ``default``: PhysX's defaults (rigid contact, restitution 0.1 above the 2 m/s bounce
+    threshold, spin damping 0.05 /s, spin clamp 100 rad/s, TGS) with the scenario's μ as both
+    materials' static and dynamic friction; ``custom``: that plus ``settings.params``;
+    ``native``: the ball's native contact (the undamped compliant spring matching the
+    reference's duration at the reference velocity; ``options["contact"] = "rigid"``: rigid
+    with the reference's restitution there and no bounce threshold), μ, no spin damping or
+    clamp; ``injected``: no shapes, the normal law and Coulomb friction as forces."""
+    defaults = engine_defaults()
+    mu = scenario.friction
+    friction = {"static_friction": mu, "dynamic_friction": mu}
+    inertia = scenario.moment_of_inertia_kg_m2
+    if mode in ("default", "custom"):
+        own = stepping.engine_params("params", settings.params, PARAMETERS) \
+            if mode == "custom" else {}
+        params = {**defaults, **friction, **own}
+        facts = _facts(params, params["static_friction"], moment_of_inertia_kg_m2=inertia)
+        meta = {"contact": _kind(params), "restitution": params["restitution"],
+                "bounce_threshold": params["bounce_threshold"],
+                "engine_defaults": {**defaults, **facts}, **_oblique_artefacts(params)}
+        if mode == "custom":
+            meta["params"] = own
+        return params, meta
+    native = {**defaults, **friction, **ROTATION_FREE, "sleep_threshold": 0.0}
+    if mode == "injected":
+        facts = _facts(native, mu, stepping.INJECTED_FRICTION, "none",
+                       moment_of_inertia_kg_m2=inertia)
+        return native, {"contact": "injected forces (no collision shapes)",
+                        "injected_law": scenario.model, "engine_defaults": facts}
+    v_ref = reference_velocity(settings.options)
+    contact = check.one_of("options.contact", settings.options.get("contact", "compliant"),
+                           CONTACTS)
+    meta: dict[str, Any] = {"reference_velocity_m_s": v_ref}
+    if contact == "compliant":
+        native["restitution"] = -native_ball_spring(scenario.normal_scenario(), v_ref)
+        meta["not_expressible"] = "contact damping (PhysX compliant contacts are undamped)"
+    else:
+        native.update(restitution=native_ball_restitution(scenario.normal_scenario(), v_ref),
+                      bounce_threshold=0.0)
+    meta.update(contact=_kind(native), restitution=native["restitution"],
+                bounce_threshold=native["bounce_threshold"],
+                engine_defaults=_facts(native, mu, moment_of_inertia_kg_m2=inertia),
+                **_oblique_artefacts(native))
+    return native, meta
+
+
+def _oblique_artefacts(params: dict[str, Any]) -> dict[str, Any]:
+    if _kind(params) == "compliant":
+        return {}
+    return {"not_comparable": stepping.RIGID_OBLIQUE_ARTEFACTS}

@@ -20,6 +20,14 @@ with force gets a second sample at the same instant carrying the velocity after 
 metrics then see the jump where it happened — inside the contact's samples — and read the
 restitution exactly whether the engine detected the contact before touch (speculative) or
 after, and ∫F dt is the impulse.
+
+The oblique impact (:func:`run_oblique`) adds the tangential channels: an oblique model's
+``state()`` returns (x, ẋ, v_t, ω) — the penetration and its rate as above, the centre's
+velocity along the plate (along the incoming tangential direction t) and the spin about n × t
+(positive: forward rolling) — and its ``step()`` returns (F_n, F_t), the normal force and the
+friction force on the ball along t over the step. Injected mode gives such a model a
+:class:`CoulombContact`: the scenario's normal law and ideal Coulomb friction, applied as
+forces (:func:`coulomb_force`).
 """
 
 from __future__ import annotations
@@ -29,9 +37,12 @@ from abc import abstractmethod
 from collections.abc import Callable
 from typing import Any, ClassVar, Protocol
 
+import numpy as np
+from impactbench.engines import oblique_common
 from impactbench.engines.base import Adapter, Builder, RunSettings, Scenario
 from impactbench.engines.common import Recorder, classify
 from impactbench.reference.laws import StructuralLaw, no_further_contact
+from impactbench.reference.oblique_scenario import Oblique
 from impactbench.reference.record import ImpactRecord, Status
 from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
 
@@ -47,6 +58,10 @@ BALL_TIME_CAP_S = 2e-3
 REST_FRACTION = 1e-6
 """A ball approaching at less than this fraction of its impact speed is at rest (float32)."""
 
+RIGID_REST_FRACTION = 1e-3
+"""The oblique ball is at rest after a rigid contact (an impulse, e = 0) once it approaches at
+less than this fraction of v_n (the float32 residue of an impulse that stopped it)."""
+
 MIN_STEPS = 50
 """The ball's time cap is never fewer steps than this (engines' customary steps, ≤ 1e-2 s)."""
 
@@ -57,6 +72,14 @@ RIGID_BALL_ARTEFACTS: dict[str, str] = dict.fromkeys(
 RIGID_RF_ARTEFACTS: dict[str, str] = dict.fromkeys(
     ("peak_force_n", "pulse_width_s", "contact_time_s"),
     "a rigid contact is a one-step impulse: no contact stiffness k1, force or duration")
+
+
+RIGID_OBLIQUE_ARTEFACTS: dict[str, str] = dict.fromkeys(
+    ("duration_s", "peak_force_n", "peak_tangential_force_n"),
+    "a rigid contact is a one-step impulse: no duration or force (normal or tangential)")
+
+OBLIQUE_TIMESTEP_S = 1e-6
+"""The oblique impact's default step (s): the ball's."""
 
 
 def rigid_artefacts(ball: bool) -> dict[str, str]:
@@ -226,6 +249,138 @@ def run_pair(model: SteppedModel, scenario: RigidFlexible, dt: float, max_time_s
     return out
 
 
+def slip_mass_kg(scenario: Oblique) -> float:
+    """The ball's effective mass at the contact point along the plate (kg): a tangential
+    force F_t at the contact point changes the slip s = v_t − R·ω at the rate
+    F_t·(1/m + R²/I), so m_s = 1/(1/m + R²/I) (m/3.5 for a solid sphere)."""
+    m, r = scenario.mass_kg, scenario.radius_m
+    return 1.0 / (1.0 / m + r * r / scenario.moment_of_inertia_kg_m2)
+
+
+def coulomb_force(normal_force_n: float, slip_m_s: float, friction: float,
+                  slip_mass: float, dt: float) -> float:
+    """Ideal Coulomb friction for one explicit step (N, on the ball along t): the force that
+    stops the contact point's slip within the step, −s·m_s/dt, clipped to the cone ±μ·F_n.
+
+    A body step v ← v + F·dt/m, ω ← ω + τ·dt/I with this force at the contact point leaves
+    the slip exactly 0 while the cone allows (stick: the rigid theory's rolling, without the
+    chatter of a sign(s) law) and otherwise applies μ·F_n against the slip (sliding), so
+    the tangential impulse is μ times the normal impulse while the ball slides. For these
+    semi-implicit Euler engines this is the discrete rigid limit exactly;
+    :func:`impactbench.engines.oblique_common.coulomb_force` regularises over two steps
+    instead, as an explicit Runge–Kutta step needs."""
+    cap = friction * normal_force_n
+    if cap <= 0.0:
+        return 0.0
+    return max(-cap, min(cap, -slip_m_s * slip_mass / dt))
+
+
+class CoulombContact:
+    """The injected oblique contact: the scenario's normal law F_n(x, ẋ) (its
+    :meth:`~impactbench.reference.oblique_scenario.Oblique.normal_scenario`'s law, set up at
+    the normal velocity) and ideal Coulomb friction μ (:func:`coulomb_force`), evaluated at
+    a step's start state."""
+
+    def __init__(self, scenario: Oblique, dt: float) -> None:
+        self.normal = scenario.normal_scenario().law()
+        self.friction = scenario.friction
+        self.radius_m = scenario.radius_m
+        self.slip_mass = slip_mass_kg(scenario)
+        self.dt = dt
+
+    def forces(self, x: float, rate: float, v_t: float, spin: float) -> tuple[float, float]:
+        """(F_n, F_t) at penetration x, its rate ẋ, tangential velocity v_t and spin ω."""
+        fn = self.normal.force(x, rate)
+        if fn <= 0.0:
+            return 0.0, 0.0
+        return fn, coulomb_force(fn, v_t - self.radius_m * spin, self.friction,
+                                 self.slip_mass, self.dt)
+
+
+def friction_facts(model: str, rule: str, ball: float, plate: float, effective: float,
+                   **extra: Any) -> dict[str, Any]:
+    """An oblique run's friction facts for ``meta["engine_defaults"]``, the keys of
+    :func:`impactbench.engines.oblique_common.friction_facts` (``friction_model``,
+    ``friction_combination``, ``friction_ball``, ``friction_plate``, ``friction_effective``
+    and extras); a rule that module does not list (Box2D's ``geometric`` mean √(μ_a·μ_b))
+    gets the same keys."""
+    if rule in (*oblique_common.COMBINATIONS, "none"):
+        return oblique_common.friction_facts(model, rule, ball, plate, effective, **extra)
+    return {"friction_model": model, "friction_combination": rule,
+            "friction_ball": float(ball), "friction_plate": float(plate),
+            "friction_effective": float(effective), **extra}
+
+
+INJECTED_FRICTION = ("ideal Coulomb as a force at the contact point: −s·m_s/dt clipped to "
+                     "±μ·F_n at the step's start state (stops the slip within a step)")
+"""``friction_model`` of an injected oblique run whose friction is an applied force."""
+
+
+class ObliqueModel(Protocol):
+    """What :func:`run_oblique` needs from an engine model (and, for a rigid contact,
+    ``impulsive = True``; ``plate_thickness_m`` for the tunnelling test)."""
+
+    def state(self) -> tuple[float, float, float, float]: ...
+
+    def step(self) -> tuple[float, float]: ...
+
+
+def run_oblique(model: ObliqueModel, scenario: Oblique, dt: float, max_time_s: float | None,
+                meta: dict) -> ImpactRecord:
+    """Step the oblique impact from its gap until the contact has ended: :func:`run_ball`'s
+    rules along the normal (with the normal velocity v_n; a rigid contact has ended once the
+    ball no longer approaches, whatever resting force it reports), and the tangential channels
+    recorded alongside (sample k: the state at the start of step k and the forces of step k;
+    a rigid contact's second sample at the same instant carries the velocities after the
+    jump). The record and its status: :func:`impactbench.engines.oblique_common.record` and
+    ``finish`` (:func:`run_ball`'s rules, the energies with the tangential motion and spin)."""
+    v0, radius = scenario.normal_velocity_m_s, scenario.radius_m
+    deep = radius + getattr(model, "plate_thickness_m", 0.0)
+    cap_s = max_time_s or max(gap_m(v0, dt) / v0 + BALL_TIME_CAP_S, MIN_STEPS * dt)
+    n_max = max(1, math.ceil(cap_s / dt))
+    rows: list[tuple[float, ...]] = []
+    x, v, vt, w = model.state()
+    impulsive = getattr(model, "impulsive", False)
+    rest = (RIGID_REST_FRACTION if impulsive else REST_FRACTION) * v0
+    touched = tunneled = nonfinite = False
+    tail = -1
+    k = 0
+    while k < n_max:
+        fn, ft = model.step()
+        rows.append((k * dt, x, v, fn, vt, w, ft))
+        x_k = x
+        x, v, vt, w = model.state()
+        if impulsive and (fn > 0.0 or ft != 0.0):
+            rows.append((k * dt, x_k, v, fn, vt, w, ft))
+        k += 1
+        if not all(map(math.isfinite, (x, v, vt, w, fn, ft))):
+            nonfinite = True
+            break
+        if x > deep:
+            tunneled = True
+            break
+        # a rigid contact that stopped the ball dead (e = 0: a restitution threshold) may
+        # go on reporting resting forces (position correction, the plate's curvature) and
+        # leave a float32 residue of the approach: its impact is over once the ball no
+        # longer approaches faster than RIGID_REST_FRACTION of v_n
+        resting = impulsive and touched and v <= rest
+        if fn > 0.0 and not resting:
+            touched, tail = True, -1
+        elif touched:
+            if tail < 0 and v <= rest:
+                tail = TAIL_STEPS
+            elif tail > 0:
+                tail -= 1
+                if tail == 0:
+                    break
+    rows.append((k * dt, x, v, 0.0, vt, w, 0.0))
+    d = np.array(rows, dtype=float).reshape(-1, 7).T
+    out = oblique_common.record(scenario, d[0], d[1], d[2], d[3], d[4], d[5], d[6],
+                                dict(meta, steps=k))
+    return oblique_common.finish(out, scenario, tunneled=tunneled,
+                                 timed_out=k == n_max and tail != 0 and not nonfinite)
+
+
 class SteppedAdapter(Adapter):
     """An adapter whose engine runs through :func:`run_ball` / :func:`run_pair`.
 
@@ -239,10 +394,14 @@ class SteppedAdapter(Adapter):
     builders: ClassVar[dict[str, Builder]] = {
         "ball-on-plate": Builder("run_ball", 1e-6),
         "rigid-flexible": Builder("run_pair", 1e-5),
+        "oblique": Builder("run_oblique", OBLIQUE_TIMESTEP_S),
     }
     label: ClassVar[str]
     ball_model: ClassVar[Callable[..., SteppedModel]]
     pair_model: ClassVar[Callable[..., SteppedModel]]
+    oblique_model: ClassVar[Callable[..., ObliqueModel]]
+    """Model class of the oblique impact, ``(scenario, params, dt, contact)`` with
+    ``contact`` a :class:`CoulombContact` in injected mode, else None (the engine's own)."""
 
     @abstractmethod
     def parameters(self, scenario: Scenario, mode: str, settings: RunSettings, ball: bool
@@ -271,6 +430,22 @@ class SteppedAdapter(Adapter):
         model = self.pair_model(scenario, params, dt, law)
         threshold = getattr(law, "contact_threshold", None)
         return run_pair(model, scenario, dt, settings.max_time_s, meta, threshold)
+
+    def oblique_parameters(self, scenario: Oblique, mode: str, settings: RunSettings
+                           ) -> tuple[dict[str, Any], dict[str, Any]]:
+        """The complete engine parameter set of the oblique impact for ``mode`` (native,
+        injected, default, custom) and the run's meta."""
+        raise NotImplementedError
+
+    def run_oblique(self, scenario: Oblique, mode: str, settings: RunSettings
+                    ) -> ImpactRecord:
+        if mode == "tuned":
+            return oblique_common.unsupported_tuned()
+        dt = float(settings.timestep_s)
+        params, meta = self.oblique_parameters(scenario, mode, settings)
+        contact = CoulombContact(scenario, dt) if mode == "injected" else None
+        model = self.oblique_model(scenario, params, dt, contact)
+        return run_oblique(model, scenario, dt, settings.max_time_s, meta)
 
     def _refused(self, mode: str, settings: RunSettings) -> ImpactRecord | None:
         """``unsupported`` for tuned mode without tuned parameters (every scenario)."""

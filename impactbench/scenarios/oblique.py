@@ -90,15 +90,16 @@ def record_metrics(rec: Any, scenario: Any) -> dict[str, float]:
 def plausibility(scenario: Any, rec: Any, metrics: dict[str, Any]) -> dict[str, float]:
     """The largest overlap over the ball's radius (from the record), and the kinetic energy
     after over before, translation and spin: (m·(v_n'² + v_t'²) + I·ω'²)/(m·V² + I·ω0²),
-    I = (2/5)·m·R², with v_n' = e·v_n and v_t' = v_n'·tan(rebound angle)."""
+    I = (2/5)·m·R², with v_n' = e·v_n and v_t' = e_t·V·sin θ (the tangential restitution; at
+    θ = 0, v_t' = 0)."""
     pen = float(rec.penetration_m.max()) if len(rec) else math.nan
     e = float(metrics.get("restitution", math.nan))
-    angle = math.radians(float(metrics.get("rebound_angle_deg", math.nan)))
     w = float(metrics.get("spin_out_rad_s", math.nan))
     m, r = scenario.mass_kg, scenario.radius_m
     inertia = 0.4 * m * r * r
     vn = e * scenario.normal_velocity_m_s
-    vt = vn * math.tan(angle)
+    v_t_in = scenario.velocity_m_s * math.sin(math.radians(scenario.angle_deg))
+    vt = float(metrics.get("tangential_restitution", math.nan)) * v_t_in if v_t_in else 0.0
     before = m * scenario.velocity_m_s**2 + inertia * scenario.spin_rad_s**2
     after = m * (vn * vn + vt * vt) + inertia * w * w
     return {"penetration_ratio": pen / r, "energy_ratio": after / before}
