@@ -5,7 +5,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: report test lint bench figures clean
+.PHONY: report test lint bench figures clean mutants
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -26,6 +26,22 @@ lint: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python -m benchmarks
+
+# Mutation testing of the references, metrics, gate judge and tuned binding (on demand, not
+# in CI; ~20 min): mutmut runs in a staged copy where reference/ and engines/ sit inside
+# impactbench/ as they install, so the working tree is never mutated (tools/mutants.cfg).
+mutants: $(STAMP)
+	rm -rf build/mutants && mkdir -p build/mutants
+	cp -R impactbench tests build/mutants/
+	cp -R reference build/mutants/impactbench/reference
+	cp -R engines build/mutants/impactbench/engines
+	find build/mutants -name __pycache__ -prune -exec rm -rf {} +
+	cp tools/mutants.cfg build/mutants/setup.cfg
+	cd build/mutants && ../../$(BIN)/mutmut run 'impactbench.reference.hunt_crossley.*' \
+	    'impactbench.reference.models.*' 'impactbench.reference.metrics.*' \
+	    'impactbench.gates.x_judge__mutmut_*' 'impactbench.gates.x_drift__mutmut_*' \
+	    'impactbench.tuned.x__close__mutmut_*' 'impactbench.tuned.x_binding_mismatch__mutmut_*'; \
+	  ../../$(BIN)/mutmut results
 
 clean:
 	rm -rf $(VENV) build *.egg-info

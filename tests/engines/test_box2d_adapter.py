@@ -20,9 +20,30 @@ from impactbench.reference import hunt_crossley, metrics, two_dof  # noqa: E402
 from impactbench.reference.record import Status  # noqa: E402
 from impactbench.reference.scenarios import BallOnPlate, RigidFlexible  # noqa: E402
 
-RF_METRICS = ("peak_force_n", "pulse_width_s", "impulse_ns")
-FLOAT32 = 1e-6
-"""Box2D keeps velocities in float32."""
+FLOAT32 = 1.2e-7
+"""Box2D keeps velocities in float32: one float32 ulp (2⁻²³), 3× the largest measured error
+of an exact rigid restitution (3.97e-8 for e = 0.6 and 0.8)."""
+
+# Tolerances are about 3× the error measured on this machine (Box2D 2.3.10), each
+# measurement in a comment.
+INJECTED_BALL_TOL = {  # rel. error at dt = 1e-7 s; measured in the comments
+    1.0: {"restitution": 3.5e-6,  # 1.17e-6
+          "duration_s": 1.8e-4,  # 5.88e-5
+          "peak_force_n": 3.2e-4,  # 1.07e-4
+          "max_penetration_m": 1.3e-4},  # 4.19e-5
+    5.0: {"restitution": 3.2e-7,  # 1.07e-7
+          "duration_s": 1.1e-3,  # 3.53e-4 (a third of a step of the 776-step contact)
+          "peak_force_n": 1.8e-3,  # 6.11e-4
+          "max_penetration_m": 7.8e-4},  # 2.61e-4
+}
+INJECTED_RF_TOL = {  # rel. error at the default 1e-5 s; measured in the comments
+    "linear": {"peak_force_n": 2.5e-4,  # 8.20e-5
+               "pulse_width_s": 1.3e-4,  # 4.29e-5
+               "impulse_ns": 1.9e-3},  # 6.19e-4
+    "elastoplastic": {"peak_force_n": 5e-5,  # 1.66e-5
+                      "pulse_width_s": 1.3e-4,  # 4.10e-5
+                      "impulse_ns": 1.9e-3},  # 6.30e-4
+}
 
 
 @pytest.fixture(scope="module")
@@ -41,9 +62,8 @@ def ball(adapter, velocity: float, mode: str, dt: float = 1e-6, **kw):
 def test_injected_ball_reproduces_hunt_crossley(adapter, velocity: float) -> None:
     _, got = ball(adapter, velocity, "injected", dt=1e-7)
     ref = hunt_crossley.solve(BallOnPlate(velocity_m_s=velocity))
-    assert rel(got["restitution"], ref["restitution"]) <= 1e-4
-    for k in ("duration_s", "peak_force_n", "max_penetration_m"):
-        assert rel(got[k], ref[k]) <= 2e-3, (k, got[k], ref[k])
+    for k, tol in INJECTED_BALL_TOL[velocity].items():
+        assert rel(got[k], ref[k]) <= tol, (k, got[k], ref[k])
 
 
 def test_native_ball_bounces_only_above_the_velocity_threshold(adapter) -> None:
@@ -54,15 +74,15 @@ def test_native_ball_bounces_only_above_the_velocity_threshold(adapter) -> None:
     _, fast = ball(adapter, 5.0, "native")
     assert slow_rec.meta["build_constants"]["b2_velocityThreshold"] == 1.0
     assert "1 m/s" in slow_rec.meta["not_expressible"]
-    assert slow["restitution"] == pytest.approx(0.0, abs=FLOAT32)
-    assert fast["restitution"] == pytest.approx(k_ref, rel=FLOAT32)
-    assert fast["impulse_ns"] == pytest.approx(0.1 * (1 + k_ref) * 5.0, rel=FLOAT32)
+    assert slow["restitution"] == pytest.approx(0.0, abs=FLOAT32)  # measured exactly 0
+    assert fast["restitution"] == pytest.approx(k_ref, rel=2e-8)  # measured 6.4e-9
+    assert fast["impulse_ns"] == pytest.approx(0.1 * (1 + k_ref) * 5.0, rel=3e-8)  # 9.2e-9
 
 
 def test_default_and_custom_modes(adapter) -> None:
     rec, got = ball(adapter, 5.0, "default")
     assert rec.meta["engine_defaults"]["restitution"] == 0.0
-    assert got["restitution"] == pytest.approx(0.0, abs=FLOAT32)
+    assert got["restitution"] == pytest.approx(0.0, abs=FLOAT32)  # measured exactly 0
     # the plate's fixture has 0, neutral for the max Box2D takes: the pair has the user's value
     rec, got = ball(adapter, 2.0, "custom", params={"restitution": 0.6})
     assert got["restitution"] == pytest.approx(0.6, rel=FLOAT32)
@@ -83,8 +103,8 @@ def test_injected_rigid_flexible_reproduces_the_reference(adapter, local, veloci
     got, ref = metrics.compute(rec), two_dof.solve(sc)
     assert rec.status is Status.OK, rec.message
     assert got["impacts"] == ref["impacts"]
-    for k in RF_METRICS:
-        assert rel(got[k], ref[k]) <= 0.01, (k, got[k], ref[k])
+    for k, tol in INJECTED_RF_TOL[local].items():
+        assert rel(got[k], ref[k]) <= tol, (k, got[k], ref[k])
 
 
 def test_native_rigid_flexible_is_elastic_momentum_exchange(adapter) -> None:
@@ -95,6 +115,7 @@ def test_native_rigid_flexible_is_elastic_momentum_exchange(adapter) -> None:
     got = metrics.compute(rec)
     assert rec.status is Status.OK, rec.message
     assert got["impacts"] == 2
+    # measured 7.91e-4 and 1.81e-5 s (one 1e-5 s step): kept at 1.3× and 1.7×
     assert rel(got["impulse_ns"], 2 * sc.m1_kg * sc.velocity_m_s) <= 1e-3
     assert abs(got["pulse_width_s"] - math.pi * math.sqrt(sc.m2_kg / sc.k2_n_per_m)) <= 3e-5
 
@@ -117,4 +138,4 @@ def test_default_and_custom_at_the_customary_step(adapter) -> None:
     for mode, params in (("default", None), ("custom", custom)):
         rec = adapter.run(sc, mode, RunSettings(timestep_s=1 / 60, params=params))
         assert rec.status is Status.OK, (mode, rec.message)
-    assert metrics.compute(rec)["restitution"] == pytest.approx(0.9, rel=2e-3)
+    assert metrics.compute(rec)["restitution"] == pytest.approx(0.9, rel=FLOAT32)  # measured 0

@@ -20,9 +20,30 @@ from impactbench.reference import hunt_crossley, metrics, two_dof  # noqa: E402
 from impactbench.reference.record import Status  # noqa: E402
 from impactbench.reference.scenarios import BallOnPlate, RigidFlexible  # noqa: E402
 
-RF_METRICS = ("peak_force_n", "pulse_width_s", "impulse_ns")
 CFM_LOSS = 1e-4
-"""DART's constraint-force mixing trims a rigid restitution by ~2e-5 (not settable)."""
+"""DART's constraint-force mixing trims a rigid restitution (not settable): measured 2.1e-5
+(native, e = 0.968), 2.4e-5 (e = 0.7), 3.5e-5 (e = 0.4) relative; 3× the worst."""
+
+# Tolerances are about 3× the error measured on this machine (dartpy 6.20.0), each
+# measurement in a comment.
+INJECTED_BALL_TOL = {  # rel. error at dt = 1e-7 s; measured in the comments
+    1.0: {"restitution": 2.4e-7,  # 7.75e-8
+          "duration_s": 1.8e-4,  # 5.87e-5
+          "peak_force_n": 3.2e-4,  # 1.06e-4
+          "max_penetration_m": 1.3e-4},  # 4.25e-5
+    5.0: {"restitution": 3.3e-7,  # 1.10e-7
+          "duration_s": 1.1e-3,  # 3.53e-4 (a third of a step of the 776-step contact)
+          "peak_force_n": 1.8e-3,  # 6.10e-4
+          "max_penetration_m": 7.8e-4},  # 2.61e-4
+}
+INJECTED_RF_TOL = {  # rel. error at the default 1e-5 s; measured in the comments
+    "linear": {"peak_force_n": 2.3e-4,  # 7.74e-5
+               "pulse_width_s": 1.4e-4,  # 4.57e-5
+               "impulse_ns": 1.9e-3},  # 6.20e-4
+    "elastoplastic": {"peak_force_n": 4.9e-5,  # 1.63e-5
+                      "pulse_width_s": 1.3e-4,  # 4.15e-5
+                      "impulse_ns": 1.9e-3},  # 6.29e-4
+}
 
 
 @pytest.fixture(scope="module")
@@ -41,9 +62,8 @@ def ball(adapter, velocity: float, mode: str, dt: float = 1e-6, **kw):
 def test_injected_ball_reproduces_hunt_crossley(adapter, velocity: float) -> None:
     _, got = ball(adapter, velocity, "injected", dt=1e-7)
     ref = hunt_crossley.solve(BallOnPlate(velocity_m_s=velocity))
-    assert rel(got["restitution"], ref["restitution"]) <= 1e-4
-    for k in ("duration_s", "peak_force_n", "max_penetration_m"):
-        assert rel(got[k], ref[k]) <= 2e-3, (k, got[k], ref[k])
+    for k, tol in INJECTED_BALL_TOL[velocity].items():
+        assert rel(got[k], ref[k]) <= tol, (k, got[k], ref[k])
 
 
 def test_native_ball_is_rigid_with_the_reference_restitution_at_v_ref(adapter) -> None:
@@ -51,9 +71,9 @@ def test_native_ball_is_rigid_with_the_reference_restitution_at_v_ref(adapter) -
     for velocity in (1.0, 5.0):
         rec, got = ball(adapter, velocity, "native")
         assert rec.meta["restitution"] == pytest.approx(k_ref, rel=1e-12)
-        assert rel(got["restitution"], k_ref) <= CFM_LOSS
+        assert rel(got["restitution"], k_ref) <= 6.2e-5  # measured 2.07e-5 (CFM)
         impulse = 0.1 * (1.0 + got["restitution"]) * velocity
-        assert got["impulse_ns"] == pytest.approx(impulse, rel=1e-9)
+        assert got["impulse_ns"] == pytest.approx(impulse, rel=1e-9)  # measured 0
         assert "duration_s" in rec.meta["not_comparable"]
 
 
@@ -62,7 +82,7 @@ def test_default_mode_is_a_plastic_impact(adapter) -> None:
     no more than 1e-3 m/s."""
     rec, got = ball(adapter, 1.0, "default")
     assert rec.meta["engine_defaults"]["restitution_coeff"] == 0.0
-    assert 0.0 <= got["restitution"] <= 1.5e-3
+    assert 0.0 <= got["restitution"] <= 1.5e-3  # measured 1.000e-3: the push-out bound
 
 
 def test_custom_parameters_reach_the_engine(adapter) -> None:
@@ -79,7 +99,7 @@ def test_custom_parameters_reach_the_engine(adapter) -> None:
 def test_tuned_mode(adapter) -> None:
     assert adapter.run(BallOnPlate(), "tuned").status is Status.UNSUPPORTED
     _, got = ball(adapter, 2.0, "tuned", tuned={"restitution_coeff": 0.7})
-    assert rel(got["restitution"], 0.7) <= CFM_LOSS
+    assert rel(got["restitution"], 0.7) <= 7.3e-5  # measured 2.43e-5 (CFM)
 
 
 @pytest.mark.parametrize("local,velocity", [("linear", 3.3), ("elastoplastic", 10.0)])
@@ -89,8 +109,8 @@ def test_injected_rigid_flexible_reproduces_the_reference(adapter, local, veloci
     got, ref = metrics.compute(rec), two_dof.solve(sc)
     assert rec.status is Status.OK, rec.message
     assert got["impacts"] == ref["impacts"]
-    for k in RF_METRICS:
-        assert rel(got[k], ref[k]) <= 0.01, (k, got[k], ref[k])
+    for k, tol in INJECTED_RF_TOL[local].items():
+        assert rel(got[k], ref[k]) <= tol, (k, got[k], ref[k])
 
 
 def test_native_rigid_flexible_is_elastic_momentum_exchange(adapter) -> None:
@@ -101,6 +121,7 @@ def test_native_rigid_flexible_is_elastic_momentum_exchange(adapter) -> None:
     got = metrics.compute(rec)
     assert rec.status is Status.OK, rec.message
     assert got["impacts"] == 2
+    # measured 7.95e-4 and 1.85e-5 s (one 1e-5 s step): kept at 1.3× and 1.6×
     assert rel(got["impulse_ns"], 2 * sc.m1_kg * sc.velocity_m_s) <= 1e-3
     assert abs(got["pulse_width_s"] - math.pi * math.sqrt(sc.m2_kg / sc.k2_n_per_m)) <= 3e-5
 
@@ -128,4 +149,4 @@ def test_default_and_custom_at_the_customary_step(adapter) -> None:
     for mode, params in (("default", None), ("custom", custom)):
         rec = adapter.run(sc, mode, RunSettings(timestep_s=1e-3, params=params))
         assert rec.status is Status.OK, (mode, rec.message)
-    assert metrics.compute(rec)["restitution"] == pytest.approx(0.9, rel=2e-3)
+    assert metrics.compute(rec)["restitution"] == pytest.approx(0.9, rel=6.5e-5)  # 2.11e-5

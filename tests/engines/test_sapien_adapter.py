@@ -21,7 +21,30 @@ from impactbench.reference import hunt_crossley, metrics, two_dof  # noqa: E402
 from impactbench.reference.record import Status  # noqa: E402
 from impactbench.reference.scenarios import BallOnPlate, RigidFlexible  # noqa: E402
 
-RF_METRICS = ("peak_force_n", "pulse_width_s", "impulse_ns")
+# Tolerances are about 3× the error measured on this machine (SAPIEN 3.0.3 / PhysX 5.3.1,
+# CPU), each measurement in a comment: a change of the contact worth a few per cent (the
+# compliant stiffness off by 2 % gives 9.5e-3 in the 2-DOF native run) must fail.
+INJECTED_BALL_TOL = {  # rel. error at dt = 1e-7 s; measured in the comments
+    1.0: {"restitution": 3.5e-6,  # 1.17e-6
+          "duration_s": 1.8e-4,  # 5.88e-5
+          "peak_force_n": 3.2e-4,  # 1.07e-4
+          "max_penetration_m": 1.3e-4},  # 4.19e-5
+    5.0: {"restitution": 3.2e-7,  # 1.07e-7
+          "duration_s": 1.1e-3,  # 3.53e-4 (a third of a step of the 776-step contact)
+          "peak_force_n": 1.8e-3,  # 6.11e-4
+          "max_penetration_m": 7.8e-4},  # 2.61e-4
+}
+INJECTED_RF_TOL = {  # rel. error at the default 1e-5 s; measured in the comments
+    "linear": {"peak_force_n": 6.2e-5,  # 2.08e-5
+               "pulse_width_s": 4.3e-5,  # 1.42e-5
+               "impulse_ns": 1.8e-4},  # 5.96e-5
+    "elastoplastic": {"peak_force_n": 6.2e-6,  # 2.05e-6
+                      "pulse_width_s": 1.8e-5,  # 5.96e-6
+                      "impulse_ns": 1.8e-4},  # 6.13e-5
+}
+NATIVE_RF_TOL = {"peak_force_n": 3.2e-4,  # measured 1.06e-4
+                 "pulse_width_s": 3.4e-4,  # 1.13e-4
+                 "impulse_ns": 4.0e-4}  # 1.32e-4
 
 
 @pytest.fixture(scope="module")
@@ -40,9 +63,8 @@ def ball(adapter, velocity: float, mode: str, dt: float = 1e-6, **kw):
 def test_injected_ball_reproduces_hunt_crossley(adapter, velocity: float) -> None:
     _, got = ball(adapter, velocity, "injected", dt=1e-7)
     ref = hunt_crossley.solve(BallOnPlate(velocity_m_s=velocity))
-    assert rel(got["restitution"], ref["restitution"]) <= 1e-4
-    for k in ("duration_s", "peak_force_n", "max_penetration_m"):
-        assert rel(got[k], ref[k]) <= 2e-3, (k, got[k], ref[k])
+    for k, tol in INJECTED_BALL_TOL[velocity].items():
+        assert rel(got[k], ref[k]) <= tol, (k, got[k], ref[k])
 
 
 def test_native_ball_is_an_undamped_spring_matching_the_duration_at_v_ref(adapter) -> None:
@@ -51,10 +73,10 @@ def test_native_ball_is_an_undamped_spring_matching_the_duration_at_v_ref(adapte
     rec, got = ball(adapter, 1.0, "native", dt=1e-7)
     stiffness = -rec.meta["restitution"]
     ref = hunt_crossley.solve(BallOnPlate(velocity_m_s=1.0))
-    assert rel(got["duration_s"], ref["duration_s"]) <= 3e-3
-    assert rel(got["duration_s"], math.pi * math.sqrt(0.1 / stiffness)) <= 3e-3
-    assert rel(got["peak_force_n"], math.sqrt(stiffness * 0.1)) <= 3e-3
-    assert got["restitution"] > 0.995 > ref["restitution"] + 0.05
+    assert rel(got["duration_s"], ref["duration_s"]) <= 4.1e-4  # measured 1.37e-4
+    assert rel(got["duration_s"], math.pi * math.sqrt(0.1 / stiffness)) <= 4.1e-4  # 1.37e-4
+    assert rel(got["peak_force_n"], math.sqrt(stiffness * 0.1)) <= 7.6e-4  # 2.54e-4
+    assert got["restitution"] > 0.998 > ref["restitution"] + 0.05  # measured 0.99940
     assert "damping" in rec.meta["not_expressible"]
 
 
@@ -62,7 +84,7 @@ def test_native_rigid_option_has_the_reference_restitution(adapter) -> None:
     k_ref = hunt_crossley.solve(BallOnPlate(velocity_m_s=1.0))["restitution"]
     rec, got = ball(adapter, 1.0, "native", options={"contact": "rigid"})
     assert rec.meta["bounce_threshold"] == 0.0
-    assert got["restitution"] == pytest.approx(k_ref, rel=1e-5)  # float32 velocities
+    assert got["restitution"] == pytest.approx(k_ref, rel=1.5e-7)  # measured 4.5e-8 (float32)
     assert "duration_s" in rec.meta["not_comparable"]
 
 
@@ -72,14 +94,14 @@ def test_default_mode_shows_the_bounce_threshold(adapter) -> None:
     _, fast = ball(adapter, 5.0, "default")
     defaults = rec1.meta["engine_defaults"]
     assert defaults["bounce_threshold"] == pytest.approx(2.0)
-    assert slow["restitution"] == pytest.approx(0.0, abs=1e-6)
-    assert fast["restitution"] == pytest.approx(defaults["restitution"], rel=1e-5)
+    assert slow["restitution"] == pytest.approx(0.0, abs=1e-9)  # measured exactly 0
+    assert fast["restitution"] == pytest.approx(defaults["restitution"], rel=7e-7)  # 2.2e-7
 
 
 def test_custom_parameters_reach_the_engine(adapter) -> None:
     rec, got = ball(adapter, 1.0, "custom",
                     params={"bounce_threshold": 0.0, "restitution": 0.5})
-    assert got["restitution"] == pytest.approx(0.5, rel=1e-5)
+    assert got["restitution"] == pytest.approx(0.5, rel=1.2e-7)  # measured 0; a float32 ulp
     assert rec.meta["params"] == {"bounce_threshold": 0.0, "restitution": 0.5}
     with pytest.raises(ValueError, match=r"params\.enable_tgs"):
         adapter.run(BallOnPlate(), "custom", RunSettings(params={"enable_tgs": 1}))
@@ -90,6 +112,7 @@ def test_custom_parameters_reach_the_engine(adapter) -> None:
 def test_tuned_mode(adapter) -> None:
     assert adapter.run(BallOnPlate(), "tuned").status is Status.UNSUPPORTED
     _, got = ball(adapter, 1.0, "tuned", dt=1e-7, tuned={"restitution": -1e8})
+    # measured 1.49e-3 (1.5 steps of the 993-step contact at 1e-7 s): kept at 2×
     assert rel(got["duration_s"], math.pi * math.sqrt(0.1 / 1e8)) <= 3e-3
 
 
@@ -100,8 +123,8 @@ def test_injected_rigid_flexible_reproduces_the_reference(adapter, local, veloci
     got, ref = metrics.compute(rec), two_dof.solve(sc)
     assert rec.status is Status.OK, rec.message
     assert got["impacts"] == ref["impacts"]
-    for k in RF_METRICS:
-        assert rel(got[k], ref[k]) <= 0.01, (k, got[k], ref[k])
+    for k, tol in INJECTED_RF_TOL[local].items():
+        assert rel(got[k], ref[k]) <= tol, (k, got[k], ref[k])
 
 
 def test_native_rigid_flexible_linear_law_is_the_compliant_contact(adapter) -> None:
@@ -111,8 +134,8 @@ def test_native_rigid_flexible_linear_law_is_the_compliant_contact(adapter) -> N
     got, ref = metrics.compute(rec), two_dof.solve(sc)
     assert rec.status is Status.OK and rec.meta["contact"] == "compliant"
     assert got["impacts"] == ref["impacts"]
-    for k in RF_METRICS:
-        assert rel(got[k], ref[k]) <= 0.01, (k, got[k], ref[k])
+    for k, tol in NATIVE_RF_TOL.items():
+        assert rel(got[k], ref[k]) <= tol, (k, got[k], ref[k])
 
 
 def test_collapse_is_reported(adapter) -> None:
@@ -138,4 +161,5 @@ def test_default_and_custom_at_the_customary_step(adapter) -> None:
     for mode, params in (("default", None), ("custom", custom)):
         rec = adapter.run(sc, mode, RunSettings(timestep_s=0.01, params=params))
         assert rec.status is Status.OK, (mode, rec.message)
+    # measured 1.78e-3: kept at 2e-3 (1.1×)
     assert metrics.compute(rec)["restitution"] == pytest.approx(0.9, rel=2e-3)

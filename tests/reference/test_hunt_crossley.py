@@ -68,12 +68,39 @@ def test_physical_units_match_ode_in_physical_scaling():
     (5.0, 0.74843493, 1.137259e-04, 77.655, 22315.27),
 ])
 def test_paper_rows(v0, k, xmax, duration_us, peak_n):
-    """MODELS.md's two rows, each to half a unit of its last printed digit."""
+    """The preprint's case (Borovin, Dyagel & Lapshin, Keldysh Institute preprint 53, 2008,
+    section 3: steel ball m = 0.1 kg, c = 1.7135e10 N/m^1.5, n = 3/2, b = 0.1 s/m), whose
+    known values are tabulated in the project's shared notes, MODELS.md §1 ("Known values of
+    this case … computed with two independent methods"; shared/MODELS.md beside the
+    repository, with the preprint's text in shared/seeds/000_ee72656d74ddbfac.txt). Each row
+    to half a unit of its last printed digit; test_paper_row_reproduced_with_mpmath
+    recomputes k and x_max without the code."""
     got = hc.solve(BallOnPlate(velocity_m_s=v0))
     assert abs(got["restitution"] - k) <= 0.5e-8
     assert abs(got["max_penetration_m"] - xmax) <= 0.5e-6 * 1e-5 * (1 if v0 < 1 else 10)
     assert abs(got["duration_s"] * 1e6 - duration_us) <= 0.5e-3
     assert abs(got["peak_force_n"] - peak_n) <= 0.5e-2
+
+
+def test_paper_row_reproduced_with_mpmath():
+    """MODELS.md §1's V0 = 5 m/s row (k = 0.74843493, x_max = 1.137259e-04 m), recomputed
+    in 30-digit arithmetic from the first integral, not from the code's Lambert W: k is the
+    root of (1+k)α − ln(1+α) + ln(1 − kα) = 0 and Π(x_max) = c·x^(n+1)/(n+1) =
+    (m/b²)(α − ln(1+α)), α = b·V0."""
+    import mpmath
+
+    with mpmath.workdps(30):
+        m, c, n, b, v0 = (mpmath.mpf("0.1"), mpmath.mpf("1.7135e10"), mpmath.mpf("1.5"),
+                          mpmath.mpf("0.1"), mpmath.mpf(5))
+        a = b * v0
+        k = mpmath.findroot(lambda k: (1 + k) * a - mpmath.log1p(a) + mpmath.log1p(-k * a),
+                            (mpmath.mpf("0.5"), mpmath.mpf("0.99")), solver="anderson")
+        xmax = ((n + 1) / c * m / b**2 * (a - mpmath.log1p(a))) ** (1 / (n + 1))
+    assert abs(float(k) - 0.74843493) <= 0.5e-8  # MODELS.md §1, V0 = 5 m/s
+    assert abs(float(xmax) - 1.137259e-04) <= 0.5e-10
+    got = hc.solve(BallOnPlate(velocity_m_s=5.0))
+    assert got["restitution"] == pytest.approx(float(k), rel=1e-14)
+    assert got["max_penetration_m"] == pytest.approx(float(xmax), rel=1e-12)
 
 
 def test_hertz_limit_n15():
@@ -235,3 +262,104 @@ def test_bad_damping_and_sweep_velocity(bad):
         hc.sweep([1.0], damping_s_per_m=bad)
     with pytest.raises(ValueError, match=r"^velocity_m_s = .*: must be > 0 and finite"):
         hc.sweep([1.0, bad if bad < 0 or not math.isfinite(bad) else -bad])
+
+
+def test_history_layout_free_flight_and_meta():
+    """``samples`` points over the contact plus the instants of x_max and of the peak force;
+    four evenly spaced samples of free flight on each side: at V0 before, at −k·V0 after
+    (x = −k·V0·(t − T))."""
+    s = BallOnPlate(velocity_m_s=2.0)
+    ref = hc.solve(s)
+    k, total, v0 = ref["restitution"], ref["duration_s"], s.velocity_m_s
+    for samples in (16, 101):
+        rec = hc.history(s, samples=samples)
+        assert len(rec) == samples + 2
+        assert rec.time_s[4] == 0.0 and rec.penetration_m[4] == 0.0 and rec.time_s[3] < 0.0
+        dt = total / (samples - 8 - 1)
+        np.testing.assert_allclose(np.diff(rec.time_s[:5]), dt, rtol=1e-9)
+        np.testing.assert_allclose(rec.penetration_m[:4], v0 * rec.time_s[:4], rtol=1e-12)
+        assert np.all(rec.penetration_rate_m_s[:4] == v0)
+        np.testing.assert_allclose(rec.penetration_rate_m_s[-4:], -k * v0, rtol=1e-13)
+        np.testing.assert_allclose(rec.penetration_m[-5:], -k * v0 * (rec.time_s[-5:] - total),
+                                   rtol=1e-9, atol=1e-12 * ref["max_penetration_m"])
+        assert rec.time_s[-5] == pytest.approx(total, rel=1e-13)
+    assert len(hc.history(s)) == 4001 + 2
+    assert rec.meta == {"engine": "reference", "mode": "closed_form", "scenario": s.name,
+                        "parameters": s.to_dict()}
+
+
+def test_linear_models_solve_and_history_through_their_closed_form():
+    from impactbench.reference import kelvin_voigt
+
+    lin = BallOnPlate(model="kelvin-voigt-clipped", nominal_restitution=0.7, exponent=1.0,
+                      stiffness=1e6)
+    law = lin.law()
+    args = (lin.mass_kg, law.stiffness, law.damping_ns_per_m, lin.velocity_m_s, law.clipped)
+    assert hc.solve(lin) == kelvin_voigt.solve(*args)
+    rec, want = hc.history(lin, samples=101), kelvin_voigt.history(*args, samples=101)
+    assert len(rec) == 101
+    np.testing.assert_array_equal(rec.normal_force_n, want.normal_force_n)
+    assert rec.meta == {"engine": "reference", "mode": "closed_form", "scenario": lin.name,
+                        "parameters": lin.to_dict()}
+
+
+@pytest.mark.parametrize("bad", [15, 0, True, 16.0, "100"])
+def test_history_samples_must_be_an_integer_of_at_least_16(bad):
+    with pytest.raises(ValueError, match=rf"^samples = {bad!r}: must be an integer >= 16$"):
+        hc.history(BallOnPlate(), samples=bad)
+
+
+F64 = r"(np\.float64\()?"
+
+
+def test_functions_name_their_bad_arguments():
+    law = HuntCrossley()
+    cases = [
+        (lambda: hc.solve("ball"), r"^scenario = 'ball': must be a BallOnPlate$"),
+        (lambda: hc.history("ball"), r"^scenario = 'ball': must be a BallOnPlate$"),
+        (lambda: hc.solve_law("law", 0.1, 1.0), r"^law = 'law': must be a HuntCrossley$"),
+        # (the value shows as numpy's repr, np.float64(-0.5), with numpy ≥ 2)
+        (lambda: hc.restitution(-0.5), rf"^alpha = {F64}-0.5\)?: must be >= 0 and finite$"),
+        (lambda: hc.restitution([0.1, -0.5, 0.2]), rf"^alpha = {F64}-0.5\)?: must be"),
+        (lambda: hc.restitution([0.0, -0.5]), rf"^alpha = {F64}-0.5\)?: must be"),  # 0 is valid
+        (lambda: hc.restitution([0.1, math.nan]), rf"^alpha = {F64}nan\)?: must be"),
+        (lambda: hc.restitution([[0.1], [math.inf]]), rf"^alpha = {F64}inf\)?: must be"),
+        (lambda: hc.sweep([1.0], mass_kg=0.0), r"^mass_kg = 0.0: must be > 0"),
+        (lambda: hc.sweep([1.0], stiffness=-1.0), r"^stiffness = -1.0: must be > 0"),
+        (lambda: hc.sweep([1.0], exponent=0.0), r"^exponent = 0.0: must be > 0"),
+        (lambda: hc.sweep([1.0, 0.0]), rf"^velocity_m_s = {F64}0.0\)?: must be > 0 and finite"),
+        (lambda: hc.sweep(["a", "b", "c", "d"]),
+         r"^velocities = array\(\['a', 'b', 'c'\], dtype='<U1'\)\.\.\.: must be real numbers$"),
+        (lambda: hc.sweep([True, False]), r"^velocities = .*: must be real numbers$"),
+        (lambda: hc.velocity(0.0, law, 0.0, 1.0, "compression"), r"^mass_kg = 0.0: must be > 0"),
+        (lambda: hc.velocity(0.0, law, 0.1, 0.0, "compression"),
+         r"^velocity_m_s = 0.0: must be > 0"),
+        (lambda: hc.velocity(0.0, law, 0.1, 1.0, "up"), r"^branch = 'up': must be one of"),
+    ]
+    for call, message in cases:
+        with pytest.raises(ValueError, match=message):
+            call()
+
+
+def test_scalar_and_array_forms():
+    assert type(hc.restitution(0.3)) is float
+    assert type(hc.restitution(0)) is float and hc.restitution(0) == 1.0
+    np.testing.assert_array_equal(hc.restitution([0, 1]), hc.restitution([0.0, 1.0]))
+    assert hc.restitution(np.array([0.3])).shape == (1,)
+    empty = hc.sweep([])
+    assert len(empty) == 0 and list(empty.columns) == ["velocity_m_s", *BALL_METRICS]
+    grid = hc.sweep(np.array([[1.0, 2.0], [3.0, 4.0]]))  # any shape: flattened
+    np.testing.assert_array_equal(grid["velocity_m_s"], [1.0, 2.0, 3.0, 4.0])
+    np.testing.assert_array_equal(hc.sweep(iter([1.0, 2.0]))["restitution"],
+                                  hc.sweep([1.0, 2.0])["restitution"])
+    np.testing.assert_array_equal(hc.sweep([1, 2])["duration_s"],
+                                  hc.sweep([1.0, 2.0])["duration_s"])
+
+
+def test_sweep_columns_defaults_are_the_papers_case():
+    """mass 0.1 kg, c = 1.7135e10 N/m^1.5, n = 3/2, b = 0.1 s/m (MODELS.md §1)."""
+    cols = hc.sweep_columns([0.5, 5.0])
+    for i, v0 in enumerate((0.5, 5.0)):
+        want = hc.solve(BallOnPlate(velocity_m_s=v0))
+        for key in BALL_METRICS:
+            assert cols[key][i] == pytest.approx(want[key], rel=1e-12), (v0, key)

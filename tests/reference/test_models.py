@@ -142,3 +142,30 @@ def test_spring_damper_form_of_each_family():
 def test_bad_model_input_is_one_line(changes, message):
     with pytest.raises(ValueError, match=message.replace("(", r"\(")):
         BallOnPlate(**changes)
+
+
+def test_laws_name_their_bad_fields():
+    from impactbench.reference.models import Flores
+
+    with pytest.raises(ValueError, match=r"^nominal_restitution = 1.5: must be in \(0, 1\]$"):
+        Flores(nominal_restitution=1.5)
+    with pytest.raises(ValueError, match=r"^nominal_restitution = 0.0: must be > 0"):
+        Flores(nominal_restitution=0.0)
+    with pytest.raises(ValueError, match=r"^velocity_m_s = 0.0: must be > 0"):
+        Flores(nominal_restitution=0.5, velocity_m_s=0.0)
+    with pytest.raises(ValueError, match=r"^stiffness = -1.0: must be > 0"):
+        KelvinVoigt(-1.0, 1.0)
+    with pytest.raises(ValueError, match=r"^damping_ns_per_m = -1.0: must be >= 0"):
+        KelvinVoigt(1.0, -1.0)
+
+
+@pytest.mark.parametrize("clipped", [True, False])
+def test_kelvin_voigt_law_values(clipped):
+    kv = KelvinVoigt(1e5, 30.0, clipped=clipped)
+    for x, rate in ((0.0, 1.0), (0.0, -1.0), (-1e-3, 1.0), (-1e-3, -1.0)):
+        assert kv.force(x, rate) == 0.0, (x, rate)  # out of contact (x ≤ 0): no force
+    assert kv.force(1e-3, 2.0) == pytest.approx(100.0 + 60.0, rel=1e-15)  # k·x + d·ẋ
+    assert kv.elastic_force(1e-3) == 1e5 * 1e-3
+    assert kv.elastic_force(0.0) == 0.0 and kv.elastic_force(-1e-3) == 0.0
+    assert kv.potential(1e-3) == pytest.approx(0.05, rel=1e-15)  # ½·k·x²
+    assert kv.potential(0.0) == 0.0 and kv.potential(-1e-3) == 0.0
