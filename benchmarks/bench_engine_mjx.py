@@ -10,12 +10,15 @@
    model per world on 1 and 2 threads. Both print world-steps per second; the ratio is
    rollout (2 threads) over MJX.
 
+Every comparison runs its sides alternately (A B A B …) and reports medians
+(:mod:`benchmarks.alternate`): the machine is shared, and a best-of rewards the luckiest run.
+
 Run: ``python -m benchmarks bench_engine_mjx``.
 """
 
 from __future__ import annotations
 
-import time
+import statistics
 from typing import Any
 
 import numpy as np
@@ -24,7 +27,7 @@ from impactbench.engines.mjx_adapter import _batched_scan, _mjx, ball_batch
 from impactbench.engines.mujoco_adapter import ball_mjcf, measured_diag_a, rigid_flexible_mjcf
 from impactbench.reference.scenarios import BallOnPlate
 
-from benchmarks.bench_engine_mujoco import _best_pair
+from benchmarks.alternate import alternate, median_pair
 from benchmarks.overhead import CASES
 
 REPEATS = 5
@@ -63,7 +66,8 @@ def overhead() -> None:
     adapter = get_adapter("mjx")
     _, jax, _ = _mjx()
     scan = _bare_scan()
-    print(f"MJX {adapter.version()}: adapter vs bare jitted scan (best of {REPEATS})")
+    print(f"MJX {adapter.version()}: adapter vs bare jitted scan "
+          f"(alternated, median of {REPEATS})")
     header = f"{'case':36s} {'steps':>7s} {'stepped':>7s} {'adapter ms':>10s} {'bare ms':>8s} " \
              f"{'ratio':>6s}"
     print(header)
@@ -77,7 +81,7 @@ def overhead() -> None:
         steps = len(rec)
         mx, dx = bare_setup(scenario, dt, rec.meta.get("solref"))
         jax.block_until_ready(scan(mx, dx, steps))  # warm-up (compiles this length)
-        t_adapter, t_bare = _best_pair(
+        t_adapter, t_bare = median_pair(
             lambda s=scenario, m=mode, st=settings: adapter.run(s, m, st),
             lambda a=mx, b=dx, n=steps: jax.block_until_ready(scan(a, b, n)), REPEATS)
         print(f"{label:36s} {steps:7d} {rec.meta['steps']:7d} {t_adapter * 1e3:10.1f} "
@@ -117,21 +121,15 @@ def batch() -> None:
     mx, dx = bare_setup(scenario, dt, None)
     refs = jax.numpy.asarray(solrefs)
     vmapped = _batched_scan()
-    times = {}
-    for name, fn in (
-        ("mjx vmap", lambda: jax.block_until_ready(vmapped(mx, dx, refs, BATCH_STEPS))),
-        ("rollout 1 thread", rollout_setup(scenario, solrefs, dt, 1)),
-        ("rollout 2 threads", rollout_setup(scenario, solrefs, dt, 2)),
-    ):
-        best = float("inf")
-        for _ in range(REPEATS):
-            t0 = time.perf_counter()
-            fn()
-            best = min(best, time.perf_counter() - t0)
-        times[name] = best
+    runs = alternate({
+        "mjx vmap": lambda: jax.block_until_ready(vmapped(mx, dx, refs, BATCH_STEPS)),
+        "rollout 1 thread": rollout_setup(scenario, solrefs, dt, 1),
+        "rollout 2 threads": rollout_setup(scenario, solrefs, dt, 2),
+    }, REPEATS)
+    times = {name: statistics.median(t) for name, t in runs.items()}
     e = rate[:, -1] / scenario.velocity_m_s
     print(f"\nBatch: {WORLDS} ball worlds (K = 3e7…3e8 N/m, e = {e[0]:.3f}…{e[-1]:.3f}) × "
-          f"{BATCH_STEPS} steps (best of {REPEATS}, models built beforehand)")
+          f"{BATCH_STEPS} steps (alternated, median of {REPEATS}, models built beforehand)")
     for name, t in times.items():
         print(f"{name:20s} {t * 1e3:9.1f} ms {WORLDS * BATCH_STEPS / t:12.0f} world-steps/s")
     ratio = times["rollout 2 threads"] / times["mjx vmap"]

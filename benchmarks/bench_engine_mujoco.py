@@ -7,15 +7,16 @@ nothing, by the path the adapter used (``meta["stepping"]``): one ``mujoco.rollo
 call (C++ loop) where the adapter rolls out, a Python ``mj_step`` loop where the adapter needs a
 Python call per step (injected schedules, a cubic structure). Comparing the adapter's C++
 rollout with a Python loop would credit the adapter with the rollout's speed-up and hide its
-own overhead. Both sides are timed as the best of several repeats (the machine is shared, so
-the two alternate and the minimum is the least noisy estimate). Target: ratio ≤ 1.3.
+own overhead. Both sides run alternately (adapter, bare, adapter, bare, …: the machine is
+shared, so a pair sees the same load) and each is reported as its median over the repeats
+(:mod:`benchmarks.alternate`; a best-of would reward each side's luckiest run). Target:
+ratio ≤ 1.3.
 
 Run: ``python -m benchmarks bench_engine_mujoco`` (or this file directly).
 """
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable
 from typing import Any
 
@@ -23,24 +24,20 @@ from impactbench.engines.base import RunSettings, get_adapter
 from impactbench.engines.mujoco_adapter import ball_mjcf, rigid_flexible_mjcf
 from impactbench.reference.scenarios import BallOnPlate
 
+from benchmarks.alternate import median_pair
 from benchmarks.overhead import CASES
 
 REPEATS = 15
 
 
+def _median_pair(a: Callable[[], Any], b: Callable[[], Any],
+                 repeats: int = REPEATS) -> tuple[float, float]:
+    """Median wall times of ``a`` and ``b``, run alternately so both see the same load."""
+    return median_pair(a, b, repeats)
 
-def _best_pair(a: Callable[[], Any], b: Callable[[], Any],
-               repeats: int = REPEATS) -> tuple[float, float]:
-    """Best wall times of ``a`` and ``b``, run alternately so both see the same load."""
-    best_a = best_b = float("inf")
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        a()
-        t1 = time.perf_counter()
-        b()
-        t2 = time.perf_counter()
-        best_a, best_b = min(best_a, t1 - t0), min(best_b, t2 - t1)
-    return best_a, best_b
+
+_best_pair = _median_pair
+"""The old name, still imported by other benchmarks: alternated medians now, not best-of."""
 
 
 def bare_run(scenario: Any, dt: float, steps: int, solref: list[float] | None,
@@ -76,7 +73,7 @@ def bare_run(scenario: Any, dt: float, steps: int, solref: list[float] | None,
 def main() -> None:
     adapter = get_adapter("mujoco")
     print(f"MuJoCo {adapter.version()}: adapter vs bare stepping by the same path "
-          f"(best of {REPEATS})")
+          f"(alternated, median of {REPEATS})")
     header = f"{'case':36s} {'steps':>7s} {'stepped':>7s} {'adapter ms':>10s} " \
              f"{'bare ms':>8s} {'ratio':>6s}  path"
     print(header)
@@ -86,7 +83,7 @@ def main() -> None:
         rec = adapter.run(scenario, mode, settings)  # warm-up (and the native conversion cache)
         steps, path = rec.meta["steps"], rec.meta["stepping"]
         solref = rec.meta.get("solref")
-        t_adapter, t_bare = _best_pair(
+        t_adapter, t_bare = _median_pair(
             lambda s=scenario, m=mode, st=settings: adapter.run(s, m, st),
             lambda s=scenario, h=dt, n=steps, r=solref, w=path: bare_run(s, h, n, r, w))
         print(f"{label:36s} {len(rec):7d} {steps:7d} {t_adapter * 1e3:10.3f} "

@@ -307,6 +307,6 @@ def write_scenario_file(cal: Calibration, path: str | Path, command: str = "") -
               "# report with --scenario-file. [calibration] is provenance only.\n")
     table = for_study("calibrate").table
     body = tomli_w.dumps({table: scenario_table(cal), "calibration": prov})
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(header + body)
-    return path
+    from impactbench.publish import atomic_write
+
+    return atomic_write(path, header + body, "out")  # all or nothing; one-line I/O errors

@@ -5,9 +5,14 @@ Every subcommand lives in its own module under :mod:`impactbench.commands` and e
 scenario-keyed groups (``reference``, ``sweep``) to their subparsers. A handler is stored as
 ``func`` on its parser and returns the exit code.
 
-Bad input anywhere (argparse, scenario validation, config files) prints one line
-``impactbench: error: …`` to stderr and exits 2, without a traceback
-(set ``IMPACTBENCH_DEBUG=1`` to see one).
+Bad input anywhere (argparse, scenario validation, config files) and an I/O fault (a full
+disk, a read-only folder) print one line ``impactbench: error: …`` to stderr and exit 2,
+without a traceback (set ``IMPACTBENCH_DEBUG=1`` to see one).
+
+Ctrl-C, SIGTERM and SIGHUP all stop a command the same way: what finished is kept (a report's
+runs are stored), one line ``impactbench: interrupted; N of M runs stored; rerun to resume``
+is printed and the exit code is 128 + the signal (130, 143, 129). Further SIGTERMs and SIGHUPs
+while it stops are ignored, so the cleanup finishes.
 """
 
 from __future__ import annotations
@@ -15,6 +20,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import os
+import signal
 import sys
 from collections.abc import Sequence
 
@@ -92,19 +98,79 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+STOP_SIGNALS = (signal.SIGTERM, signal.SIGHUP)
+"""Signals handled like Ctrl-C (a KeyboardInterrupt in the main thread)."""
+_received: list[int] = []
+
+
+def _stop(signum: int, _frame: object) -> None:
+    """SIGTERM or SIGHUP: the first raises KeyboardInterrupt (the Ctrl-C path stores what
+    finished and closes the workers); later ones only wait for that to finish."""
+    _received.append(signum)
+    if len(_received) == 1:
+        raise KeyboardInterrupt
+
+
+def _install_stop_handlers() -> dict[int, object]:
+    """Route SIGTERM and SIGHUP into KeyboardInterrupt (main thread only); the previous
+    handlers, to restore."""
+    import threading
+
+    _received.clear()
+    if threading.current_thread() is not threading.main_thread():
+        return {}
+    return {sig: signal.signal(sig, _stop) for sig in STOP_SIGNALS}
+
+
+def _forget_unhandled_interrupt() -> None:
+    """A KeyboardInterrupt raised inside code an extension runs through ``PyRun_String``
+    (e.g. while it imports) leaves CPython's "unhandled KeyboardInterrupt" flag set though
+    it was handled here, and the interpreter would then exit by SIGINT (130) instead of our
+    143 or 129. Running any code through ``PyRun_String`` clears it."""
+    import contextlib
+
+    with contextlib.suppress(Exception):
+        import ctypes
+
+        ctypes.pythonapi.PyRun_SimpleString(b"pass")
+
+
+def _io_error(exc: OSError) -> str:
+    """One line for an I/O fault: what, where and why (``No space left on device``)."""
+    where = f" '{exc.filename}'" if getattr(exc, "filename", None) else ""
+    return f"cannot write or read{where}: {exc.strerror or exc}"
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the console script; returns the exit code."""
+    previous = _install_stop_handlers()
     try:
         args = build_parser().parse_args(argv)
+        if getattr(args, "store_reset", False):
+            from impactbench import store
+
+            store.RESET_CORRUPT = True  # reset again below (tests call main repeatedly)
         return int(args.func(args) or 0)
     except ValueError as exc:  # UsageError, scenario/config validation
         if os.environ.get("IMPACTBENCH_DEBUG"):
             raise
         print(f"impactbench: error: {exc}", file=sys.stderr)
         return 2
+    except OSError as exc:  # a full disk, a read-only folder: one line, never a traceback
+        if os.environ.get("IMPACTBENCH_DEBUG"):
+            raise
+        print(f"impactbench: error: {_io_error(exc)}", file=sys.stderr)
+        return 2
     except KeyboardInterrupt as exc:  # matrix.Interrupted says how much was stored
         print(f"impactbench: {str(exc) or 'interrupted'}", file=sys.stderr)
-        return 130
+        if _received:
+            _forget_unhandled_interrupt()
+        return 128 + (_received[0] if _received else signal.SIGINT)
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+        if "impactbench.store" in sys.modules:
+            sys.modules["impactbench.store"].RESET_CORRUPT = False
 
 
 if __name__ == "__main__":

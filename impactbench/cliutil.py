@@ -123,16 +123,32 @@ def table_format(path) -> str:
 
 
 def write_table(table, path) -> None:
-    """Write a DataFrame as CSV or Parquet by extension, with pyarrow (full float64
-    precision: the CSV round-trips exactly). Atomic: written beside ``path`` and renamed, so
-    an interrupted write never leaves half a table."""
+    """Write a DataFrame, or a mapping of column name to 1-D array (no pandas needed), as CSV
+    or Parquet by extension, with pyarrow (full float64 precision: the CSV round-trips
+    exactly). Atomic: written beside ``path`` and renamed, so an interrupted write never
+    leaves half a table."""
     import os
+    from collections.abc import Mapping
 
     import pyarrow as pa
 
     fmt = table_format(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    arrow = pa.Table.from_pandas(table, preserve_index=False)
+    if isinstance(table, Mapping):
+        import numpy as np
+
+        def column(values):
+            arr = np.asarray(values)
+            if arr.ndim != 1 or arr.dtype != np.float64:
+                return pa.array(arr)
+            # pa.array would import pandas (~0.2 s) to check the type: wrap the buffer
+            arr = np.ascontiguousarray(arr)
+            return pa.Array.from_buffers(pa.float64(), len(arr), [None, pa.py_buffer(arr)])
+
+        arrow = pa.Table.from_arrays([column(v) for v in table.values()],
+                                     names=[str(k) for k in table])
+    else:
+        arrow = pa.Table.from_pandas(table, preserve_index=False)
     part = path.with_name(f".{path.name}.part")
     try:
         if fmt == "parquet":
@@ -151,8 +167,9 @@ def write_table(table, path) -> None:
 def progress_bar(total: int, unit: str = "run"):
     """Progress of ``total`` items on stderr; returns (update, close).
 
-    On a terminal a tqdm bar; elsewhere (CI logs, pipes) one line at most every
-    :data:`PROGRESS_EVERY_S` seconds and a last one at the end, so a long run is never silent.
+    On a terminal a tqdm bar; elsewhere (CI logs, pipes) a line at the first item done, then
+    one at most every :data:`PROGRESS_EVERY_S` seconds (``update(0)``, a heartbeat, prints one
+    even when nothing finished) and a last one at the end, so a long run is never silent.
     """
     if sys.stderr.isatty():
         from tqdm import tqdm
@@ -164,9 +181,10 @@ def progress_bar(total: int, unit: str = "run"):
     state = {"done": 0, "last": time.monotonic(), "start": time.monotonic(), "said": False}
 
     def update(n: int) -> None:
+        """``n`` more done (0: nothing new; a line still every PROGRESS_EVERY_S)."""
         state["done"] += n
         now = time.monotonic()
-        if now - state["last"] >= PROGRESS_EVERY_S:
+        if (n and not state["said"]) or now - state["last"] >= PROGRESS_EVERY_S:
             state["last"] = now
             state["said"] = True
             print(f"impactbench: {state['done']} of {total} {unit}s done "
@@ -195,13 +213,16 @@ def check_cost(count: float, what: str, yes: bool, detail: str = "") -> None:
 
 
 def add_execution_flags(p: argparse.ArgumentParser, *, yes: bool = True,
-                        in_process: bool = False) -> None:
-    """``--workers``, ``--scheduler``, ``--fresh``, ``--store`` and (``yes``) ``--yes``;
-    ``in_process``: ``--workers 0`` runs in this process."""
+                        in_process: bool = False, timeout: bool = False) -> None:
+    """``--workers``, ``--scheduler``, ``--fresh``, ``--store``, ``--store-reset``, (``yes``)
+    ``--yes`` and (``timeout``) ``--timeout``; ``in_process``: ``--workers 0`` runs in this
+    process."""
     g = p.add_argument_group("execution and results store")
     g.add_argument("--workers", type=int, default=None, metavar="N",
-                   help="local worker processes (default: one per core"
+                   help="local worker processes (default and at most: one per core available"
                    + ("; 0: in this process, without crash isolation)" if in_process else ")"))
+    if timeout:
+        add_timeout_flag(g)
     g.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="run on an existing Dask scheduler, e.g. tcp://10.0.0.5:8786 "
                    "(default: a local cluster; also $IMPACTBENCH_SCHEDULER)")
@@ -210,17 +231,57 @@ def add_execution_flags(p: argparse.ArgumentParser, *, yes: bool = True,
     g.add_argument("--store", type=_path, default=None, metavar="FILE",
                    help="results store (DuckDB); default $IMPACTBENCH_STORE or "
                    "~/.cache/impactbench/results.duckdb")
+    add_store_reset_flag(g)
     if yes:
         g.add_argument("--yes", action="store_true",
                        help=f"run even when the estimate exceeds {COST_LIMIT:.0e} steps "
                        "(or sweep points)")
 
 
-def check_workers(workers: int | None) -> int | None:
-    """``--workers`` of the commands that can run in this process: None or >= 0."""
-    if workers is not None and workers < 0:
-        raise ValueError(f"workers = {workers}: must be >= 0 (0: in this process)")
+def add_timeout_flag(g: Any) -> None:
+    """``--timeout S``: the per-run timeout of engine runs."""
+    g.add_argument("--timeout", type=number, default=None, metavar="S", dest="timeout",
+                   help="cancel an engine run after S seconds (a `timeout` row; its worker "
+                   "is restarted); default [execution] timeout_s, else max(60 s, 20 x the "
+                   "run's estimate)")
+
+
+def add_store_reset_flag(g: Any) -> None:
+    """``--store-reset``: a damaged store is moved aside (``impactbench.store``)."""
+    g.add_argument("--store-reset", action="store_true",
+                   help="if the results store is damaged (truncated, not DuckDB), move it "
+                   "aside (FILE.corrupt-<time>) and start a new one")
+
+
+def check_workers(workers: int | None, scheduler: str | None = None) -> int | None:
+    """``--workers``: None or >= 0 (0: in this process). More than the cores available are
+    capped at them (a local cluster; one line on stderr says so)."""
+    if workers is None:
+        return None
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 0:
+        raise ValueError(f"workers = {workers!r}: must be an integer >= 0 (0: in this "
+                         "process)")
+    import os
+
+    from impactbench.cluster import SCHEDULER_ENV, available_cores
+
+    cores = available_cores()
+    if workers > cores and not (scheduler or os.environ.get(SCHEDULER_ENV)):
+        print(f"impactbench: workers = {workers}: capped at {cores}, the cores available",
+              file=sys.stderr)
+        return cores
     return workers
+
+
+def timeout_option(args: argparse.Namespace, cfg: Any = None) -> float | None:
+    """The per-run timeout (s): ``--timeout``, else ``[execution] timeout_s``, else None
+    (each run's default, :func:`impactbench.cluster.default_timeout`)."""
+    value = getattr(args, "timeout", None)
+    if value is None:
+        value = dict(getattr(cfg, "execution", {}) or {}).get("timeout_s")
+    if value is not None and not (math.isfinite(value) and value > 0):
+        raise ValueError(f"timeout = {value!r}: must be a number of seconds > 0")
+    return None if value is None else float(value)
 
 
 def _path(text: str):
@@ -231,13 +292,14 @@ def _path(text: str):
 
 def execution_options(args: argparse.Namespace, cfg: Any = None) -> dict[str, Any]:
     """Keyword arguments for :func:`impactbench.matrix.run_jobs` from the flags, then the
-    config's ``[execution]`` table (scheduler, workers, store), then the defaults."""
+    config's ``[execution]`` table (scheduler, workers, store), then the defaults. (The
+    timeout: :func:`timeout_option`.)"""
     from impactbench.store import Store, default_path
 
     table = dict(getattr(cfg, "execution", {}) or {})
+    scheduler = args.scheduler or table.get("scheduler")
     workers = args.workers if args.workers is not None else table.get("workers")
-    if workers is not None and workers < 1:
-        raise ValueError(f"workers = {workers}: must be >= 1")
+    workers = check_workers(workers, scheduler)
     path = args.store or (table.get("store") and _path(table["store"])) or default_path()
-    return {"workers": workers, "scheduler": args.scheduler or table.get("scheduler"),
+    return {"workers": workers, "scheduler": scheduler,
             "store": Store(path), "fresh": bool(args.fresh), "yes": bool(args.yes)}

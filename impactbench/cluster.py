@@ -4,22 +4,37 @@ The local cluster binds to loopback only, has no dashboard and silenced logs, on
 worker process (engines are not thread-safe), no memory limit (the nanny must not kill a Drake
 worker for its size) and ``allowed-failures = 1``: a run whose worker dies (segfault, abort)
 is retried once on a fresh worker; if it kills that one too, Dask gives up on it
-(``KilledWorker``) and the caller records it as ``crashed``. ``worker-saturation = 1`` keeps
-one run per worker in flight, so a dying worker takes no innocent queued run with it.
+(``KilledWorker``) and the caller records it as ``crashed``. It has at most one worker per
+core available to this process (``os.sched_getaffinity``).
 
-Workers ignore SIGINT: Ctrl-C reaches only this process, which stores what finished, cancels
-the rest and closes the cluster without worker tracebacks.
+Items go to the workers in small batches formed as workers free up (:meth:`Runner.run`): one
+batch per worker in flight (Dask would queue a second on the worker itself, where a dying or
+hanging worker takes it along), so every result comes back within seconds. A worker announces
+each item it starts (a Dask event), so a per-item timeout knows which item hangs: that item is
+reported as timed out, its batch cancelled, its worker restarted, and the batch's other items
+run again. (A hang in C that holds the GIL also stops the worker's announcements: the items
+from the last one announced then run again one at a time, so the timeout finds the right one;
+a batch with no announcement at all is timed from when the scheduler placed it.)
+
+Workers ignore SIGINT and SIGHUP: Ctrl-C (or a closed terminal) reaches only this process,
+which stores what finished, cancels the rest and closes the cluster without worker tracebacks.
 """
 
 from __future__ import annotations
 
 import contextlib
+import contextvars
 import functools
 import logging
+import math
 import os
+import queue
 import signal
+import threading
+import time
 import warnings
-from collections.abc import Callable, Iterator, Sequence
+from collections import deque
+from collections.abc import Callable, Hashable, Iterator, Sequence
 from typing import Any
 
 SCHEDULER_ENV = "IMPACTBENCH_SCHEDULER"
@@ -33,19 +48,115 @@ DASK_CONFIG = {
     "distributed.logging.distributed": "critical",
 }
 
+BATCH_S = 2.0
+"""A batch holds at most about this much predicted work (s): its results come back (are
+counted and stored) within seconds."""
+MAX_BATCH = 8
+"""… and at most this many items (a ball run takes milliseconds, a Dask task ~4 ms)."""
+TICK_S = 0.25
+"""How often :meth:`Runner.run` checks the timeouts and calls ``on_tick`` while it waits."""
+TIMEOUT_MIN_S = 60.0
+TIMEOUT_FACTOR = 20.0
+"""The default per-run timeout: ``max(TIMEOUT_MIN_S, TIMEOUT_FACTOR × the run's estimated
+time)`` (see :func:`default_timeout`)."""
+RESTART_TIMEOUT_S = 30.0
+"""How long a worker restart (after a timed-out run) may take."""
+RESULT_WAIT_S = 1.0
+"""How long to wait for the result of a future reported done (a result lost with its
+worker is computed again: then the future is watched again)."""
+STEP_S = 2e-5
+RUN_S = 1e-3
+"""A prior for an engine run's time: ``RUN_S + STEP_S × its integration steps`` (Drake's
+and MJX's steps cost ~1.5e-5 s, MuJoCo's ~2e-6 s; Newton's more, which the batches learn)."""
+
+_timeout: contextvars.ContextVar[float | None] = contextvars.ContextVar(
+    "impactbench_run_timeout", default=None)
+
+
+def run_estimate_s(steps: float) -> float:
+    """The prior estimate of an engine run of ``steps`` integration steps (s)."""
+    return RUN_S + STEP_S * max(0.0, steps)
+
+
+@contextlib.contextmanager
+def run_timeout(seconds: float | None) -> Iterator[None]:
+    """Within the block, engine runs (:func:`impactbench.matrix.run_jobs`) time out after
+    ``seconds`` each instead of :func:`default_timeout` (None: the default)."""
+    token = _timeout.set(seconds)
+    try:
+        yield
+    finally:
+        _timeout.reset(token)
+
+
+def configured_timeout() -> float | None:
+    """The timeout set by :func:`run_timeout` (None: each run's default)."""
+    return _timeout.get()
+
+
+def default_timeout(estimate_s: float) -> float:
+    """The default timeout of a run estimated at ``estimate_s`` seconds: 20 × the estimate,
+    at least 60 s (a cold worker imports its engine, JAX and Warp compile, a shared machine
+    is slow: none of that is a hang)."""
+    return max(TIMEOUT_MIN_S, TIMEOUT_FACTOR * estimate_s)
+
+
+def available_cores() -> int:
+    """The cores this process may run on (its CPU affinity; else the machine's count)."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
+
 
 def _ignore_sigint() -> None:
-    """Run on every worker process (also one restarted after a crash)."""
-    import threading
-
+    """Run on every worker process (also one restarted after a crash): SIGINT and SIGHUP
+    are for the main process, which closes the cluster."""
     if threading.current_thread() is threading.main_thread():
         signal.signal(signal.SIGINT, signal.SIG_IGN)
+        signal.signal(signal.SIGHUP, signal.SIG_IGN)
+
+
+@contextlib.contextmanager
+def _quiet_start() -> Iterator[None]:
+    """While the local cluster starts: SIGINT ignored (the spawned workers inherit that, so a
+    Ctrl-C never gives worker tracebacks; one pressed in these ~2 s is lost), SIGTERM and
+    SIGHUP held back and delivered once the cluster is up (its closing is then in place)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    held: list[int] = []
+    previous = {signal.SIGINT: signal.signal(signal.SIGINT, signal.SIG_IGN)}
+    for sig in (signal.SIGTERM, signal.SIGHUP):
+        previous[sig] = signal.signal(sig, lambda signum, _frame: held.append(signum))
+    try:
+        yield
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+    for sig in dict.fromkeys(held):
+        signal.raise_signal(sig)
+
+
+def _reap_children() -> None:
+    """Terminate worker processes a cluster failed to close (``multiprocessing`` children of
+    this process only), so that no worker outlives the command."""
+    import multiprocessing
+
+    for child in multiprocessing.active_children():
+        with contextlib.suppress(Exception):
+            child.terminate()
+            child.join(2)
+            if child.is_alive():
+                child.kill()
+                child.join(1)
 
 
 @contextlib.contextmanager
 def client(workers: int | None = None, scheduler: str | None = None) -> Iterator[Any]:
     """A Dask client: on ``scheduler`` when given (or ``$IMPACTBENCH_SCHEDULER``), else on
-    a fresh local cluster of ``workers`` processes (default: one per core)."""
+    a fresh local cluster of ``workers`` processes (default and at most: one per core
+    available)."""
     import dask
     from distributed import Client, LocalCluster
 
@@ -62,47 +173,110 @@ def client(workers: int | None = None, scheduler: str | None = None) -> Iterator
             finally:
                 c.close()
             return
-        n = workers or os.cpu_count() or 1
-        # spawned workers inherit an ignored SIGINT; restarted ones get it from _ignore_sigint
-        previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+        n = min(workers or available_cores(), available_cores())
+        cluster = c = None
         try:
-            with warnings.catch_warnings():  # its loopback HTTP port moves if 8787 is taken
-                warnings.filterwarnings("ignore", message="Port .* is already in use")
-                cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                                       host="127.0.0.1", dashboard_address=None,
-                                       silence_logs=logging.CRITICAL, memory_limit=0)
-            c = Client(cluster)
-            c.register_worker_callbacks(_ignore_sigint)
-        finally:
-            signal.signal(signal.SIGINT, previous)
-        try:
+            with _quiet_start():
+                with warnings.catch_warnings():  # its loopback HTTP port moves if 8787 is taken
+                    warnings.filterwarnings("ignore", message="Port .* is already in use")
+                    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                                           host="127.0.0.1", dashboard_address=None,
+                                           silence_logs=logging.CRITICAL, memory_limit=0)
+                c = Client(cluster)
+                c.register_worker_callbacks(_ignore_sigint)
             yield c
         finally:
-            with contextlib.suppress(Exception):
-                c.close(timeout=5)
-            with contextlib.suppress(Exception):
-                cluster.close(timeout=5)
+            if c is not None:
+                with contextlib.suppress(BaseException):
+                    c.close(timeout=5)
+            if cluster is not None:
+                with contextlib.suppress(BaseException):
+                    cluster.close(timeout=5)
+            _reap_children()
 
 
-BATCHES_PER_WORKER = 4
-"""Items go to the workers in batches (about this many per worker): one Dask task per item
-costs more than a short engine run (the ball's take milliseconds)."""
+def apply_batch(fn: Callable[[Any], Any], batch: Sequence[Any], topic: str | None = None,
+                batch_id: int | None = None) -> list[Any]:
+    """``[fn(item) for item in batch]``, in a worker process. With ``topic``, each item's
+    start is announced as a Dask event ``{"b": batch_id, "k": index, "w": worker address}``
+    (what the caller's per-item timeout measures from)."""
+    worker = None
+    if topic is not None:
+        with contextlib.suppress(ImportError, ValueError):  # ValueError: not on a worker
+            from distributed import get_worker
+
+            worker = get_worker()
+    out = []
+    for k, item in enumerate(batch):
+        if worker is not None:
+            worker.log_event(topic, {"b": batch_id, "k": k, "w": worker.address})
+        out.append(fn(item))
+    return out
 
 
-def apply_batch(fn: Callable[[Any], Any], batch: Sequence[Any]) -> list[Any]:
-    """``[fn(item) for item in batch]``, in a worker process."""
-    return [fn(item) for item in batch]
+class RunTimeout(BaseException):
+    """Raised in this process by SIGALRM when an in-process item outlasts its timeout (a
+    BaseException: an adapter's ``except Exception`` must not turn it into a result)."""
+
+
+@contextlib.contextmanager
+def alarm(seconds: float | None) -> Iterator[None]:
+    """Raise :class:`RunTimeout` in this (main) thread after ``seconds``. It interrupts
+    Python code only: a call into C that does not return (a solver loop in an engine's
+    extension) is interrupted when it returns to Python, if ever. No-op off the main thread
+    or without ``seconds``."""
+    if (not seconds or not math.isfinite(seconds) or not hasattr(signal, "setitimer")
+            or threading.current_thread() is not threading.main_thread()):
+        yield
+        return
+
+    def ring(_signum: int, _frame: Any) -> None:
+        raise RunTimeout(seconds)
+
+    previous = signal.signal(signal.SIGALRM, ring)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
+
+
+def _per_item(value: Any) -> Callable[[Any], float | None]:
+    if value is None:
+        return lambda _item: None
+    if callable(value):
+        return value
+    return lambda _item: float(value)
+
+
+class _Batch:
+    """A batch in flight: its id and items, when it was submitted, when its first item
+    started, and the last item a worker announced (index, worker address, when)."""
+
+    __slots__ = ("alone", "begun", "id", "items", "placed", "started", "submitted")
+
+    def __init__(self, bid: int, items: list[Any], alone: bool) -> None:
+        self.id, self.items, self.alone = bid, items, alone
+        self.submitted = time.monotonic()
+        self.begun: float | None = None
+        self.started: tuple[int, str, float] | None = None
+        self.placed: tuple[str, float] | None = None
+        """Without a start announced: the worker the scheduler placed it on, and since when
+        it is seen there."""
 
 
 class Runner:
     """Where a command's work runs: in this process (``workers = 0``, no crash isolation) or
-    on Dask, a local cluster of ``workers`` processes (default one per core) or the user's
-    ``scheduler``. The cluster starts on first use and lives until the runner is closed, so a
-    search that submits many small batches (tuning) pays its start-up once.
+    on Dask, a local cluster of ``workers`` processes (default one per core, at most one per
+    core available) or the user's ``scheduler``. The cluster starts on first use and lives
+    until the runner is closed, so a search that submits many small batches (tuning) pays its
+    start-up once.
 
     :meth:`run` applies a picklable module-level ``fn`` to every item and reports each result
     as its batch finishes. A batch whose worker dies twice (or that raises) is split into
-    single items, so only the item that kills its worker is reported as crashed.
+    single items, so only the item that kills its worker is reported as crashed; an item that
+    outlasts its timeout is reported as timed out and its worker restarted.
     """
 
     def __init__(self, workers: int | None = None, scheduler: str | None = None, *,
@@ -118,6 +292,11 @@ class Runner:
         self._client: Any = None
         self.dispatched = 0
         """Items sent to Dask so far (the others ran in this process)."""
+        self.restarted = 0
+        """Workers restarted after a timed-out item."""
+        self._ratio: dict[Hashable, float] = {}
+        """Per group of items: measured time over predicted time (batches are sized by it)."""
+        self._restarts: list[threading.Thread] = []
 
     @property
     def in_process(self) -> bool:
@@ -127,12 +306,13 @@ class Runner:
     @property
     def size(self) -> int:
         """How many items run at once: 1 in process, else the cluster's workers once it is
-        started, before that the local worker count it will have."""
+        started, before that the local worker count it will have (``workers``, at most the
+        cores available)."""
         if self.in_process:
             return 1
         if self._client is not None:
             return max(1, len(self._client.scheduler_info().get("workers", {})))
-        return self.workers or os.cpu_count() or 1
+        return min(self.workers or available_cores(), available_cores())
 
     def describe(self) -> str:
         """Where items run, for output: ``in this process``, ``on N local workers`` or
@@ -150,6 +330,7 @@ class Runner:
         self.close()
 
     def close(self) -> None:
+        self._restarts = []  # a restart still under way ends with the cluster
         if self._stack is not None:
             self._stack.close()
         self._stack, self._client = None, None
@@ -164,71 +345,291 @@ class Runner:
             self._stack = stack
         return self._client
 
+    def _restart(self, c: Any, address: str) -> None:
+        """Restart the worker at ``address``: one of our local cluster's is killed (SIGKILL:
+        a hung worker cannot close itself; its nanny starts a fresh one at once); one of a
+        user's scheduler is restarted through it (in the background: it takes seconds)."""
+        self.restarted += 1
+        pid = None
+        with contextlib.suppress(Exception):
+            pid = next(n.process.pid for n in c.cluster.workers.values()
+                       if n.worker_address == address)
+        if pid:
+            with contextlib.suppress(OSError):
+                os.kill(pid, signal.SIGKILL)
+            return
+
+        def restart() -> None:
+            with contextlib.suppress(Exception):  # the cluster may be closing
+                c.restart_workers([address], timeout=RESTART_TIMEOUT_S, raise_for_error=False)
+
+        thread = threading.Thread(target=restart, daemon=True)
+        thread.start()
+        self._restarts.append(thread)
+
     def run(self, fn: Callable[[Any], Any], items: Sequence[Any], *,
             on_result: Callable[[Any, Any], None], on_crash: Callable[[Any, str], None],
-            label: str = "items", batch_size: int | None = None,
-            estimate_s: float | None = None) -> None:
+            on_timeout: Callable[[Any, str], None] | None = None, label: str = "items",
+            batch_size: int | None = None, estimate_s: float | None = None,
+            cost: Callable[[Any], float] | None = None,
+            group: Callable[[Any], Hashable] | None = None,
+            timeout_s: float | Callable[[Any], float | None] | None = None,
+            on_tick: Callable[[], None] | None = None) -> None:
         """``on_result(item, fn(item))`` for every item (``on_crash(item, why)`` for one
-        whose worker died twice or that raised on Dask). Order of the calls: completion.
-        ``estimate_s``: the work's estimated time in one process; below
-        :attr:`min_dispatch_s` it runs here. A KeyboardInterrupt cancels what is left and
-        propagates."""
+        whose worker died twice or that raised on Dask; ``on_timeout(item, why)``, default
+        ``on_crash``, for one that outlasted ``timeout_s(item)`` seconds). Order of the
+        calls: completion. ``estimate_s``: the work's estimated time in one process; below
+        :attr:`min_dispatch_s` it runs here. ``on_tick()`` is called at least every
+        :data:`TICK_S` while the work runs on Dask (and after every item here).
+
+        Batches: ``batch_size`` items each when given; else formed as workers free up, one
+        ``group(item)`` at a time, of at most :data:`MAX_BATCH` items and about
+        :data:`BATCH_S` of predicted work: ``cost(item)`` (else ``estimate_s`` shared out)
+        scaled by what the group's batches took so far; a group's first batch is one item.
+
+        In this process a timeout is a SIGALRM (:func:`alarm`: Python code only). A
+        KeyboardInterrupt cancels what is left and propagates."""
         items = list(items)
         if not items:
             return
+        timeout_of = _per_item(timeout_s)
+        timed_out = on_timeout or on_crash
         if self.in_process or (estimate_s is not None and estimate_s < self.min_dispatch_s):
             for item in items:
-                on_result(item, fn(item))
+                limit = timeout_of(item)
+                try:
+                    with alarm(limit):
+                        result = fn(item)
+                except RunTimeout:
+                    timed_out(item, f"timed out after {limit:.3g} s (in this process)")
+                else:
+                    on_result(item, result)
+                if on_tick:
+                    on_tick()
             return
-        import uuid
+        self._run_on_dask(fn, items, on_result, on_crash, timed_out, label, batch_size,
+                          estimate_s, cost, group, timeout_of, on_tick)
 
-        from distributed import as_completed
+    def _run_on_dask(self, fn, items, on_result, on_crash, timed_out, label, batch_size,
+                     estimate_s, cost, group, timeout_of, on_tick) -> None:
+        import uuid
+        from concurrent.futures import CancelledError
+
         from distributed.scheduler import KilledWorker
 
         c = self.client(at_most=len(items))
         self.dispatched += len(items)
-        n = self.size
-        size = batch_size or max(1, len(items) // (n * BATCHES_PER_WORKER))
-        batches = [items[i:i + size] for i in range(0, len(items), size)]
+        if cost is None:
+            share = (estimate_s / len(items)) if estimate_s else None
+            cost = (lambda _item: share) if share is not None else (lambda _item: None)
+        group = group or (lambda _item: None)
         tag = uuid.uuid4().hex[:8]
-        futures: dict[Any, list] = {}
+        topic = f"impactbench-{label}-{tag}"
+        todo: deque[tuple[Any, bool]] = deque((item, False) for item in items)
+        flying: dict[Any, _Batch] = {}
+        by_id: dict[int, _Batch] = {}
+        done: queue.SimpleQueue = queue.SimpleQueue()
         counter = iter(range(1 << 62))
 
-        def submit(batch: list) -> Any:
-            fut = c.submit(apply_batch, fn, batch, pure=False,
-                           key=f"{label}-{next(counter)}-{len(batch)}-{tag}")
-            futures[fut] = batch
-            return fut
+        def started(event: Any) -> None:  # on the client's event-loop thread
+            msg = event[1] if isinstance(event, tuple) else event
+            batch = by_id.get(msg.get("b"))
+            if batch is not None:
+                now = time.monotonic()
+                batch.started = (int(msg["k"]), str(msg["w"]), now)
+                if msg["k"] == 0:
+                    batch.begun = now
 
-        pending = as_completed([submit(b) for b in batches])
-        try:
-            for fut in pending:
-                batch = futures.pop(fut)
-                try:
-                    results = fut.result()
-                except KilledWorker:
-                    why = "the worker process died (twice)"
-                except Exception as exc:  # a bug in an adapter must not lose the rest
-                    why = f"{type(exc).__name__}: {exc}"
-                else:
-                    for item, result in zip(batch, results, strict=True):
-                        on_result(item, result)
+        def predicted(item: Any) -> float | None:
+            ratio = self._ratio.get(group(item))
+            if ratio is None:
+                return None  # the group's first batch: one item, to measure it
+            est = cost(item)
+            return ratio * (est if est is not None else 1.0)
+
+        def next_batch() -> tuple[list[Any], bool]:
+            item, alone = todo.popleft()
+            if alone:
+                return [item], True
+            batch = [item]
+            if batch_size:
+                while todo and len(batch) < batch_size and not todo[0][1]:
+                    batch.append(todo.popleft()[0])
+                return batch, False
+            total = predicted(item)
+            if total is None:
+                return batch, False
+            g, taken = group(item), []
+            for n, (other, other_alone) in enumerate(todo):
+                if len(batch) >= MAX_BATCH:
+                    break
+                if other_alone or group(other) != g:
                     continue
-                if len(batch) == 1:
-                    on_crash(batch[0], why)
-                else:  # isolate: each item of the batch alone
-                    for item in batch:
-                        pending.add(submit([item]))
+                more = predicted(other) or 0.0
+                if total + more > BATCH_S:
+                    break
+                taken.append(n)
+                batch.append(other)
+                total += more
+            if taken:
+                skip = set(taken)
+                rest = [entry for n, entry in enumerate(todo) if n not in skip]
+                todo.clear()
+                todo.extend(rest)
+            return batch, False
+
+        def submit() -> None:
+            batch_items, alone = next_batch()
+            batch = _Batch(next(counter), batch_items, alone)
+            by_id[batch.id] = batch
+            fut = c.submit(apply_batch, fn, batch_items, topic, batch.id, pure=False,
+                           key=f"{label}-{batch.id}-{len(batch_items)}-{tag}")
+            flying[fut] = batch
+            fut.add_done_callback(done.put)
+
+        unfetched: dict[Any, float] = {}
+        """Futures done whose result could not be fetched: when to try again."""
+
+        def forget(fut: Any) -> _Batch:
+            unfetched.pop(fut, None)
+            batch = flying.pop(fut)
+            by_id.pop(batch.id, None)
+            return batch
+
+        def learn(batch: _Batch) -> None:
+            """What the batch took over what it was predicted to take, per group."""
+            g = group(batch.items[0])
+            if any(group(i) != g for i in batch.items[1:]):
+                return
+            took = time.monotonic() - (batch.begun or batch.submitted)
+            est = sum(e if (e := cost(i)) is not None else 1.0 for i in batch.items)
+            ratio = took / max(est, 1e-3)
+            old = self._ratio.get(g)
+            self._ratio[g] = ratio if old is None else 0.5 * (old + ratio)
+
+        def drop(fut: Any) -> _Batch:
+            batch = forget(fut)
+            with contextlib.suppress(Exception):
+                c.cancel([fut])
+            return batch
+
+        placed_at = [0.0]
+
+        def placed(now: float) -> None:
+            """Where the scheduler has the batches that announced no start (polled every
+            second, only while there are such batches): their fallback clock starts when
+            they are placed on a worker, again when moved to another (their worker
+            restarted)."""
+            waiting = [b for b in flying.values() if b.started is None
+                       and now - b.submitted > 1.0]
+            if not waiting or now - placed_at[0] < 1.0:
+                return
+            placed_at[0] = now
+            with contextlib.suppress(Exception):
+                where = {key: w for w, keys in c.processing().items() for key in keys}
+                for fut, batch in flying.items():
+                    if batch.started is not None:
+                        continue
+                    worker = where.get(fut.key)
+                    if worker is None:
+                        batch.placed = None
+                    elif batch.placed is None or batch.placed[0] != worker:
+                        batch.placed = (worker, now)
+
+        def overdue(now: float) -> None:
+            placed(now)
+            for fut, batch in list(flying.items()):
+                if fut.done():  # ran to the end: no timeout (its result may be on its way)
+                    continue
+                if batch.started is not None:
+                    k, address, since = batch.started
+                    limit = timeout_of(batch.items[k])
+                    if limit is None or now - since <= limit:
+                        continue
+                    if k < len(batch.items) - 1:
+                        # item k, or a later one whose start could not be announced (a hang
+                        # in C holding the GIL stops the worker's event loop): each alone
+                        drop(fut)
+                        self._restart(c, address)
+                        todo.extendleft((i, True) for i in reversed(batch.items[k:]))
+                        todo.extendleft((i, batch.alone) for i in reversed(batch.items[:k]))
+                        continue
+                elif batch.placed is not None:
+                    # no start announced: its first item's allowance from when it was placed
+                    # (a worker has one batch at a time), then (a hang holding the GIL before
+                    # the announcement got out, or announcements lost) each item alone
+                    address, since = batch.placed
+                    limit = timeout_of(batch.items[0])
+                    if limit is None or now - since <= limit:
+                        continue
+                    if len(batch.items) > 1:  # which item hangs is unknown: one at a time
+                        drop(fut)
+                        self._restart(c, address)
+                        todo.extendleft((i, True) for i in reversed(batch.items))
+                        continue
+                    k = 0
+                else:
+                    continue
+                drop(fut)
+                self._restart(c, address)
+                timed_out(batch.items[k], f"timed out after {limit:.3g} s (cancelled; its "
+                          "worker was restarted)")
+                todo.extendleft((i, batch.alone) for i in reversed(batch.items[:k]))
+
+        # one batch per worker: a second would wait on the worker (Dask queues only large
+        # groups of tasks), die with it, and sit behind a hang
+        slots, counted = self.size, time.monotonic()
+        c.subscribe_topic(topic, started)
+        try:
+            while todo or flying:
+                if time.monotonic() - counted > 2.0:  # workers may come and go
+                    slots, counted = self.size, time.monotonic()
+                while todo and len(flying) < slots:
+                    submit()
+                with contextlib.suppress(queue.Empty):  # a wake-up: any future may be done
+                    done.get(timeout=TICK_S)
+                now = time.monotonic()
+                for fut in [f for f in flying if f.done() and now >= unfetched.get(f, 0.0)]:
+                    try:  # done now; a lost result (its worker restarted) is computed again
+                        results = fut.result(timeout=RESULT_WAIT_S)
+                    except TimeoutError:  # its worker hangs (in the next task) with the data
+                        unfetched[fut] = time.monotonic() + 2.0
+                        continue
+                    except CancelledError:
+                        why = "cancelled on the cluster"
+                    except KilledWorker:
+                        why = "the worker process died (twice)"
+                    except Exception as exc:  # a bug in an adapter must not lose the rest
+                        why = f"{type(exc).__name__}: {exc}"
+                    else:
+                        why = None
+                    batch = forget(fut)
+                    if why is None:
+                        learn(batch)
+                        for item, result in zip(batch.items, results, strict=True):
+                            on_result(item, result)
+                    elif len(batch.items) == 1:
+                        on_crash(batch.items[0], why)
+                    else:  # isolate: each item of the batch alone
+                        todo.extendleft((i, True) for i in reversed(batch.items))
+                overdue(time.monotonic())
+                if on_tick:
+                    on_tick()
         except KeyboardInterrupt:
             with contextlib.suppress(Exception):
-                c.cancel(list(futures))
+                c.cancel(list(flying))
             raise
+        finally:
+            with contextlib.suppress(Exception):
+                c.unsubscribe_topic(topic)
 
     def map(self, fn: Callable[[Any], Any], items: Sequence[Any], *,
             on_crash: Callable[[Any, str], Any], label: str = "items",
-            batch_size: int | None = None, estimate_s: float | None = None) -> list[Any]:
+            batch_size: int | None = None, estimate_s: float | None = None,
+            timeout_s: float | Callable[[Any], float | None] | None = None) -> list[Any]:
         """``[fn(item) for item in items]`` in input order; an item whose worker died
-        twice (or that raised on Dask) gives ``on_crash(item, why)`` instead."""
+        twice (or that raised on Dask, or outlasted ``timeout_s``) gives
+        ``on_crash(item, why)`` instead."""
         out: list[Any] = [None] * len(items)
 
         def done(pair: tuple[int, Any], result: tuple[int, Any]) -> None:
@@ -237,9 +638,10 @@ class Runner:
         def crashed(pair: tuple[int, Any], why: str) -> None:
             out[pair[0]] = on_crash(pair[1], why)
 
+        limit = _per_item(timeout_s)
         self.run(functools.partial(_indexed, fn), list(enumerate(items)), on_result=done,
                  on_crash=crashed, label=label, batch_size=batch_size,
-                 estimate_s=estimate_s)
+                 estimate_s=estimate_s, timeout_s=lambda pair: limit(pair[1]))
         return out
 
 

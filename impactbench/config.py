@@ -189,6 +189,38 @@ def _scenario(spec: scenarios.ScenarioSpec, table: dict[str, Any],
 
     name = spec.table
     fields = set(spec.cls.field_names()) - set(spec.axis_names)
+    if spec.replay:
+        # A data-driven scenario (its spec's ``replay``): its fields, and the runs of the
+        # report's "Against real tosses" section: ``engines`` (default the report's),
+        # ``modes`` (default ["default", "custom"]) and ``param_sets`` (custom mode's
+        # published parameter sets, default none; each must belong to one of the engines).
+        # Paths (``data``) are relative to the working directory. The matrix gets no points of
+        # it (one empty axis): its runs are the section's, not the builders'.
+        _check_keys(table, fields | {"engines", "modes", "param_sets"}, f"{name}.")
+        params = {k: table[k] for k in sorted(fields) if k in table}
+        try:
+            scenario = spec.cls(**params)
+        except ValueError as exc:
+            raise ValueError(f"{name}.{exc}") from None
+        except TypeError as exc:
+            raise ValueError(f"{name}: {exc}") from None
+        own = _names(f"{name}.engines", table.get("engines", list(engines)), engine_names())
+        _names(f"{name}.modes", table.get("modes", ["default", "custom"]), MODES)
+        hook = scenarios.load(spec.replay)
+        for set_name in _names(f"{name}.param_sets", table.get("param_sets", []),
+                               tuple(map(str, table.get("param_sets", [])))):
+            errors = []
+            for engine in own:
+                try:
+                    if hook(engine, scenario, "custom", param_set=set_name,
+                            check_only=True) == "":
+                        break  # an engine that has it
+                except ValueError as exc:
+                    errors.append(str(exc))
+            else:
+                raise ValueError(f"{name}.param_sets: " + (errors[0] if errors else
+                                 f"{set_name!r}: none of {', '.join(own)} replays it"))
+        return ScenarioMatrix(spec.name, (("velocity_m_s", ()),), {}, params)
     options = set(option_keys(spec))  # the ball's material, plate_material, E, ν
     allowed = {"timestep_s"} | fields | options | {a.config_key for a in spec.axes}
     _check_keys(table, allowed, f"{name}.")
@@ -346,15 +378,21 @@ def _limits(table: dict[str, Any]) -> Limits:
 
 
 def _execution(table: dict[str, Any]) -> dict[str, Any]:
-    """Validate ``[execution]``: scheduler (str address), workers (int ≥ 1), store (path)."""
-    _check_keys(table, {"scheduler", "workers", "store"}, "execution.")
+    """Validate ``[execution]``: scheduler (str address), workers (int ≥ 0; 0: in this
+    process), store (path), timeout_s (seconds > 0 per engine run)."""
+    _check_keys(table, {"scheduler", "workers", "store", "timeout_s"}, "execution.")
     for key in ("scheduler", "store"):
         if key in table and not (isinstance(table[key], str) and table[key]):
             raise _fail(f"execution.{key}", table[key], "must be a non-empty string")
     workers = table.get("workers")
     if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)
-                                or workers < 1):
-        raise _fail("execution.workers", workers, "must be an integer >= 1")
+                                or workers < 0):
+        raise _fail("execution.workers", workers,
+                    "must be an integer >= 0 (0: in this process)")
+    timeout = table.get("timeout_s")
+    if timeout is not None and (isinstance(timeout, bool) or not isinstance(timeout, int | float)
+                                or not math.isfinite(timeout) or timeout <= 0):
+        raise _fail("execution.timeout_s", timeout, "must be a number of seconds > 0")
     return dict(table)
 
 

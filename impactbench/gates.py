@@ -80,6 +80,37 @@ The baseline (JSON) maps check ids to measured values::
 
     {"format": 1, "checks": {"<check id>": {"value": …, "reference": …, "rel_error": …,
                                              "status": "ok", "engine_version": "…"}}}
+
+Data gates (a data-driven scenario, one whose spec has a ``replay`` hook: the cube tosses).
+Its reference is a measurement, and its metrics are already errors against it (the test
+split's median of each toss's time-mean position error as a fraction of the cube's width,
+``position_error_median``, and of its rotation error in degrees); a relative error against the
+perfect value 0 is undefined. So a data check is **absolute**: its ``value`` is the metric,
+its ``reference`` is 0 (the measurement), its ``rel_error`` field holds the metric itself (an
+error ≥ 0, in the metric's unit) and ``tolerance`` is the largest value that passes (set from
+measurement: ~1.3× the measured median, as for a contact model's error). The baseline band
+works on the value the same way (``baseline_margin``·|base| + ``baseline_floor``): a median
+that grows beyond it is ``worse``, one that shrinks beyond it is ``better``; replays are
+deterministic, so data gates use a narrow margin (0.05). A replay whose tosses did not all
+run (status ``partial`` or ``failed``) gives no value: ``fail``. Not the values DAIR or the
+independent replay reported: those are over all tosses, and DAIR's parameters were fitted on
+all of them (no held-out set); the test split's medians are this suite's own measurement.
+Schema::
+
+    [[gate]]
+    engine = ["pybullet", "mujoco", "drake"]
+    mode = "custom"
+    scenario = "cube-toss"
+    param_set = "dair2022"          # custom mode: a parameter set published with the data
+    params = {"board.mu" = 0.1}     # optional: engine parameters by the replay's own names
+    [gate.tolerance]                # metric -> the largest value that passes
+    position_error_median = 0.15
+
+on the scenario as it comes (the cube tosses: the packaged data's test split, DAIR's protocol).
+Its check id: ``drake-custom-cube-toss-dtdefault-param_set=dair2022-position_error_median``
+(``dtdefault``: the protocol's step). Data runs go through the same results
+store, in this process (the replay hook, :attr:`impactbench.scenarios.ScenarioSpec.replay`),
+not on workers.
 """
 
 from __future__ import annotations
@@ -348,6 +379,8 @@ def _expand_gate(n: int, gate: Mapping[str, Any], defaults: Mapping[str, float],
     def fail(key: tuple[str, ...], exc: ValueError) -> ValueError:
         return ValueError(f"line {where('gate', n, *key)}: gate {n}: {exc}")
 
+    if gate.get("scenario") in scenarios.names() and scenarios.get(gate["scenario"]).replay:
+        return _expand_data_gate(n, gate, defaults, where)
     keys = gate_keys()
     for key in gate:
         if key not in keys:
@@ -470,6 +503,82 @@ def _expand_gate(n: int, gate: Mapping[str, Any], defaults: Mapping[str, float],
     return out
 
 
+DATA_KEYS = ("engine", "mode", "scenario", "param_set", "params", "tolerance",
+             "baseline_margin", "baseline_floor")
+"""The keys of a data gate's ``[[gate]]`` (module doc, "Data gates")."""
+
+
+def _expand_data_gate(n: int, gate: Mapping[str, Any], defaults: Mapping[str, float],
+                      where: Callable[..., int]) -> list[Check]:
+    """Validate one data gate (a scenario with a ``replay`` hook) and expand it into checks:
+    one run per engine and mode of the scenario as it comes (the test split), its settings
+    checked by the hook itself."""
+    from impactbench.config import did_you_mean, frozen_params
+
+    def fail(key: tuple[str, ...], exc: ValueError) -> ValueError:
+        return ValueError(f"line {where('gate', n, *key)}: gate {n}: {exc}")
+
+    for key in gate:
+        if key not in DATA_KEYS:
+            raise fail((key,), ValueError(
+                f"key {key!r}: unknown for a data scenario{did_you_mean(key, DATA_KEYS)}; "
+                f"must be one of {', '.join(DATA_KEYS)}"))
+    for key in ("engine", "mode", "tolerance"):
+        if key not in gate:
+            raise fail((), ValueError(f"{key}: missing (required in every [[gate]])"))
+    spec = scenarios.get(gate["scenario"])
+    try:
+        engines = _names(gate["engine"], "engine", ENGINES)
+    except ValueError as exc:
+        raise fail(("engine",), exc) from None
+    try:
+        modes = _names(gate["mode"], "mode", MODES)
+    except ValueError as exc:
+        raise fail(("mode",), exc) from None
+    param_set = gate.get("param_set")
+    if param_set is not None and not isinstance(param_set, str):
+        raise fail(("param_set",), ValueError(f"param_set = {param_set!r}: must be a name"))
+    params = gate.get("params", {})
+    if not isinstance(params, dict):
+        raise fail(("params",), ValueError(f"params = {params!r}: must be a table of the "
+                                           "replay's engine parameters"))
+    scenario = spec.build()
+    hook = scenarios.load(spec.replay)
+    for engine in engines:
+        for mode in modes:
+            try:
+                hook(engine, scenario, mode, param_set=param_set, params=params or None,
+                     check_only=True)
+            except ValueError as exc:
+                key = "param_set" if param_set is not None else "mode"
+                raise fail((key,), ValueError(f"{engine} {mode}: {exc}")) from None
+    tolerance = gate["tolerance"]
+    if not isinstance(tolerance, dict) or not tolerance:
+        raise fail(("tolerance",), ValueError(
+            "tolerance: must be a non-empty table of metric = tolerated value (an absolute "
+            "error against the measurement)"))
+    tol: dict[str, float] = {}
+    for metric, value in tolerance.items():
+        try:
+            check.one_of("tolerance key", metric, spec.metrics)
+            tol[metric] = check.non_negative(f"tolerance.{metric}", value)
+        except ValueError as exc:
+            raise fail(("tolerance", metric), exc) from None
+    margins = dict(defaults)
+    for key in DEFAULT_KEYS:
+        if key in gate:
+            try:
+                margins[key] = check.non_negative(key, gate[key])
+            except ValueError as exc:
+                raise fail((key,), exc) from None
+    settings = frozen_params({**({"param_set": param_set} if param_set is not None else {}),
+                              **params})
+    line = where("gate", n)
+    return [Check(RunKey(engine, spec.name, (), mode, None, (), settings, ""), metric, t,
+                  margins["baseline_margin"], margins["baseline_floor"], n, line)
+            for engine in engines for mode in modes for metric, t in tol.items()]
+
+
 def parse_gates(text: str, path: str | Path = "<gates>") -> GateFile:
     """Validate gate-file text and expand it into checks (see the module docstring)."""
     path = Path(path)
@@ -549,7 +658,9 @@ def execute(runs: Iterable[RunKey], jobs: int | None = None,
     core, or the ``scheduler``'s; an engine that kills its worker process becomes a
     ``crashed`` run, the others are unaffected);
     ``jobs = 0`` runs in this process (no crash isolation; for debugging). ``run_options``
-    (store, fresh, scheduler, yes) go to ``run_jobs``: stored runs are not run again.
+    (store, fresh, scheduler, yes, timeout_s) go to ``run_jobs``: stored runs are not run
+    again; ``yes = False`` refuses runs estimated above ``cliutil.COST_LIMIT`` steps in all
+    (one line); a run that outlasts its timeout is a ``timeout`` result (a failed check).
     """
     from impactbench import matrix
 
@@ -619,8 +730,46 @@ def evaluate(checks: Iterable[Check], baseline: Mapping[str, Mapping[str, Any]] 
              **run_options: Any) -> list[Outcome]:
     """Plan, run (deduplicated, in parallel) and judge ``checks``, in their order."""
     checks = list(checks)
-    results = execute(plan(checks), jobs=jobs, progress=progress, **run_options)
+    runs = plan(checks)
+    data = [r for r in runs if r.spec.replay]
+    results = execute_data(data, progress=progress, **run_options) if data else {}
+    if len(data) < len(runs):
+        results |= execute([r for r in runs if not r.spec.replay], jobs=jobs,
+                           progress=progress, **run_options)
     return [judge(c, results[c.run], baseline) for c in checks]
+
+
+def execute_data(runs: Iterable[RunKey], progress: Callable[[int], None] | None = None,
+                 store: Any = None, fresh: bool = False, **_: Any
+                 ) -> dict[RunKey, dict[str, Any]]:
+    """Run data gates' runs through their scenario's ``replay`` hook (in this process, looked
+    up in and saved to ``store``) and shape each for :func:`judge` (module doc, "Data
+    gates"): ``reference`` 0 and ``rel_error`` the metric itself, NaN unless every trial
+    ran."""
+    from impactbench.config import thawed
+    from impactbench.engines.registry import stdout_to_stderr
+
+    out = {}
+    for run in runs:
+        spec = run.spec
+        settings = thawed(run.params)
+        param_set = settings.pop("param_set", None)
+        with stdout_to_stderr():
+            result = scenarios.load(spec.replay)(
+                run.engine, run.build_scenario(), run.mode, param_set=param_set,
+                params=settings or None, timestep_s=run.timestep_s, store=store, fresh=fresh)
+        out[run] = data_result(result, spec.metrics)
+        if progress is not None:
+            progress(1)
+    return out
+
+
+def data_result(result: Mapping[str, Any], metrics: Iterable[str]) -> dict[str, Any]:
+    """A replay's run object as :func:`judge` reads it: the metrics as absolute errors
+    (``reference`` 0, ``rel_error`` the value; NaN unless the status is ``ok``)."""
+    ok = result.get("status") == "ok"
+    values = {m: _float(result.get(m)) if ok else math.nan for m in metrics}
+    return {**result, "reference": dict.fromkeys(values, 0.0), "rel_error": values}
 
 
 def rejudge(outcomes: Iterable[Outcome],
@@ -672,9 +821,12 @@ def updated_baseline(outcomes: Iterable[Outcome],
 
 
 def save_baseline(path: str | Path, checks: Mapping[str, Mapping[str, Any]]) -> None:
-    """Write the baseline JSON (sorted, stable across runs)."""
-    Path(path).write_text(json.dumps({"format": 1, "checks": checks}, indent=1,
-                                     sort_keys=True) + "\n")
+    """Write the baseline JSON (sorted, stable across runs), atomically: a full disk or a
+    read-only folder is a one-line ValueError and leaves the previous baseline intact."""
+    from impactbench.publish import atomic_write
+
+    atomic_write(Path(path), json.dumps({"format": 1, "checks": checks}, indent=1,
+                                        sort_keys=True) + "\n", "baseline")
 
 
 # ----------------------------------------------------------------------------- reports

@@ -237,17 +237,25 @@ def _practical_jobs(config: ReportConfig, engines: tuple[str, ...]) -> list[Job]
     return jobs
 
 
-def _crashed(job: Job, why: str, reference: dict[str, Any]) -> JobResult:
+def _crashed(job: Job, why: str, reference: dict[str, Any],
+             status: str = "crashed") -> JobResult:
+    """The result of a job whose worker died (or, ``status = "timeout"``, that outlasted its
+    timeout): no numbers, not stored (a dying worker or a slow machine may be transient)."""
     names = job.spec.metrics
-    run = {"status": "crashed", "message": why, "engine": job.engine, "engine_version": "",
+    run = {"status": status, "message": why, "engine": job.engine, "engine_version": "",
            "mode": job.mode, "timestep_s": job.timestep_s, "wall_s": math.nan,
            **{k: math.nan for k in names}, "reference": reference,
            "rel_error": dict.fromkeys(names, math.nan)}
     return JobResult(job, run)
 
 
+UNSTORED = ("crashed", "timeout")
+"""Statuses never stored (they may be transient): such runs rerun next time."""
+
+
 class Interrupted(KeyboardInterrupt):
-    """Ctrl-C during :func:`run_jobs` (or a sweep: ``unit`` points); what finished is stored.
+    """Ctrl-C, SIGTERM or SIGHUP (the CLI turns both into a KeyboardInterrupt) during
+    :func:`run_jobs` (or a sweep: ``unit`` points); what finished is stored.
     ``str()`` is the one line."""
 
     def __init__(self, stored: int, total: int, store: bool, unit: str = "runs") -> None:
@@ -289,21 +297,32 @@ def estimated_steps(job: Job, reference: dict[str, Any]) -> float:
 def run_jobs(jobs: list[Job], workers: int | None = None,
              progress: Callable[[int], None] | None = None, *, store: Any = None,
              fresh: bool = False, scheduler: str | None = None,
-             yes: bool = True, limits: Any = None) -> list[JobResult]:
+             yes: bool = True, limits: Any = None,
+             timeout_s: float | None = None,
+             references: dict[tuple, dict[str, Any]] | None = None) -> list[JobResult]:
     """Run ``jobs``; results sorted by job id.
 
-    ``store`` (an :class:`impactbench.store.Store`) serves finished runs and keeps new ones;
-    ``fresh`` runs everything again (and stores it). ``workers`` local worker processes
-    (default one per core, at most one per missing run; 0 runs in this process without crash
-    isolation); ``scheduler`` the address of an existing Dask scheduler instead.
-    Ctrl-C raises :class:`Interrupted` after storing what finished. ``yes = False`` refuses
-    (ValueError) when the missing runs need more than ``cliutil.COST_LIMIT`` steps in all.
+    ``store`` (an :class:`impactbench.store.Store`) serves finished runs and keeps new ones
+    (written at least every :data:`FLUSH_EVERY_S`); ``fresh`` runs everything again (and
+    stores it). ``workers`` local worker processes (default one per core, at most one per
+    core and per missing run; 0 runs in this process without crash isolation);
+    ``scheduler`` the address of an existing Dask scheduler instead. The runs go in small
+    batches (:meth:`impactbench.cluster.Runner.run`), so ``progress(n)`` hears of each within
+    seconds (``progress(0)``: nothing new, a heartbeat).
+    A run that outlasts ``timeout_s`` (default: :func:`impactbench.cluster.
+    configured_timeout`, else :func:`impactbench.cluster.default_timeout` of its estimate)
+    becomes a ``timeout`` row, its worker restarted; like ``crashed`` rows, not stored.
+    Ctrl-C (SIGTERM, SIGHUP) raises :class:`Interrupted` after storing what finished.
+    ``yes = False`` refuses (ValueError) when the missing runs need more than
+    ``cliutil.COST_LIMIT`` steps in all.
     ``limits`` (:class:`impactbench.plausibility.Limits`): judge every run, stored or new, by
     these instead of the defaults (a stored run keeps its measures, not its verdict).
+    ``references``: reference metrics already computed, by ``Job.reference_key`` (filled in).
     """
+    from impactbench import cluster
     from impactbench import store as store_mod
 
-    references: dict[tuple, dict[str, Any]] = {}
+    references = references if references is not None else {}
     settings: dict[str, Any] = {}
     inputs: dict[str, dict[str, Any]] = {}
     keys: dict[str, str] = {}
@@ -335,14 +354,23 @@ def run_jobs(jobs: list[Job], workers: int | None = None,
             group.insert(0, job)
         else:
             group.append(job)
+    steps = {j.id: estimated_steps(j, references[j.reference_key])
+             for g in twins.values() for j in g[:1]}
     # the longest runs first (by estimated steps), so that they do not finish last alone
-    pending = sorted((g[0] for g in twins.values()),
-                     key=lambda j: (-estimated_steps(j, references[j.reference_key]), j.id))
+    pending = sorted((g[0] for g in twins.values()), key=lambda j: (-steps[j.id], j.id))
     if not yes:
         from impactbench.cliutil import check_cost
 
-        steps = sum(estimated_steps(j, references[j.reference_key]) for j in pending)
-        check_cost(steps, f"{len(pending)} runs", yes, "integration steps")
+        check_cost(sum(steps.values()), f"{len(pending)} runs", yes, "integration steps")
+    if timeout_s is None:
+        timeout_s = cluster.configured_timeout()
+    if timeout_s is not None and not (math.isfinite(timeout_s) and timeout_s > 0):
+        raise ValueError(f"timeout = {timeout_s!r}: must be a number of seconds > 0")
+
+    def timeout_of(item: tuple) -> float:
+        return timeout_s or cluster.default_timeout(
+            cluster.run_estimate_s(steps[item[0].id]))
+
     unstored: list[JobResult] = []
     last_flush = time.monotonic()
 
@@ -350,7 +378,7 @@ def run_jobs(jobs: list[Job], workers: int | None = None,
         nonlocal last_flush
         if store is not None and unstored:
             store.put((keys[r.job.id], inputs[r.job.id], r.job, r.run, r.history)
-                      for r in unstored)
+                      for r in unstored if r.run["status"] not in UNSTORED)
         unstored.clear()
         last_flush = time.monotonic()
 
@@ -367,19 +395,32 @@ def run_jobs(jobs: list[Job], workers: int | None = None,
         if progress:
             progress(len(group))
 
+    def tick() -> None:
+        if unstored and time.monotonic() - last_flush > FLUSH_EVERY_S:
+            flush()
+        if progress:
+            progress(0)
+
     try:
         if pending:
-            from impactbench.cluster import Runner
-
-            with Runner(workers, scheduler) as runner:
-                runner.run(execute_item, [(j, references[j.reference_key], settings[j.id])
-                                          for j in pending],
-                           on_result=lambda _item, result: finished(result),
-                           on_crash=lambda item, why: finished(
-                               _crashed(item[0], why, item[1])), label="runs")
+            with cluster.Runner(workers, scheduler) as runner:
+                try:
+                    runner.run(execute_item, [(j, references[j.reference_key], settings[j.id])
+                                              for j in pending],
+                               on_result=lambda _item, result: finished(result),
+                               on_crash=lambda item, why: finished(
+                                   _crashed(item[0], why, item[1])),
+                               on_timeout=lambda item, why: finished(
+                                   _crashed(item[0], why, item[1], "timeout")),
+                               label="runs", group=lambda item: item[0].engine,
+                               cost=lambda item: cluster.run_estimate_s(steps[item[0].id]),
+                               timeout_s=timeout_of, on_tick=tick)
+                except KeyboardInterrupt:
+                    flush()  # before the cluster closes (seconds)
+                    raise
     except KeyboardInterrupt:
         flush()
-        kept = sum(r.run["status"] != "crashed" for r in results.values())  # crashed: not stored
+        kept = sum(r.run["status"] not in UNSTORED for r in results.values())
         raise Interrupted(kept, len(jobs), store is not None) from None
     flush()
     out = [results[j.id] for j in sorted(jobs, key=lambda j: j.id)]

@@ -38,6 +38,44 @@ def check_writable(path: Path, what: str = "out") -> None:
         raise ValueError(f"{what} = '{path}': not writable")
 
 
+def atomic_write(path: Path, data: str | bytes | Callable[[Path], None],
+                 what: str = "out") -> Path:
+    """Write a file all or nothing: into a temporary file in the same folder (``data``: the
+    text or bytes, or a function that writes the temporary path), flushed to disk, then
+    renamed over ``path`` (``os.replace``: atomic). A full disk, a read-only folder or any
+    other I/O fault is a one-line ValueError (``{what} = 'path': cannot write (…)``) and
+    leaves the previous file as it was; nothing is left behind. The file keeps the previous
+    file's permissions (a new one gets the umask's)."""
+    path = Path(path)
+    parent = path.parent if str(path.parent) else Path(".")
+    part: Path | None = None
+    try:
+        parent.mkdir(parents=True, exist_ok=True)
+        fd, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=parent)
+        part = Path(name)
+        with os.fdopen(fd, "wb") as fh:
+            if callable(data):
+                fh.close()
+                data(part)
+            else:
+                fh.write(data.encode() if isinstance(data, str) else data)
+                fh.flush()
+                os.fsync(fh.fileno())
+        try:
+            mode = path.stat().st_mode & 0o7777
+        except FileNotFoundError:
+            mode = 0o666 & ~_umask()
+        os.chmod(part, mode)
+        os.replace(part, path)
+        part = None
+    except OSError as exc:
+        raise ValueError(f"{what} = '{path}': cannot write ({exc.strerror or exc})") from None
+    finally:
+        if part is not None:
+            part.unlink(missing_ok=True)
+    return path
+
+
 def check_file_target(path: Path, what: str) -> None:
     """A file output: its folder must be creatable and writable, and it must not be a folder."""
     path = Path(path)

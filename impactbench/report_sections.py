@@ -27,13 +27,36 @@ from impactbench.report_render import (
     format_error,
 )
 
-LABELS = {"restitution": "restitution", "duration_s": "duration", "peak_force_n": "peak force",
-          "pulse_width_s": "pulse width", "impulse_ns": "impulse", "impacts": "impacts",
-          "contact_time_s": "contact time", "max_penetration_m": "max penetration",
-          "energy_loss_fraction": "energy loss"}
-UNITS = {"restitution": "–", "duration_s": "s", "peak_force_n": "N", "pulse_width_s": "s",
-         "impulse_ns": "N·s", "impacts": "count", "contact_time_s": "s",
-         "max_penetration_m": "m", "energy_loss_fraction": "–"}
+_LABELS = {"duration_s": "duration", "peak_force_n": "peak force",
+           "energy_loss_fraction": "energy loss", "impulse_ns": "impulse",
+           "spin_out_rad_s": "spin", "peak_tangential_force_n": "peak tangential force"}
+_UNITS = (("_rad_s", "rad/s"), ("_deg", "°"), ("_ns", "N·s"), ("_n", "N"), ("_s", "s"),
+          ("_m", "m"))
+
+
+class _Labels(dict):
+    """A metric's words (``peak_force_n`` → ``peak force``): the table above, else its name
+    without the unit suffix."""
+
+    def __missing__(self, metric: str) -> str:
+        for suffix, _ in _UNITS:
+            if metric.endswith(suffix):
+                return metric.removesuffix(suffix).replace("_", " ")
+        return metric.replace("_", " ")
+
+
+class _Units(dict):
+    """A metric's unit from its name's SI suffix (``_s`` → s, ``_deg`` → °); ``–`` for a
+    dimensionless one, ``count`` for the impact count."""
+
+    def __missing__(self, metric: str) -> str:
+        if metric == "impacts":
+            return "count"
+        return next((unit for suffix, unit in _UNITS if metric.endswith(suffix)), "–")
+
+
+LABELS = _Labels(_LABELS)
+UNITS = _Units()
 def run_keys() -> list[str]:
     """The columns that identify one run in the tidy table."""
     cats, nums = scenarios.point_columns()

@@ -25,7 +25,15 @@ inside a committed report. ``crashed`` runs are not stored (a dying worker may b
 they rerun next time); every other status is.
 
 DuckDB lets one process hold the file at a time, so the store opens it per lookup or write
-and retries for a few seconds when another impactbench process has it open.
+and waits (up to :data:`LOCK_WAIT_S`, saying so on stderr after a second) when another process
+has it open. A write still locked out after the wait is not lost: the runs go to a side file
+beside the store (``results.duckdb.staged-<pid>-<time>.duckdb``, the same tables), merged into
+the store by its next open (any command's), then removed.
+
+A store DuckDB cannot read (truncated, overwritten) is a one-line error naming it; with
+``--store-reset`` (:data:`RESET_CORRUPT`) it is moved aside to
+``results.duckdb.corrupt-<time>`` and a new store started. An I/O fault (a full disk) is a
+one-line error; DuckDB's transactions leave the file as it was.
 """
 
 from __future__ import annotations
@@ -34,8 +42,10 @@ import contextlib
 import hashlib
 import json
 import os
+import re
+import sys
 import time
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import asdict
 from functools import cache
 from pathlib import Path
@@ -46,6 +56,21 @@ from impactbench.engines.registry import SPECS, is_builtin
 STORE_ENV = "IMPACTBENCH_STORE"
 LOCK_WAIT_S = 30.0
 """How long to wait for another process to release the store file."""
+SAY_WAIT_AFTER_S = 1.0
+"""A wait for the lock longer than this is announced on stderr (once per store)."""
+RESET_CORRUPT = False
+"""Move a corrupt store aside and start a new one (``--store-reset``) instead of failing."""
+STAGED = ".staged-"
+CORRUPT = ".corrupt-"
+TABLES = ("results", "runs", "histories", "sweep_points")
+_CORRUPT_SIGNS = ("not a valid duckdb", "could not read enough bytes", "checksum", "corrupt",
+                  "serialization error", "truncated to")
+"""Words of a DuckDB error that mean the file's content is damaged (not a full disk, a
+permission, a lock or a newer DuckDB's file: those are one-line errors, never moved aside)."""
+
+
+class StoreLocked(ValueError):
+    """The store file stayed locked by another process for :data:`LOCK_WAIT_S`."""
 
 
 _SCHEMA = """
@@ -281,15 +306,64 @@ def _plain(value: Any) -> Any:
     return str(value)
 
 
+def _first_line(exc: BaseException) -> str:
+    return (str(exc).splitlines() or [type(exc).__name__])[0]
+
+
+def _holder(text: str) -> str:
+    """`` (PID 1234)`` from DuckDB's lock error, '' when it does not say."""
+    m = re.search(r"PID (\d+)", text)
+    return f" (pid {m.group(1)})" if m else ""
+
+
+def _stamp() -> str:
+    return time.strftime("%Y%m%dT%H%M%S")
+
+
 class Store:
     """A DuckDB results file. ``get`` and ``put`` open it briefly (one process at a time)."""
 
-    def __init__(self, path: str | Path) -> None:
+    def __init__(self, path: str | Path, *, staging: bool = False) -> None:
         self.path = Path(path)
+        self._staging = staging
+        """A side file of another store (no merging into it, no staging of its own)."""
+        self._side: Path | None = None
+        self._said_wait = False
+        self.staged = 0
+        """Runs (or sweep points) this store wrote to its side file (store locked)."""
+
+    def _say(self, line: str) -> None:
+        print(f"impactbench: {line}", file=sys.stderr, flush=True)
+
+    def _open(self, read_only: bool):
+        """``duckdb.connect``, waiting up to :data:`LOCK_WAIT_S` for another process's lock
+        (announced after :data:`SAY_WAIT_AFTER_S`); :class:`StoreLocked` after that."""
+        import duckdb
+
+        t0 = time.monotonic()
+        while True:
+            try:
+                return duckdb.connect(str(self.path), read_only=read_only)
+            except duckdb.IOException as exc:
+                text = _first_line(exc)
+                if "lock" not in text.lower():
+                    raise
+                waited = time.monotonic() - t0
+                if waited > LOCK_WAIT_S or (self.staged and not read_only):
+                    # once a write was staged, the next ones go there without waiting
+                    raise StoreLocked(f"store = '{self.path}': locked by another process"
+                                      f"{_holder(text)} for {LOCK_WAIT_S:g} s") from None
+                if waited > SAY_WAIT_AFTER_S and not self._said_wait:
+                    self._said_wait = True
+                    self._say(f"store '{self.path}' is locked by another process"
+                              f"{_holder(text)}; waiting up to {LOCK_WAIT_S:g} s")
+                time.sleep(0.1)
 
     def _connect(self, read_only: bool = False):
         import duckdb
 
+        if not self._staging:
+            self._merge_staged()
         if read_only and not self.path.exists():
             return None
         try:
@@ -297,27 +371,151 @@ class Store:
         except OSError as exc:
             raise ValueError(f"store = '{self.path}': cannot create its folder "
                              f"({exc.strerror})") from None
-        deadline = time.monotonic() + LOCK_WAIT_S
-        while True:
-            try:
-                con = duckdb.connect(str(self.path), read_only=read_only)
-                break
-            except duckdb.IOException as exc:
-                if "lock" not in str(exc).lower() or time.monotonic() > deadline:
-                    raise ValueError(f"store = '{self.path}': cannot open ({exc})".splitlines()
-                                     [0]) from None
-                time.sleep(0.1)
-            except duckdb.Error as exc:
-                raise ValueError(f"store = '{self.path}': not a results store "
-                                 f"({str(exc).splitlines()[0]})") from None
+        try:
+            con = self._open(read_only)
+            self._check_size(con)
+        except StoreLocked:
+            raise
+        except duckdb.Error as exc:
+            self._broken(exc)  # raises, unless the store was moved aside
+            if read_only:
+                return None
+            con = self._open(read_only)
         if not read_only:
-            con.execute(_SCHEMA)
-            columns = {r[0] for r in con.execute(
-                "SELECT column_name FROM information_schema.columns WHERE table_name = "
-                "'results'").fetchall()}
-            if "local" in columns:  # written before points: a one-time migration
-                con.execute(_MIGRATE_POINT)
+            try:
+                self._prepare(con)
+            except duckdb.Error as exc:
+                con.close()
+                self._broken(exc)
+                con = self._open(read_only)
+                self._prepare(con)
         return con
+
+    def _check_size(self, con: Any) -> None:
+        """A file shorter than its blocks in use (truncated: a full disk, a copy cut short)
+        is damaged, though DuckDB opens it and fails only on the missing blocks."""
+        import duckdb
+
+        block, blocks = con.execute("SELECT block_size, used_blocks FROM "
+                                    "pragma_database_size()").fetchone()
+        size = self.path.stat().st_size
+        if size < block * blocks:  # a healthy file holds at least every block in use
+            con.close()
+            raise duckdb.IOException(f"truncated to {size} bytes, its {blocks} blocks in use "
+                                     f"need {block * blocks}")
+
+    @staticmethod
+    def _prepare(con: Any) -> None:
+        con.execute(_SCHEMA)
+        columns = {r[0] for r in con.execute(
+            "SELECT column_name FROM information_schema.columns WHERE table_name = "
+            "'results'").fetchall()}
+        if "local" in columns:  # written before points: a one-time migration
+            con.execute(_MIGRATE_POINT)
+
+    def _broken(self, exc: BaseException) -> None:
+        """A DuckDB error opening or using the file: a one-line ValueError, or (a damaged
+        file and :data:`RESET_CORRUPT`) the file moved aside for a new store."""
+        text = _first_line(exc)
+        if not any(sign in text.lower() for sign in _CORRUPT_SIGNS):
+            raise ValueError(f"store = '{self.path}': cannot use it ({text})") from None
+        if not RESET_CORRUPT:
+            raise ValueError(f"store = '{self.path}': damaged, not a readable results store "
+                             f"({text}); --store-reset moves it aside and starts a new "
+                             "one") from None
+        aside = self.path.with_name(f"{self.path.name}{CORRUPT}{_stamp()}")
+        try:
+            os.replace(self.path, aside)
+            wal = self.path.with_name(self.path.name + ".wal")
+            if wal.exists():
+                os.replace(wal, aside.with_name(aside.name + ".wal"))
+        except OSError as err:
+            raise ValueError(f"store = '{self.path}': damaged ({text}) and cannot be moved "
+                             f"aside ({err.strerror})") from None
+        self._say(f"store '{self.path}' was damaged ({text}); moved aside to '{aside}', "
+                  "starting a new one")
+
+    def _guarded(self, op: Callable[[], Any], again: Callable[[], Any]) -> Any:
+        """``op()``; a damaged file found while using it is :meth:`_broken`'s (then
+        ``again()`` on the new store)."""
+        import duckdb
+
+        try:
+            return op()
+        except StoreLocked:
+            raise
+        except duckdb.Error as exc:
+            self._broken(exc)
+            return again()
+
+    def _staged_files(self) -> list[Path]:
+        try:
+            return sorted(p for p in self.path.parent.glob(f"{self.path.name}{STAGED}*")
+                          if p.suffix == ".duckdb")
+        except OSError:
+            return []
+
+    def _merge_staged(self) -> None:
+        """Merge the side files of writes that found the store locked (then remove them).
+        A side file still open by its writer (or the store itself locked) waits for the
+        next open."""
+        sides = self._staged_files()
+        if not sides:
+            return
+        import duckdb
+
+        try:
+            con = duckdb.connect(str(self.path))
+        except duckdb.Error:
+            return  # locked or damaged: the next open tries again
+        try:
+            self._prepare(con)
+            for side in sides:
+                quoted = str(side).replace("'", "''")
+                try:
+                    con.execute(f"ATTACH '{quoted}' AS staged (READ_ONLY)")
+                except duckdb.Error:
+                    continue  # its writer holds it right now
+                try:
+                    have = {r[0] for r in con.execute(
+                        "SELECT table_name FROM duckdb_tables() WHERE database_name = "
+                        "'staged'").fetchall()}
+                    con.execute("BEGIN")
+                    for table in TABLES:
+                        if table in have:
+                            con.execute(f"INSERT OR REPLACE INTO main.{table} BY NAME "
+                                        f"SELECT * FROM staged.{table}")
+                    con.execute("COMMIT")
+                except duckdb.Error:
+                    with contextlib.suppress(duckdb.Error):
+                        con.execute("ROLLBACK")
+                    continue
+                finally:
+                    con.execute("DETACH staged")
+                for path in (side, side.with_name(side.name + ".wal")):
+                    path.unlink(missing_ok=True)
+        except duckdb.Error:
+            pass  # the store itself is damaged: the open that follows says so
+        finally:
+            con.close()
+
+    def _side_store(self) -> Store:
+        if self._side is None:
+            self._side = self.path.with_name(
+                f"{self.path.name}{STAGED}{os.getpid()}-{_stamp()}.duckdb")
+        return Store(self._side, staging=True)
+
+    def _stage(self, locked: StoreLocked, write: Callable[[Store], int], unit: str) -> int:
+        """The store stayed locked: ``write`` into this process's side file instead."""
+        if self._staging:
+            raise locked
+        side = self._side_store()
+        n = write(side)
+        if n and not self.staged:
+            self._say(f"{locked}; {n} {unit} kept in '{side.path}' (merged into the store "
+                      "when it is next opened)")
+        self.staged += n
+        return n
 
     @contextlib.contextmanager
     def _reader(self, *tables: str) -> Iterator[Any]:
@@ -338,6 +536,11 @@ class Store:
             ) -> dict[str, tuple[dict[str, Any], dict[str, Any]]]:
         """Stored runs among ``keys``: key → (run fields, history). A key in
         ``with_history`` counts as stored only when its history is stored too."""
+        keys, with_history = list(keys), list(with_history)
+        return self._guarded(lambda: self._get(keys, with_history), dict)
+
+    def _get(self, keys: list[str], with_history: list[str]
+             ) -> dict[str, tuple[dict[str, Any], dict[str, Any]]]:
         import numpy as np
         import pyarrow as pa
 
@@ -369,6 +572,13 @@ class Store:
         """Stored sweep points of ``key`` among ``values``: a DataFrame with ``value``,
         :data:`POINT_KEYS` and ``status`` (empty when none)."""
         import pandas as pd
+
+        values = list(values)
+        return self._guarded(lambda: self._get_points(key, values), lambda: pd.DataFrame(
+            columns=["value", *POINT_KEYS, "status"]))
+
+    def _get_points(self, key: str, values: list[float]):
+        import pandas as pd
         import pyarrow as pa
 
         columns = ["value", *POINT_KEYS, "status"]
@@ -388,18 +598,28 @@ class Store:
         frame = frame[frame["status"] != "crashed"]
         if frame.empty:
             return 0
-        points = pa.Table.from_pandas(  # noqa: F841  (read by DuckDB by name)
+        points = pa.Table.from_pandas(
             frame.assign(base_key=key, stored_at=time.time()), preserve_index=False)
+        try:
+            return self._guarded(lambda: self._put_points(points),
+                                 lambda: self._put_points(points))
+        except StoreLocked as locked:
+            return self._stage(locked, lambda side: side._put_points(points), "points")
+
+    def _put_points(self, points: Any) -> int:
         con = self._connect()
         try:
             con.execute("INSERT OR REPLACE INTO sweep_points BY NAME SELECT * FROM points")
         finally:
             con.close()
-        return len(frame)
+        return points.num_rows
 
     def runs_of(self, engine: str, impactbench_version: str) -> dict[str, dict[str, Any]]:
         """Every stored run of ``engine`` made by ``impactbench_version`` (key → run fields):
         one query for a search that looks up thousands of runs one batch at a time."""
+        return self._guarded(lambda: self._runs_of(engine, impactbench_version), dict)
+
+    def _runs_of(self, engine: str, impactbench_version: str) -> dict[str, dict[str, Any]]:
         with self._reader("runs", "results") as con:
             if con is None:
                 return {}
@@ -414,15 +634,25 @@ class Store:
         """Store runs: (key, inputs, job, run object, history). The job is a
         :class:`~impactbench.matrix.RunKey` (or :class:`~impactbench.matrix.Job`) or a mapping
         with its ``engine``, ``mode``, ``scenario``, ``point`` and optionally ``study`` and
-        ``keep_history``. ``crashed`` runs are skipped. Returns the number of runs written."""
-        import pyarrow as pa
+        ``keep_history``. ``crashed`` and ``timeout`` runs are skipped. Returns the number of
+        runs written (to the store, or to its side file when it stayed locked)."""
+        rows, runs, hist = self._rows(entries)
+        if not rows:
+            return 0
+        try:
+            return self._guarded(lambda: self._put(rows, runs, hist),
+                                 lambda: self._put(rows, runs, hist))
+        except StoreLocked as locked:
+            return self._stage(locked, lambda side: side._put(rows, runs, hist), "runs")
 
+    @staticmethod
+    def _rows(entries: Iterable[tuple]) -> tuple[list[dict], list[dict], list[dict]]:
         rows: list[dict[str, Any]] = []
         runs: list[dict[str, Any]] = []
         hist: list[dict[str, Any]] = []
         now = time.time()
         for key, inputs, job_obj, run, history in entries:
-            if run["status"] == "crashed":
+            if run["status"] in ("crashed", "timeout"):
                 continue
             job = job_obj if isinstance(job_obj, Mapping) else vars(job_obj)
             skip = run.get("not_comparable", {})
@@ -447,8 +677,11 @@ class Store:
             if history or job.get("keep_history"):  # none recorded (a failed run): empty
                 hist.append({"run_key": key, **{k: [float(x) for x in history.get(k, ())]
                                                 for k in HISTORY_KEYS}})
-        if not rows:
-            return 0
+        return rows, runs, hist
+
+    def _put(self, rows: list[dict], runs: list[dict], hist: list[dict]) -> int:
+        import pyarrow as pa
+
         results_table = pa.Table.from_pylist(rows)  # noqa: F841  (read by DuckDB by name)
         con = self._connect()
         try:
@@ -469,6 +702,11 @@ class Store:
 
     def frame(self, engine: str | None = None):
         """Every stored row (one per run and metric) as a DataFrame, optionally one engine's."""
+        import pandas as pd
+
+        return self._guarded(lambda: self._frame(engine), pd.DataFrame)
+
+    def _frame(self, engine: str | None):
         import pandas as pd
 
         with self._reader("results") as con:

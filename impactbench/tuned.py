@@ -236,7 +236,6 @@ def write_tuned(path: Path | str, tables: Mapping[str, Mapping[str, Any]],
         raise ValueError("tables: must include a [parameters] table")
     text = dumps_tuned(tables, header)
     tomllib.loads(text)  # never write a file the loader would reject
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(text)
-    return path
+    from impactbench.publish import atomic_write
+
+    return atomic_write(Path(path), text, "out")  # all or nothing; one-line I/O errors

@@ -32,6 +32,9 @@ class Status(StrEnum):
     UNSUPPORTED = "unsupported"
     UNAVAILABLE = "unavailable"
     CRASHED = "crashed"
+    TIMEOUT = "timeout"
+    """Outlasted its per-run timeout and was cancelled (the suite sets it, never an adapter;
+    like ``crashed``, never stored: it reruns next time)."""
     IMPLAUSIBLE = "implausible"
     """Ran and measured, but beyond a plausibility limit (penetration, energy): the suite sets
     it (:mod:`impactbench.plausibility`), never an adapter."""

@@ -53,7 +53,9 @@ from impactbench.reference import metrics
 from impactbench.reference.laws import LocalLaw, Piece, StructuralLaw, no_further_contact
 from impactbench.reference.record import ImpactRecord, Status
 from impactbench.reference.scenarios import SWEEP_FIELDS, RigidFlexible
-from scipy import integrate, optimize
+
+# scipy.integrate and scipy.optimize (0.3 s to import) are imported by the functions of the
+# event-driven path that use them: a sweep through the compiled kernel needs neither.
 
 RTOL = 1e-11
 ATOL_M = 1e-14
@@ -146,6 +148,8 @@ def _first_start(dense: Any, ta: float, tb: float, threshold: float, accel: floa
     short it is, unless it lasts less than ``floor_s``. Catches what sign changes between
     the integrator's steps cannot (a contact started and ended within one step).
     """
+    from scipy import optimize
+
     def gap(t: float) -> float:
         s = dense(t)
         return float(s[0] - s[1]) - threshold
@@ -176,6 +180,8 @@ def _missed_switch(dense: Any, ta: float, tb: float, extrema: np.ndarray,
     step (a graze: Δx barely passing Δx_m to rejoin the backbone, or barely separating) shows
     as a crossing between two consecutive extrema (or the piece's start) — found by brentq.
     """
+    from scipy import optimize
+
     def value(b: Any, t: float) -> float:
         s = dense(t)
         return float(b.value(s[0] - s[1], s[2] - s[3]))
@@ -198,6 +204,8 @@ def _missed_switch(dense: Any, ta: float, tb: float, extrema: np.ndarray,
 
 
 def _integrate(run: _Run, rtol: float, atol: float) -> None:
+    from scipy import integrate
+
     sc, local, structure = run.scenario, run.local, run.structure
     m1, m2 = sc.m1_kg, sc.m2_kg
     t_cap = sc.max_time_s
@@ -324,6 +332,8 @@ def _no_further_contact(y: np.ndarray, threshold: float, m2: float,
 def _sample_phase(dense: Any, ta: float, tb: float, piece: Piece,
                   sc: RigidFlexible) -> _Phase:
     """Sample a piece densely; add every velocity reversal inside a contact (force maxima)."""
+    from scipy import optimize
+
     # a collapsed structure stiffens (|k2 − 3β·x2²|) as x2 runs away: bound at both ends
     omega = max(_omega_max(piece, sc, float(dense(ta)[1])),
                 _omega_max(piece, sc, float(dense(tb)[1])))
@@ -503,25 +513,126 @@ def with_parameter(base: RigidFlexible, over: str, value: float) -> RigidFlexibl
 
 SWEEP_CHUNK = 250
 """Values per sweep task. Fixed, so the tasks (and the points a results store keeps) do not
-depend on how many processes solve them; 250 solves take ~20 ms with the compiled kernel."""
+depend on how many processes solve them; 250 solves take ~5 ms with the compiled kernel."""
 
 SweepTask = tuple[RigidFlexible, str, list[float]]
 """(scenario with its laws, swept parameter, values): one chunk of a sweep."""
+
+
+def _fast(scenario: RigidFlexible) -> bool:
+    """True when the compiled kernel solves this scenario's laws (every built-in law)."""
+    from impactbench.reference import two_dof_fast
+
+    return scenario.local in two_dof_fast.LOCAL_CODES and scenario.structure in (
+        "linear", "softening")
+
+
+def check_points(base: RigidFlexible, over: str, values: Any) -> np.ndarray:
+    """``values`` (SI) as a float array once every point of ``base`` swept over ``over`` is
+    a valid scenario; else the ValueError that point's :class:`RigidFlexible` raises (the
+    first bad one), without building a scenario per point.
+
+    The swept field must be > 0 and finite; a k1 sweep scales kt and k1' with k1
+    (:func:`with_parameter`), so they must stay > 0 and finite and keep the energy rules of
+    ``base``'s local law (kt ≤ k1, k1' ≤ k1) after rounding."""
+    from impactbench.reference import validation as check
+
+    check.one_of("over", over, tuple(SWEEP_FIELDS))
+    fld = SWEEP_FIELDS[over]
+    v = np.asarray(values, dtype=float).reshape(-1)
+    bad = ~(np.isfinite(v) & (v > 0.0))
+    if bad.any():
+        check.positive(fld, float(v[np.argmax(bad)]))
+    if over == "k1":
+        ratio = v / base.k1_n_per_m
+        kt, k1f = base.kt_n_per_m * ratio, base.k1_failed_n_per_m * ratio
+        bad = ~(np.isfinite(kt) & (kt > 0.0) & np.isfinite(k1f) & (k1f > 0.0))
+        if base.local == "elastoplastic":
+            bad |= kt > v
+        elif base.local == "mutation":
+            bad |= k1f > v
+        if bad.any():
+            with_parameter(base, over, float(v[np.argmax(bad)]))  # raises its own message
+    return v
+
+
+def sweep_params(base: RigidFlexible, over: str, values: Any) -> np.ndarray:
+    """The compiled kernel's inputs (n, 11: :data:`two_dof_fast.PARAMS`) of ``base`` with
+    ``over`` at each of ``values``, computed as :func:`with_parameter` and
+    :func:`two_dof_fast.run` compute them for one point (the same floats), with the points
+    validated at once (:func:`check_points`): a chunk costs one array, not a scenario and
+    its validation per point."""
+    from impactbench.reference import two_dof_fast
+
+    v = check_points(base, over, values)
+    _, row = two_dof_fast.kernel_params(base)
+    p = np.tile(np.asarray(row, dtype=float), (v.size, 1))
+    names = two_dof_fast.PARAMS
+    if over == "k1":
+        ratio = v / base.k1_n_per_m
+        p[:, names.index("k1_n_per_m")] = v
+        kt, k1f = base.kt_n_per_m * ratio, base.k1_failed_n_per_m * ratio
+        p[:, names.index("k1_failed_n_per_m")] = k1f
+        if base.local == "mutation-continuous":  # the kernel's kt = k1', εs = F_m/k1
+            p[:, names.index("kt")] = k1f
+            p[:, names.index("eps_s")] = base.fm_n / v
+        else:
+            p[:, names.index("kt")] = kt
+    else:
+        p[:, names.index(SWEEP_FIELDS[over])] = v
+    return p
 
 
 def sweep_tasks(base: RigidFlexible, over: str, values: Any, combos: Any = None
                 ) -> list[SweepTask]:
     """The chunks of a sweep, in order (combo, value): ``base`` with each (local, structure)
     of ``combos`` (None: all 3 × 2), ``over`` (velocity, k1, k2, m2) at ``values`` (SI, > 0)
-    in :data:`SWEEP_CHUNK`-value chunks. One-line ValueError on bad input."""
+    in :data:`SWEEP_CHUNK`-value chunks. One-line ValueError on bad input: every point is
+    checked here, once (:func:`check_points`)."""
     from impactbench.reference import validation as check
 
     check.one_of("over", over, tuple(SWEEP_FIELDS))
     fld = SWEEP_FIELDS[over]
-    vals = [check.positive(fld, float(v)) for v in np.asarray(values, dtype=float).reshape(-1)]
+    v = np.asarray(values, dtype=float).reshape(-1)
+    bad = ~(np.isfinite(v) & (v > 0.0))
+    if bad.any():
+        check.positive(fld, float(v[np.argmax(bad)]))
+    vals = v.tolist()
     combos = ALL_COMBOS if combos is None else tuple(tuple(c) for c in combos)
-    return [(base.replace(local=loc, structure=st), over, vals[i:i + SWEEP_CHUNK])
-            for loc, st in combos for i in range(0, len(vals), SWEEP_CHUNK)]
+    tasks = []
+    for loc, st in combos:
+        sc = base.replace(local=loc, structure=st)
+        if over == "k1":  # kt, k1' and this combination's energy rules at every point
+            check_points(sc, over, v)
+        tasks += [(sc, over, vals[i:i + SWEEP_CHUNK]) for i in range(0, len(vals), SWEEP_CHUNK)]
+    return tasks
+
+
+def sweep_block(task: SweepTask) -> dict[str, Any]:
+    """Solve one chunk into columns: ``local`` and ``structure`` (one string each), the
+    swept field (a float array), the five metrics (arrays; ``impacts`` int64) and ``status``
+    (a list). The built-in laws go through one call of the compiled kernel for the whole
+    chunk (:func:`two_dof_fast.run_many`): the numbers of :func:`solve` point by point, bit
+    for bit."""
+    from impactbench.reference import two_dof_fast
+
+    base, over, values = task
+    fld = SWEEP_FIELDS[over]
+    v = np.asarray(values, dtype=float).reshape(-1)
+    if not _fast(base):  # a law the kernel does not know: the event-driven path per point
+        rows = sweep_chunk(task)
+        return {"local": base.local, "structure": base.structure, fld: v,
+                **{k: np.array([r[k] for r in rows]) for k in METRIC_KEYS},
+                "status": [r["status"] for r in rows]}
+    r = two_dof_fast.run_many(two_dof_fast.LOCAL_CODES[base.local],
+                              sweep_params(base, over, v))
+    names = two_dof_fast.RESULTS
+    out: dict[str, Any] = {"local": base.local, "structure": base.structure, fld: v}
+    for k in METRIC_KEYS:
+        col = r[:, names.index(k)]
+        out[k] = col.astype(np.int64) if k == "impacts" else col
+    out["status"] = [two_dof_fast.STATUS_NAMES[int(c)] for c in r[:, names.index("status")]]
+    return out
 
 
 def sweep_chunk(task: SweepTask) -> list[dict[str, Any]]:
@@ -529,6 +640,12 @@ def sweep_chunk(task: SweepTask) -> list[dict[str, Any]]:
     metrics, ``status``)."""
     base, over, values = task
     fld = SWEEP_FIELDS[over]
+    if _fast(base):
+        block = sweep_block(task)
+        return [{"local": base.local, "structure": base.structure, fld: float(v),
+                 **{k: (int(block[k][i]) if k == "impacts" else float(block[k][i]))
+                    for k in METRIC_KEYS}, "status": block["status"][i]}
+                for i, v in enumerate(values)]
     rows = []
     for v in values:
         r = solve(with_parameter(base, over, v))
@@ -544,6 +661,24 @@ def sweep_columns(over: str) -> list[str]:
     return ["local", "structure", SWEEP_FIELDS[over], *METRIC_KEYS, "status"]
 
 
+def sweep_frame(over: str, blocks: list[dict[str, Any]]) -> Any:
+    """The sweep's frame from :func:`sweep_block` results in row order: the frame a list of
+    :func:`sweep_chunk` rows gives (same dtypes: strings, float64, int64), built by column."""
+    import pandas as pd
+
+    columns = sweep_columns(over)
+    if not blocks or not any(len(b["status"]) for b in blocks):
+        return pd.DataFrame([], columns=columns)
+    fld = SWEEP_FIELDS[over]
+    data: dict[str, Any] = {}
+    for name in ("local", "structure"):
+        data[name] = [x for b in blocks for x in [b[name]] * len(b["status"])]
+    for name in (fld, *METRIC_KEYS):
+        data[name] = np.concatenate([np.asarray(b[name]) for b in blocks])
+    data["status"] = [x for b in blocks for x in b["status"]]
+    return pd.DataFrame(data, columns=columns)
+
+
 def sweep(base: RigidFlexible, over: str, values: Any, *, combos: Any = None,
           progress: Any = None) -> Any:
     """Solve ``base`` with ``over`` (velocity, k1, k2, m2) set to each of ``values`` (SI),
@@ -556,11 +691,9 @@ def sweep(base: RigidFlexible, over: str, values: Any, *, combos: Any = None,
     Returns a pandas DataFrame, one row per point in a deterministic order (combo, value):
     ``local``, ``structure``, the swept field, the five metrics, ``status``.
     """
-    import pandas as pd
-
-    rows: list[dict[str, Any]] = []
+    blocks = []
     for task in sweep_tasks(base, over, values, combos):
-        rows.extend(sweep_chunk(task))
+        blocks.append(sweep_block(task))
         if progress:
             progress(len(task[2]))
-    return pd.DataFrame(rows, columns=sweep_columns(over))
+    return sweep_frame(over, blocks)

@@ -20,6 +20,13 @@ F2 = k2·x2 − β·x2³ (β = 0: linear). Differences from the reference path, 
 
 ``tests/reference/test_two_dof.py`` shows it equals ``metrics.compute(simulate(...))``.
 Without numba the kernel runs as plain Python (correct, slow).
+
+Speed without changing a bit (``tests/reference/test_two_dof_fast_kernel.py``): the step
+is unrolled over the tableau's nonzero entries; no array is allocated per step; the
+functions compile with numba's ``error_model="numpy"`` (every division here is guarded or by
+a validated positive quantity, so Python's zero-division check was a branch per division
+that never fired); and :func:`solve_batch` solves a sweep's chunk in one call, the GIL
+released (:func:`run_many`).
 """
 
 from __future__ import annotations
@@ -27,7 +34,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.integrate._ivp import dop853_coefficients as _dc
 
 try:  # numba is an optional accelerator
     from numba import njit
@@ -47,16 +53,48 @@ LOCAL_CODES = {"linear": 0, "elastoplastic": 1, "mutation": 2, "mutation-continu
 kt = k1' (:class:`impactbench.reference.laws.ContinuousMutation`)."""
 STATUS_NAMES = ("ok", "structure_collapsed", "max_time")
 
-_A = np.ascontiguousarray(_dc.A[:12, :12])
-_B = np.ascontiguousarray(_dc.B)
-_C = np.ascontiguousarray(_dc.C[:12])
+# The DOP853 tableau (scipy.integrate._ivp.dop853_coefficients: A[:12, :12] and B, the
+# 8th-order solution), its nonzero entries written out: importing scipy.integrate for them
+# cost 0.3 s of every sweep's start-up. tests/reference/test_two_dof_fast_kernel.py checks
+# them against scipy's, bit for bit.
+_A_NONZERO: tuple[tuple[tuple[int, float], ...], ...] = (
+    (),
+    ((0, 0.05260015195876773),),
+    ((0, 0.0197250569845379), (1, 0.0591751709536137)),
+    ((0, 0.02958758547680685), (2, 0.08876275643042054)),
+    ((0, 0.2413651341592667), (2, -0.8845494793282861), (3, 0.924834003261792)),
+    ((0, 0.037037037037037035), (3, 0.17082860872947386), (4, 0.12546768756682242)),
+    ((0, 0.037109375), (3, 0.17025221101954405), (4, 0.06021653898045596),
+     (5, -0.017578125)),
+    ((0, 0.03709200011850479), (3, 0.17038392571223998), (4, 0.10726203044637328),
+     (5, -0.015319437748624402), (6, 0.008273789163814023)),
+    ((0, 0.6241109587160757), (3, -3.3608926294469414), (4, -0.868219346841726),
+     (5, 27.59209969944671), (6, 20.154067550477894), (7, -43.48988418106996)),
+    ((0, 0.47766253643826434), (3, -2.4881146199716677), (4, -0.590290826836843),
+     (5, 21.230051448181193), (6, 15.279233632882423), (7, -33.28821096898486),
+     (8, -0.020331201708508627)),
+    ((0, -0.9371424300859873), (3, 5.186372428844064), (4, 1.0914373489967295),
+     (5, -8.149787010746927), (6, -18.52006565999696), (7, 22.739487099350505),
+     (8, 2.4936055526796523), (9, -3.0467644718982196)),
+    ((0, 2.273310147516538), (3, -10.53449546673725), (4, -2.0008720582248625),
+     (5, -17.9589318631188), (6, 27.94888452941996), (7, -2.8589982771350235),
+     (8, -8.87285693353063), (9, 12.360567175794303), (10, 0.6433927460157636)),
+)
+_A = np.zeros((12, 12))
+for _s, _row in enumerate(_A_NONZERO):
+    for _r, _value in _row:
+        _A[_s, _r] = _value
+del _s, _row, _r, _value
+_B = np.array([0.054293734116568765, 0.0, 0.0, 0.0, 0.0, 4.450312892752409,
+               1.8915178993145003, -5.801203960010585, 0.3111643669578199,
+               -0.1521609496625161, 0.20136540080403034, 0.04471061572777259])
 
 # event kinds
 _START, _END, _YIELD, _TURN, _REJOIN, _FAIL, _COLLAPSE, _DONE = range(8)
 _MAX_EVENTS = 100_000
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _rhs(y, k, f0, m1, m2, k2, beta, out):
     dx = y[0] - y[1]
     f1 = k * dx + f0 if k > 0.0 else 0.0
@@ -66,25 +104,63 @@ def _rhs(y, k, f0, m1, m2, k2, beta, out):
     out[3] = (f1 - (k2 * y[1] - beta * y[1] ** 3)) / m2
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _step(y, h, k, f0, m1, m2, k2, beta, K, tmp, out):
-    """One 8th-order Runge–Kutta step of length h from y into out."""
+    """One 8th-order Runge–Kutta step of length h from y into out.
+
+    Stage s is y + h·(0 + Σ_r A[s, r]·K[r]) summed in order of r, as a loop over all r < s
+    sums it, but over the nonzero A[s, r] only (a zero term adds an exact zero: the same
+    bits) and unrolled: a third faster."""
     _rhs(y, k, f0, m1, m2, k2, beta, K[0])
-    for s in range(1, 12):
-        for j in range(4):
-            acc = 0.0
-            for r in range(s):
-                acc += _A[s, r] * K[r, j]
-            tmp[j] = y[j] + h * acc
-        _rhs(tmp, k, f0, m1, m2, k2, beta, K[s])
     for j in range(4):
-        acc = 0.0
-        for r in range(12):
-            acc += _B[r] * K[r, j]
-        out[j] = y[j] + h * acc
+        tmp[j] = y[j] + h * (0.0 + _A[1, 0] * K[0, j])
+    _rhs(tmp, k, f0, m1, m2, k2, beta, K[1])
+    for j in range(4):
+        tmp[j] = y[j] + h * (0.0 + _A[2, 0] * K[0, j] + _A[2, 1] * K[1, j])
+    _rhs(tmp, k, f0, m1, m2, k2, beta, K[2])
+    for j in range(4):
+        tmp[j] = y[j] + h * (0.0 + _A[3, 0] * K[0, j] + _A[3, 2] * K[2, j])
+    _rhs(tmp, k, f0, m1, m2, k2, beta, K[3])
+    for j in range(4):
+        tmp[j] = y[j] + h * (0.0 + _A[4, 0] * K[0, j] + _A[4, 2] * K[2, j] + _A[4, 3] * K[3, j])
+    _rhs(tmp, k, f0, m1, m2, k2, beta, K[4])
+    for j in range(4):
+        tmp[j] = y[j] + h * (0.0 + _A[5, 0] * K[0, j] + _A[5, 3] * K[3, j] + _A[5, 4] * K[4, j])
+    _rhs(tmp, k, f0, m1, m2, k2, beta, K[5])
+    for j in range(4):
+        tmp[j] = y[j] + h * (0.0 + _A[6, 0] * K[0, j] + _A[6, 3] * K[3, j] + _A[6, 4] * K[4, j]
+                             + _A[6, 5] * K[5, j])
+    _rhs(tmp, k, f0, m1, m2, k2, beta, K[6])
+    for j in range(4):
+        tmp[j] = y[j] + h * (0.0 + _A[7, 0] * K[0, j] + _A[7, 3] * K[3, j] + _A[7, 4] * K[4, j]
+                             + _A[7, 5] * K[5, j] + _A[7, 6] * K[6, j])
+    _rhs(tmp, k, f0, m1, m2, k2, beta, K[7])
+    for j in range(4):
+        tmp[j] = y[j] + h * (0.0 + _A[8, 0] * K[0, j] + _A[8, 3] * K[3, j] + _A[8, 4] * K[4, j]
+                             + _A[8, 5] * K[5, j] + _A[8, 6] * K[6, j] + _A[8, 7] * K[7, j])
+    _rhs(tmp, k, f0, m1, m2, k2, beta, K[8])
+    for j in range(4):
+        tmp[j] = y[j] + h * (0.0 + _A[9, 0] * K[0, j] + _A[9, 3] * K[3, j] + _A[9, 4] * K[4, j]
+                             + _A[9, 5] * K[5, j] + _A[9, 6] * K[6, j] + _A[9, 7] * K[7, j]
+                             + _A[9, 8] * K[8, j])
+    _rhs(tmp, k, f0, m1, m2, k2, beta, K[9])
+    for j in range(4):
+        tmp[j] = y[j] + h * (0.0 + _A[10, 0] * K[0, j] + _A[10, 3] * K[3, j] + _A[10, 4] * K[4, j]
+                             + _A[10, 5] * K[5, j] + _A[10, 6] * K[6, j] + _A[10, 7] * K[7, j]
+                             + _A[10, 8] * K[8, j] + _A[10, 9] * K[9, j])
+    _rhs(tmp, k, f0, m1, m2, k2, beta, K[10])
+    for j in range(4):
+        tmp[j] = y[j] + h * (0.0 + _A[11, 0] * K[0, j] + _A[11, 3] * K[3, j] + _A[11, 4] * K[4, j]
+                             + _A[11, 5] * K[5, j] + _A[11, 6] * K[6, j] + _A[11, 7] * K[7, j]
+                             + _A[11, 8] * K[8, j] + _A[11, 9] * K[9, j] + _A[11, 10] * K[10, j])
+    _rhs(tmp, k, f0, m1, m2, k2, beta, K[11])
+    for j in range(4):
+        out[j] = y[j] + h * (0.0 + _B[0] * K[0, j] + _B[5] * K[5, j] + _B[6] * K[6, j]
+                            + _B[7] * K[7, j] + _B[8] * K[8, j] + _B[9] * K[9, j]
+                            + _B[10] * K[10, j] + _B[11] * K[11, j])
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _piece(code, mode, k1, kt, k1f, eps_s, fm, max_dx, failed, bnd):
     """Stiffness, offset and boundaries (rows: cx, cv, c0, direction, kind, next_mode)."""
     n = 0
@@ -147,7 +223,7 @@ def _piece(code, mode, k1, kt, k1f, eps_s, fm, max_dx, failed, bnd):
     return k, f0, n, p
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _reach(e, k2, beta):
     e = max(e, 0.0)
     if beta == 0.0:
@@ -158,7 +234,7 @@ def _reach(e, k2, beta):
     return math.sqrt(4.0 * e / (k2 + math.sqrt(disc)))
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _max_force(r, k2, beta):
     """Largest F2 (N) over 0 ≤ x2 ≤ r (laws.StructuralLaw.max_force)."""
     if beta > 0.0:
@@ -166,7 +242,7 @@ def _max_force(r, k2, beta):
     return k2 * r - beta * r ** 3
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _gap_step(gap, rate, accel):
     """Time before a free gap can reach zero (two_dof.gap_step)."""
     g = -min(gap, 0.0)
@@ -176,7 +252,7 @@ def _gap_step(gap, rate, accel):
     return (root - rate) / accel if rate <= 0.0 else 2.0 * g / (rate + root)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _g(kind, row, y, m2, k2, beta, ec, reach_p, k, f0, out_dg):
     """Event function value; its time derivative into out_dg[0]."""
     if kind == 0:  # a law boundary, linear in (Δx, Δẋ)
@@ -202,7 +278,7 @@ def _g(kind, row, y, m2, k2, beta, ec, reach_p, k, f0, out_dg):
     return b
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _ev(which, nb, bnd, y, ydot, m2, k2, beta, ec, reach_p, k, f0, dg):
     """Value and derivative of event ``which`` (< nb: boundary; nb: collapse; nb+1: done;
     nb+2: velocity reversal, the peak)."""
@@ -217,7 +293,7 @@ def _ev(which, nb, bnd, y, ydot, m2, k2, beta, ec, reach_p, k, f0, dg):
     return y[2] - y[3]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _locate(which, nb, bnd, y0, h, ga, gb, k, f0, m1, m2, k2, beta, ec, reach_p,
             K, tmp, ys, ydot, dg):
     """Step length s in (0, h] where event ``which`` crosses zero (safeguarded Newton)."""
@@ -244,7 +320,7 @@ def _locate(which, nb, bnd, y0, h, ga, gb, k, f0, m1, m2, k2, beta, ec, reach_p,
     return b
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _hermite_extremum(g0, d0, g1, d1, h):
     """Step fraction s in (0, h) of an interior extremum of the cubic Hermite interpolant of g
     (values g0, g1 and slopes d0, d1 at 0 and h) where it reaches the other sign; −1 if none."""
@@ -252,22 +328,23 @@ def _hermite_extremum(g0, d0, g1, d1, h):
     c2 = 3.0 * (g1 - g0) - h * (2.0 * d0 + d1)
     c3 = 2.0 * (g0 - g1) + h * (d0 + d1)
     a, b, c = 3.0 * c3, 2.0 * c2, d0 * h
-    roots = np.empty(2)
+    r0 = -1.0  # the (at most two) roots, in scalars: no array allocated per call
+    r1 = -1.0
     n = 0
     if abs(a) < 1e-300:
         if b != 0.0:
-            roots[0] = -c / b
+            r0 = -c / b
             n = 1
     else:
         disc = b * b - 4.0 * a * c
         if disc >= 0.0:
             q = -0.5 * (b + math.copysign(math.sqrt(disc), b))
-            roots[0] = q / a
-            roots[1] = c / q if q != 0.0 else -1.0
+            r0 = q / a
+            r1 = c / q if q != 0.0 else -1.0
             n = 2
     best = -1.0
     for i in range(n):
-        tau = roots[i]
+        tau = r0 if i == 0 else r1
         if 0.0 < tau < 1.0:
             gv = g0 + (d0 * h + (c2 + c3 * tau) * tau) * tau
             if (gv >= 0.0) != (g0 >= 0.0) and (best < 0.0 or tau * h < best):
@@ -275,7 +352,7 @@ def _hermite_extremum(g0, d0, g1, d1, h):
     return best
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def solve_kernel(code, v0, m1, m2, k1, k2, kt, k1f, eps_s, beta, fm, tmax, step_rad):
     """One impact. Returns (status 0 ok / 1 collapsed / 2 max_time, peak_force_n,
     pulse_width_s, contact_time_s, impulse_ns, impacts, t_end, x1, x2, v1, v2, max_dx,
@@ -291,6 +368,7 @@ def solve_kernel(code, v0, m1, m2, k1, k2, kt, k1f, eps_s, beta, fm, tmax, step_
     K = np.zeros((12, 4))
     tmp = np.zeros(4)
     bnd = np.zeros((2, 6))
+    ev = np.zeros((4, 5))  # per piece: gold, gnew, dgold, dgnew (nev = nb + 3 <= 5)
     ec = k2 * k2 / (4.0 * beta) if beta > 0.0 else math.inf
     xc = math.sqrt(k2 / beta) if beta > 0.0 else math.inf
     kmax = max(k1, kt, k1f)
@@ -331,10 +409,11 @@ def solve_kernel(code, v0, m1, m2, k1, k2, kt, k1f, eps_s, beta, fm, tmax, step_
         use_peak = contact and not (code == 1 and mode >= 2)
         nev = nb + 3
         # event values at the start of the piece
-        gold = np.zeros(nev)
-        gnew = np.zeros(nev)
-        dgold = np.zeros(nev)
-        dgnew = np.zeros(nev)
+        ev[:, :] = 0.0
+        gold = ev[0]
+        gnew = ev[1]
+        dgold = ev[2]
+        dgnew = ev[3]
         _rhs(y, k, f0, m1, m2, k2, beta, ydot)
         for w in range(nev):
             gold[w] = _ev(w, nb, bnd, y, ydot, m2, k2, beta, ec, reach_p, k, f0, dg)
@@ -463,13 +542,53 @@ def solve_kernel(code, v0, m1, m2, k1, k2, kt, k1f, eps_s, beta, fm, tmax, step_
             max_dx, 1.0 if failed else 0.0)
 
 
-def run(scenario, step_rad: float = STEP_RAD) -> tuple:
-    """The kernel's raw tuple for a RigidFlexible scenario with a built-in local law."""
+PARAMS: tuple[str, ...] = ("velocity_m_s", "m1_kg", "m2_kg", "k1_n_per_m", "k2_n_per_m", "kt",
+                           "k1_failed_n_per_m", "eps_s", "beta", "fm_n", "max_time_s")
+"""The kernel's per-impact inputs after the law code, in order (``kt`` and ``eps_s`` as the
+kernel reads them: k1' and F_m/k1 for ``mutation-continuous``; ``beta`` 0 for a linear
+structure)."""
+RESULTS: tuple[str, ...] = ("status", "peak_force_n", "pulse_width_s", "contact_time_s",
+                            "impulse_ns", "impacts", "t_end_s", "x1_m", "x2_m", "v1_m_s",
+                            "v2_m_s", "max_dx_m", "failed")
+"""The kernel's results, in order (:func:`solve_kernel`)."""
+
+
+@njit(cache=True, error_model="numpy", nogil=True)
+def solve_batch(code, params, step_rad, out):
+    """:func:`solve_kernel` for every row of ``params`` (n, 11: :data:`PARAMS`) with law
+    ``code``, its results into the rows of ``out`` (n, 13: :data:`RESULTS`, the integers as
+    floats): one call for a whole chunk of a sweep, the same numbers bit for bit. Releases
+    the GIL: chunks solve on several threads at once."""
+    for i in range(params.shape[0]):
+        p = params[i]
+        r = solve_kernel(code, p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9],
+                         p[10], step_rad)
+        (out[i, 0], out[i, 1], out[i, 2], out[i, 3], out[i, 4], out[i, 5], out[i, 6],
+         out[i, 7], out[i, 8], out[i, 9], out[i, 10], out[i, 11], out[i, 12]) = r
+
+
+def kernel_params(scenario) -> tuple[int, tuple[float, ...]]:
+    """(law code, :data:`PARAMS`) of a RigidFlexible scenario with a built-in local law."""
     sc = scenario
     beta = sc.beta_n_per_m3 if sc.structure == "softening" else 0.0
     kt, eps_s = sc.kt_n_per_m, sc.eps_s_m
     if sc.local == "mutation-continuous":
         kt, eps_s = sc.k1_failed_n_per_m, sc.fm_n / sc.k1_n_per_m
-    return solve_kernel(LOCAL_CODES[sc.local], sc.velocity_m_s, sc.m1_kg, sc.m2_kg,
-                        sc.k1_n_per_m, sc.k2_n_per_m, kt, sc.k1_failed_n_per_m,
-                        eps_s, beta, sc.fm_n, sc.max_time_s, step_rad)
+    return LOCAL_CODES[sc.local], (sc.velocity_m_s, sc.m1_kg, sc.m2_kg, sc.k1_n_per_m,
+                                   sc.k2_n_per_m, kt, sc.k1_failed_n_per_m, eps_s, beta,
+                                   sc.fm_n, sc.max_time_s)
+
+
+def run(scenario, step_rad: float = STEP_RAD) -> tuple:
+    """The kernel's raw tuple for a RigidFlexible scenario with a built-in local law."""
+    code, p = kernel_params(scenario)
+    return solve_kernel(code, *p, step_rad)
+
+
+def run_many(code: int, params: np.ndarray, step_rad: float = STEP_RAD) -> np.ndarray:
+    """The kernel's results (n, 13: :data:`RESULTS`) for ``params`` (n, 11: :data:`PARAMS`)
+    under law ``code``, in one compiled loop (:func:`solve_batch`)."""
+    p = np.ascontiguousarray(params, dtype=float).reshape(-1, len(PARAMS))
+    out = np.empty((p.shape[0], len(RESULTS)))
+    solve_batch(int(code), p, float(step_rad), out)
+    return out

@@ -12,6 +12,8 @@ import os
 import sys
 from pathlib import Path
 
+from impactbench.cliutil import COST_LIMIT, add_store_reset_flag, add_timeout_flag
+
 HELP = "check engines against the reference with the tolerances of a gate file (CI)"
 
 
@@ -45,6 +47,11 @@ def register(top: argparse._SubParsersAction, groups: dict) -> None:
     g.add_argument("--store", type=Path, default=None, metavar="FILE",
                    help="results store (DuckDB); default $IMPACTBENCH_STORE or "
                    "~/.cache/impactbench/results.duckdb")
+    add_store_reset_flag(g)
+    add_timeout_flag(g)
+    g.add_argument("--yes", action="store_true",
+                   help=f"run even when the runs' estimate exceeds {COST_LIMIT:.0e} "
+                   "integration steps in all")
     p.set_defaults(func=main)
 
 
@@ -54,6 +61,30 @@ def _where(args: argparse.Namespace) -> str:
     return Runner(args.jobs, args.scheduler).describe()
 
 
+def _check_cost(runs: list, yes: bool) -> dict:
+    """Refuse (one line, before anything runs) runs estimated above ``COST_LIMIT``
+    integration steps in all unless ``--yes``; the reference metrics computed for the
+    estimate (the runs use them)."""
+    from impactbench.cliutil import check_cost
+    from impactbench.evaluate import reference_metrics
+    from impactbench.matrix import estimated_steps_of
+
+    references: dict = {}
+    steps = 0.0
+    for run in runs:
+        if run.reference_key not in references:
+            references[run.reference_key] = reference_metrics(run.build_scenario())
+        steps += estimated_steps_of(references[run.reference_key], run.timestep_s)
+    check_cost(steps, f"{len(runs)} runs", yes, "integration steps")
+    return references
+
+
+def _write_junit(path: Path, text: str) -> None:
+    from impactbench.publish import atomic_write
+
+    atomic_write(path, text, "junit")
+
+
 def default_baseline(config: Path) -> Path:
     """``gates.toml`` → ``gates_baseline.json`` in the same folder."""
     return config.with_name(f"{config.stem}_baseline.json")
@@ -61,11 +92,12 @@ def default_baseline(config: Path) -> Path:
 
 def main(args: argparse.Namespace) -> int:
     from impactbench import gates  # here: `gate --help` stays light
-    from impactbench.cliutil import check_workers
+    from impactbench.cliutil import check_workers, timeout_option
     from impactbench.publish import check_file_target
     from impactbench.store import Store, default_path
 
-    check_workers(args.jobs)
+    args.jobs = check_workers(args.jobs, args.scheduler)
+    timeout_s = timeout_option(args)
     if args.baseline is not None and not args.baseline.is_file() and not args.update_baseline:
         raise ValueError(f"baseline = '{args.baseline}': no such file (omit --baseline for "
                          "the default, or add --update-baseline to create it)")
@@ -81,6 +113,7 @@ def main(args: argparse.Namespace) -> int:
     baseline_path = args.baseline or default_baseline(args.config)
     baseline = gates.load_baseline(baseline_path)
     runs = gates.plan(checks)
+    references = _check_cost(runs, args.yes)
     print(f"impactbench gate: {len(checks)} checks need {len(runs)} engine runs "
           f"({_where(args)})", file=sys.stderr)
 
@@ -90,7 +123,8 @@ def main(args: argparse.Namespace) -> int:
     try:
         outcomes = gates.evaluate(checks, baseline, jobs=args.jobs, progress=update,
                                   store=Store(args.store or default_path()), fresh=args.fresh,
-                                  scheduler=args.scheduler)
+                                  scheduler=args.scheduler, yes=args.yes, timeout_s=timeout_s,
+                                  references=references)
     finally:
         close()
     if args.update_baseline:
@@ -101,10 +135,14 @@ def main(args: argparse.Namespace) -> int:
     print(gates.format_table(outcomes))
     print(gates.summary_line(outcomes, args.strict))
     if args.junit:
-        args.junit.write_text(gates.junit_xml(outcomes, args.strict))
+        _write_junit(args.junit, gates.junit_xml(outcomes, args.strict))
     summary = os.environ.get("GITHUB_STEP_SUMMARY")
     if summary:
-        with open(summary, "a", encoding="utf-8") as fh:
-            fh.write(gates.markdown_summary(outcomes, args.strict) + "\n")
+        try:
+            with open(summary, "a", encoding="utf-8") as fh:
+                fh.write(gates.markdown_summary(outcomes, args.strict) + "\n")
+        except OSError as exc:
+            raise ValueError(f"GITHUB_STEP_SUMMARY = '{summary}': cannot append "
+                             f"({exc.strerror or exc})") from None
     return gates.exit_code(outcomes, args.strict)
 

@@ -12,7 +12,7 @@ import argparse
 from pathlib import Path
 
 from impactbench import scenarios
-from impactbench.cliutil import add_execution_flags, execution_options
+from impactbench.cliutil import add_execution_flags, execution_options, timeout_option
 
 HELP = "run the comparison matrix and write the report (tables, plots, CSV/Parquet)"
 
@@ -33,7 +33,7 @@ def register(top: argparse._SubParsersAction, groups: dict) -> None:
     p.add_argument("--keep-unchanged", action="store_true",
                    help="leave the folder as it is when its report has the same results "
                    "apart from wall times (make report: a committed report stays unchanged)")
-    add_execution_flags(p)
+    add_execution_flags(p, in_process=True, timeout=True)
     p.set_defaults(func=main)
 
 
@@ -58,11 +58,15 @@ def main(args: argparse.Namespace) -> int:
             if e not in engine_names():
                 raise ValueError(f"--engines: {e!r} is not one of {', '.join(engine_names())}")
     opts = execution_options(args, cfg)
-    rep = report.build(cfg, args.out, engines=engines, keep_unchanged=args.keep_unchanged,
-                       **opts)
+    from impactbench.cluster import run_timeout
+
+    with run_timeout(timeout_option(args, cfg)):
+        rep = report.build(cfg, args.out, engines=engines, keep_unchanged=args.keep_unchanged,
+                           **opts)
     from impactbench.report_sections import run_keys
 
-    counts = rep.results.drop_duplicates(run_keys()).status.value_counts().to_dict() \
+    keys = [c for c in run_keys() if c in rep.results.columns]
+    counts = rep.results.drop_duplicates(keys).status.value_counts().to_dict() \
         if len(rep.results) else {}
     done = ("kept as it was (the same results apart from wall times)" if rep.kept
             else f"written ({len(rep.files)} files)")

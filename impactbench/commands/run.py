@@ -33,20 +33,29 @@ def register(top: argparse._SubParsersAction, groups: dict) -> None:
                    help="native: the engine's contact model with mapped parameters; "
                    "injected: the reference law driven through the engine; tuned: fitted "
                    "parameters; default: the engine's out-of-the-box contact; custom: "
-                   "default plus your --param settings (default native; tuned with --tuned)")
+                   "default plus your --param (or --param-set) settings (default native; "
+                   "tuned with --tuned; a data-driven scenario: default)")
     p.add_argument("--param", type=key_value, action="append", default=[], dest="params",
                    metavar="KEY=VALUE",
                    help="custom mode: one engine parameter by the engine's own name "
-                   "(repeatable), e.g. solref=0.02,1 or contactStiffness=1e5")
+                   "(repeatable), e.g. solref=0.02,1 or contactStiffness=1e5; a data-driven "
+                   "scenario takes its replay's keys, e.g. board.contactStiffness=1e5")
+    p.add_argument("--param-set", default=None, dest="param_set", metavar="NAME",
+                   help="custom mode of a data-driven scenario: a parameter set published "
+                   "with the data (e.g. dair2022: DAIR's fitted values), overlaid by --param")
     p.add_argument("--tuned", type=Path, default=None, dest="tuned_file", metavar="FILE",
                    help="tuned mode with this tuned file (written by `impactbench tune "
                    "--out`); it applies only to the scenario and timestep it was fitted for")
-    p.add_argument("--velocity", type=number, required=True, dest="velocity_m_s",
-                   metavar="V", help="impact velocity V0 or v1 (m/s)")
+    with_v = ", ".join(n for n in names if "velocity_m_s" in scenarios.get(n).axis_names)
+    p.add_argument("--velocity", type=number, default=None, dest="velocity_m_s",
+                   metavar="V", help=f"impact velocity V0 or v1 (m/s); required by the "
+                   f"scenarios with a velocity axis ({with_v})")
     p.add_argument("--timestep", type=number, default=None, dest="timestep_s", metavar="S",
                    help="integration step (s); default: in default mode the engine's own "
                    "default step (MuJoCo 2 ms, PyBullet 1/240 s, Drake 1 ms, pymunk 1/60 s), "
-                   "otherwise the adapter's for the scenario")
+                   "otherwise the adapter's for the scenario; a data-driven scenario steps "
+                   "at a whole fraction of its sample interval (cube tosses: 1/148 s / "
+                   "round(1/148 s / S); default 1/1480 s, DAIR's)")
     axes: set[str] = set()
     flags: set[str] = set()
     for name in names:
@@ -72,6 +81,17 @@ def main(args: argparse.Namespace) -> int:
     from impactbench.engines.base import RunSettings
     from impactbench.evaluate import compare
 
+    spec = scenarios.get(args.scenario)
+    if "velocity_m_s" in spec.axis_names and args.velocity_m_s is None:
+        raise ValueError(f"velocity: --velocity V (m/s) is required for {spec.name}")
+    if "velocity_m_s" not in spec.axis_names and args.velocity_m_s is not None:
+        raise ValueError(f"velocity = {args.velocity_m_s:g}: {spec.name} has no impact "
+                         "velocity (drop --velocity)")
+    if spec.replay:
+        return replay_main(args, spec)
+    if args.param_set is not None:
+        raise ValueError(f"param-set = {args.param_set!r}: {spec.name} has no parameter sets "
+                         "(they come with a data-driven scenario's measurements)")
     scenario = scenario_from_args(args.scenario, args)
     mode = args.mode or ("tuned" if args.tuned_file else "native")
     if args.params and mode != "custom":
@@ -126,6 +146,49 @@ def main(args: argparse.Namespace) -> int:
     return code
 
 
+REPLAY_STATUSES = ("partial", "failed")
+"""Statuses of a data-driven scenario's run besides :class:`~impactbench.reference.record.
+Status`'s: some of its trials failed, or all did."""
+
+
+def replay_main(args: argparse.Namespace, spec: scenarios.ScenarioSpec) -> int:
+    """``run`` of a data-driven scenario: its ``replay`` hook instead of the builders."""
+    scenario = scenario_from_args(spec.name, args)
+    mode = args.mode or ("tuned" if args.tuned_file else "default")
+    for flag, value in (("max-penetration-ratio", args.max_penetration_ratio),
+                        ("max-energy-ratio", args.max_energy_ratio)):
+        if value is not None:
+            raise ValueError(f"{flag} = {value:g}: {spec.name} is judged against its "
+                             "measurements, not by plausibility limits")
+    if args.params and mode != "custom":
+        raise ValueError(f"param = {args.params[0][0]}: --param needs --mode custom "
+                         f"(got {mode})")
+    allowed = _allowed_statuses(args.allow_status, REPLAY_STATUSES)
+    hook = scenarios.load(spec.replay)
+    kwargs = {"param_set": args.param_set, "params": dict(args.params) or None,
+              "timestep_s": args.timestep_s}
+    hook(args.engine, scenario, mode, check_only=True, **kwargs)  # bad input: before the data
+    with stdout_to_stderr():
+        out = hook(args.engine, scenario, mode, **kwargs)
+    code = 0 if out["status"] == "ok" or out["status"] in allowed else 1
+    if code:
+        print(f"impactbench: run status {out['status']}"
+              + (f" ({out['message']})" if out["message"] else "")
+              + "; exit 1 (--allow-status to accept it)", file=sys.stderr)
+    if args.json:
+        print_json(out)
+        return code
+    what = f"param set {out['param_set']}" if out.get("param_set") else ""
+    print(f"{out['engine']} {out['engine_version']}  mode {out['mode']} {what}  "
+          f"{spec.title.lower()} {out['tosses']} ({out.get('split') or scenario.tosses})  "
+          f"timestep {out['timestep_s']:.6g} s ({out['timestep_source']})  status "
+          f"{out['status']}" + (f" ({out['message']})" if out["message"] else "")
+          + (f"  wall {out['wall_s']:.3g} s" if out.get("wall_s") == out.get("wall_s")
+             else ""))
+    print_table([{"metric": k, "value": out[k]} for k in spec.metrics])
+    return code
+
+
 ENGINE_DEFAULT, GIVEN, ADAPTER_DEFAULT = ("engine default", "given",
                                          "adapter default for the scenario")
 """The values of ``timestep_source`` in ``run``'s output."""
@@ -148,12 +211,13 @@ def run_timestep(engine: str, mode: str, timestep_s: float | None
     return None, ADAPTER_DEFAULT
 
 
-def _allowed_statuses(text: str) -> set[str]:
-    """--allow-status: a comma list of Status names (one-line error for an unknown one)."""
+def _allowed_statuses(text: str, extra: tuple[str, ...] = ()) -> set[str]:
+    """--allow-status: a comma list of Status names (and ``extra`` ones; one-line error for an
+    unknown one)."""
     from impactbench.reference.record import Status
 
     names = {s.strip() for s in text.split(",") if s.strip()}
-    valid = [str(s) for s in Status]
+    valid = [str(s) for s in Status] + list(extra)
     for name in sorted(names):
         if name not in valid:
             raise ValueError(f"allow-status = {name!r}: must be one of {', '.join(valid)}")

@@ -62,7 +62,9 @@ from impactbench.cube_tosses.protocol import (
     Start,
 )
 
-ENGINES = ("pybullet", "mujoco", "drake")
+ENGINES = ("pybullet", "mujoco", "drake", "sapien", "dart", "newton", "mjx")
+"""The engines the tosses replay on; the last four live in
+:mod:`impactbench.cube_tosses.engines_more` (imported when one is built)."""
 
 # DAIR's fitted values (learned_parameters/cube/*.json of the branch above), full precision.
 _DAIR_BULLET = {"stiffness": 1783.7652890360182, "damping": 27.221707506471567,
@@ -213,6 +215,11 @@ class PyBulletCube(CubeEngine):
         c = self._client
         pb.setGravity(0.0, 0.0, -GRAVITY_M_S2, physicsClientId=c)
         pb.setTimeStep(self.step_s, physicsClientId=c)
+        # Bullet keeps the contact breaking threshold in a process-wide global
+        # (gContactBreakingThreshold), not per client: another run in this process (the ball
+        # adapter sets it tiny) would change these replays. Set Bullet's own default, 0.02 m.
+        pb.setPhysicsEngineParameter(contactBreakingThreshold=BULLET_BREAKING_THRESHOLD_M,
+                                     physicsClientId=c)
         if "numSolverIterations" in self.params:
             pb.setPhysicsEngineParameter(numSolverIterations=int(
                 self.params["numSolverIterations"]), physicsClientId=c)
@@ -588,12 +595,20 @@ def _replace() -> Any:
 
 _CLASSES: dict[str, type[CubeEngine]] = {"pybullet": PyBulletCube, "mujoco": MujocoCube,
                                          "drake": DrakeCube}
+MORE_ENGINES = "impactbench.cube_tosses.engines_more"
+BULLET_BREAKING_THRESHOLD_M = 0.02
+"""Bullet's default contact breaking threshold (``gContactBreakingThreshold``, m)."""
+"""The module of the other engines' classes (``CLASSES``), imported when one is built."""
 
 
 def make(engine: str, params: Mapping[str, Any] = (), step_s: float = 1.0 / 1480.0,
          board_z_m: float = 0.0) -> CubeEngine:
     """The cube-on-board model of ``engine`` with engine parameters ``params``."""
     cls = _CLASSES.get(engine)
+    if cls is None and engine in ENGINES:  # by name, as the engine registry loads adapters:
+        import importlib  # engines_more builds on this module's classes
+
+        cls = importlib.import_module(MORE_ENGINES).CLASSES[engine]
     if cls is None:
         raise ValueError(f"engine = {engine!r}: the cube tosses run on {', '.join(ENGINES)}")
     return cls(params, step_s, board_z_m)

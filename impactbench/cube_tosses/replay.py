@@ -3,7 +3,9 @@
 The result is the dict ``impactbench run --engine E --scenario cube-toss --mode M --json``
 is meant to print (keys in :data:`RESULT_KEYS`):
 
-- ``status``: "ok" (every toss replayed), "partial" (some failed), "failed" (none ran);
+- ``status``: "ok" (every toss replayed), "partial" (some failed), "failed" (none ran),
+  "unsupported" (a 2D engine, pymunk or Box2D: every other key None or empty, ``reason``
+  says why);
 - ``engine``, ``mode``, ``param_set``, ``split``, ``tosses`` (how many were replayed),
   ``failed`` (the ids that failed: an engine error or a non-finite state);
 - ``position_error_mean``/``_median``/``_q1``/``_q3``: over tosses, each toss's time-mean
@@ -84,13 +86,20 @@ def replay(engine: str, mode: str = "default", tosses: str | int | Iterable[int]
            progress: Callable[[int, int], None] | None = None) -> dict[str, Any]:
     """Replay ``tosses`` (a split name, an id or ids) of ``data`` (a DataFrame from
     :func:`~impactbench.cube_tosses.data.load`, a CSV path, or None for the packaged tosses)
-    in ``engine`` ("pybullet", "mujoco", "drake") under ``protocol`` (DAIR's by default).
+    in ``engine`` ("pybullet", "mujoco", "drake", "sapien", "dart", "newton", "mjx") under
+    ``protocol`` (DAIR's by default).
 
     ``mode``: "default" (the engine's own contact settings) or "custom" (``param_set``, a
     name from :data:`~impactbench.cube_tosses.engines.PARAM_SETS` such as "dair2022", and/or
     ``params``, engine parameters by the engine's own names). One engine instance serves every
     toss. Returns the dict described in the module doc."""
     protocol = protocol or Protocol()
+    from impactbench.cube_tosses.engines_more import UNSUPPORTED
+
+    if engine in UNSUPPORTED:
+        return {**dict.fromkeys(RESULT_KEYS), "status": "unsupported", "engine": engine,
+                "mode": mode, "param_set": param_set, "tosses": 0, "failed": [],
+                "per_toss": [], "protocol": protocol.describe(), "reason": UNSUPPORTED[engine]}
     eparams = engine_parameters(engine, mode, param_set, params)
     if isinstance(data, pd.DataFrame):
         df, source = data_mod.validate(data), "DataFrame"
@@ -119,9 +128,13 @@ def replay(engine: str, mode: str = "default", tosses: str | int | Iterable[int]
     try:
         setup = sim.describe()
         t0 = time.perf_counter()
+        # a batched engine (Newton, MJX) replays every toss in one call
+        batch = sim.run_many(starts) if getattr(sim, "batched", False) else None
         for n, start in enumerate(starts):
             try:
-                p, q = sim.run(start)
+                if batch is not None and isinstance(batch[n], Exception):
+                    raise batch[n]
+                p, q = batch[n] if batch is not None else sim.run(start)
                 if not (np.all(np.isfinite(p)) and np.all(np.isfinite(q))):
                     raise FloatingPointError("non-finite state")
                 row = {"status": "ok", **toss_errors(start, p, q, protocol)}

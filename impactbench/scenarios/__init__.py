@@ -43,6 +43,7 @@ BUILTIN: dict[str, str] = {
     "ball-on-plate": "impactbench.scenarios.ball_on_plate:SPEC",
     "rigid-flexible": "impactbench.scenarios.rigid_flexible:SPEC",
     "oblique": "impactbench.scenarios.oblique:SPEC",
+    "cube-toss": "impactbench.scenarios.cube_toss:SPEC",
 }
 """The packaged scenarios, in the report's order (registry name → ``"module:attr"``)."""
 
@@ -151,6 +152,23 @@ class ScenarioSpec:
         studies: the suite's single-scenario studies it serves (``work_precision``,
             ``practical``, ``tuning``, ``calibrate``): each runs the first scenario that lists
             it (:func:`for_study`).
+        replay: ``"module:function"`` of a *data-driven* scenario (its reference is a
+            measurement, its points are recorded trials): commands call it instead of the
+            adapters' builders, ``f(engine, scenario, mode, *, param_set=None, params=None,
+            timestep_s=None, store=None, fresh=False, check_only=False)`` → the run object
+            (``status``, ``message``, ``engine``, ``engine_version``, ``mode``,
+            ``timestep_s``, ``wall_s``, the spec's ``metrics``, which are already errors
+            against the measurement, and the scenario's own detail). ``param_set`` names a
+            parameter set published with the data (``custom`` mode), ``params`` are engine
+            parameters by the replay's own names, ``store`` a results store the run is looked
+            up in and saved to, ``check_only`` validates the settings (one-line ValueError)
+            and returns why the run would be ``unsupported`` ("" when it can run) without
+            running. An engine or mode the replay lacks gives an
+            ``unsupported`` run object, never an exception. Such a spec has no axes; the run
+            matrix plans no jobs for it (its config table feeds the report's "Against real
+            tosses" section, :mod:`impactbench.config`), and gates judge its metrics as
+            absolute errors (:mod:`impactbench.gates`). "" for a scenario with a reference
+            solution (the builders' path).
     """
 
     name: str
@@ -178,6 +196,7 @@ class ScenarioSpec:
     plausibility: str = ""
     descriptions: Mapping[str, str] = field(default_factory=dict)
     studies: tuple[str, ...] = ()
+    replay: str = ""
 
     # ------------------------------------------------------------------ the dataclass
     @property

@@ -30,3 +30,54 @@ def square_or_die(x: int) -> int:
 def pid(_item: object) -> int:
     """The process an item ran in (for Runner tests)."""
     return os.getpid()
+
+
+SLEEP_ENV = "IMPACTBENCH_TEST_SLEEP_S"
+"""How long a :class:`SleepingAdapter` run sleeps (s; default 0.5)."""
+
+
+class SleepingAdapter(Adapter):
+    """A slow engine (for interrupt tests): each run sleeps ``$IMPACTBENCH_TEST_SLEEP_S``
+    seconds, then returns a plain record (status ``no_contact``: nothing to compare). Cheap
+    on the CPU, unlike a real engine at 0.1 ns steps."""
+
+    name = "sleeper"
+    builders: ClassVar[dict[str, Builder]] = {"ball-on-plate": Builder("run_ball", 1e-6)}
+
+    def version(self) -> str:
+        return "0"
+
+    def run_ball(self, scenario, mode, settings):
+        import time
+
+        from impactbench.reference.record import ImpactRecord, Status
+
+        time.sleep(float(os.environ.get(SLEEP_ENV, "0.5")))
+        return ImpactRecord.failed(Status.NO_CONTACT, "slept", engine=self.name, mode=mode)
+
+
+class HangingAdapter(Adapter):
+    """An engine that never returns at 2 m/s (a Python-level hang; at 3 m/s a hang inside C
+    that holds the GIL, which only a process kill ends) and sleeps briefly at any other
+    velocity (for timeout tests)."""
+
+    name = "hanger"
+    builders: ClassVar[dict[str, Builder]] = {"ball-on-plate": Builder("run_ball", 1e-6)}
+
+    def version(self) -> str:
+        return "0"
+
+    def run_ball(self, scenario, mode, settings):
+        import time
+
+        from impactbench.reference.record import ImpactRecord, Status
+
+        if scenario.velocity_m_s == 2.0:
+            while True:
+                time.sleep(0.05)
+        if scenario.velocity_m_s == 3.0:
+            import ctypes
+
+            ctypes.PyDLL(None).sleep(3600)  # PyDLL: the GIL stays held
+        time.sleep(0.05)
+        return ImpactRecord.failed(Status.NO_CONTACT, "returned", engine=self.name, mode=mode)

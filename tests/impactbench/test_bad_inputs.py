@@ -35,6 +35,7 @@ def blocked(tmp_path: Path) -> Path:
 # report for MuJoCo): nothing is left to run once every default section is emptied
 @pytest.mark.parametrize("text", ['[ball_on_plate]\nvelocities_m_s = []\n'
                                   '[rigid_flexible]\nvelocities_m_s = []\n'
+                                  '[oblique]\nvelocities_m_s = []\n'
                                   '[work_precision]\ntimesteps_s = []\n'
                                   '[practical]\nvelocities_m_s = []\n'])
 def test_a_config_with_nothing_to_run_is_one_line(capsys, tmp_path: Path, text: str) -> None:

@@ -181,3 +181,22 @@ def test_a_case_sets_no_axis_field():
     assert not set(params) & set(SPEC.axis_names)
     s = SPEC.build((("angle_deg", 20.0), ("velocity_m_s", 3.9)), params)
     assert s == Oblique.kharaz2001(angle_deg=20.0)
+
+
+def test_sweep_over_the_angle_writes_the_reference_table(tmp_path) -> None:
+    """``sweep oblique --over angle-deg``: one row per angle, the closed form's values (the
+    contact sticks below the 63.9° threshold of the steel ball at μ = 0.3, slides above)."""
+    import pandas as pd
+    from impactbench.reference import oblique
+    from impactbench.reference.oblique_scenario import Oblique
+
+    from impactbench.cli import main
+
+    out = tmp_path / "a.csv"
+    assert main(["sweep", "oblique", "--over", "angle-deg", "--start", "0", "--stop", "80",
+                 "--step", "20", "--friction", "0.3", "--out", str(out)]) == 0
+    table = pd.read_csv(out)
+    assert list(table.angle_deg) == [0.0, 20.0, 40.0, 60.0, 80.0]
+    want = oblique.sweep(Oblique(velocity_m_s=2.0, friction=0.3), [0.0, 20.0, 40.0, 60.0, 80.0])
+    assert (table.spin_out_rad_s - want.spin_out_rad_s).abs().max() < 1e-9
+    assert list(table.regime) == [0.0, 0.0, 0.0, 0.0, 1.0]

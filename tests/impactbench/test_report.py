@@ -19,8 +19,8 @@ V1 = (("velocity_m_s", 1.0),)
 """The point of a ball run at 1 m/s."""
 
 COLUMNS = ["study", "scenario", "local", "structure", "engine", "mode", "velocity_m_s",
-           "timestep_s", "metric", "value", "reference", "rel_error", "resolved", "params",
-           "status", "message", "wall_s", "engine_version", "penetration_ratio",
+           "angle_deg", "timestep_s", "metric", "value", "reference", "rel_error", "resolved",
+           "params", "status", "message", "wall_s", "engine_version", "penetration_ratio",
            "energy_ratio"]
 
 

@@ -26,6 +26,8 @@ modes = ["injected"]
 velocities_m_s = [1.0]
 [rigid_flexible]                # the file is layered over the default: drop its other parts
 velocities_m_s = []
+[oblique]
+velocities_m_s = []
 [practical]
 velocities_m_s = []
 """
@@ -33,21 +35,31 @@ SMALL = BASE + """
 [work_precision]
 timesteps_s = []
 """
-# the same plus slow runs (steps of about 0.1 ns: ~2e6 steps, ~5 s each on this machine): the
-# first pair is stored while the second pair still has seconds to go, so the interrupt lands
-# mid-matrix however quickly the test polls (1 ns steps finished all four within one poll)
-SLOW = BASE + """
-[work_precision]
-velocity_m_s = 1.0
-timesteps_s = [1.3e-10, 1.2e-10, 1.1e-10, 1e-10]
-modes = ["injected"]
-"""
+ENGINES_DIR = Path(__file__).resolve().parent.parent / "engines"
 
 
-def report(config: Path, out: Path, env: dict[str, str], **kw) -> subprocess.Popen:
+def sleeper_env(tmp_path: Path, sleep_s: float) -> dict[str, str]:
+    """A slow plug-in engine (tests/engines/crashing_adapter.py: each run sleeps): the
+    interrupt lands mid-matrix however quickly the test polls, at no CPU cost."""
+    return {**os.environ, "IMPACTBENCH_STORE": str(tmp_path / "store.duckdb"),
+            "IMPACTBENCH_ENGINES": "sleeper=crashing_adapter:SleepingAdapter",
+            "IMPACTBENCH_TEST_SLEEP_S": str(sleep_s),
+            "PYTHONPATH": os.pathsep.join([str(ENGINES_DIR), os.environ.get("PYTHONPATH",
+                                                                             "")])}
+
+
+def sleeper_config(velocities: list[float]) -> str:
+    from test_faults import only_ball
+
+    return only_ball("sleeper", velocities)
+
+
+def report(config: Path, out: Path, env: dict[str, str], workers: int = 2,
+           **kw) -> subprocess.Popen:
     return subprocess.Popen([sys.executable, "-m", "impactbench.cli", "report", "--config",
-                             str(config), "--out", str(out), "--workers", "2"], env=env,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, **kw)
+                             str(config), "--out", str(out), "--workers", str(workers)],
+                            env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            **kw)
 
 
 def stored_runs(path: Path) -> int:
@@ -59,21 +71,20 @@ def stored_runs(path: Path) -> int:
 
 
 def test_ctrl_c_keeps_the_previous_report_and_the_rerun_resumes(tmp_path: Path) -> None:
-    require_engine("mujoco")
-    env = {**os.environ, "IMPACTBENCH_STORE": str(tmp_path / "store.duckdb")}
     small, slow, out = tmp_path / "small.toml", tmp_path / "slow.toml", tmp_path / "rep"
-    small.write_text(SMALL)
-    slow.write_text(SLOW)
-    first = report(small, out, env)
+    small.write_text(sleeper_config([1.0]))
+    slow.write_text(sleeper_config([1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 4.5]))
+    first = report(small, out, sleeper_env(tmp_path, 0), workers=0)
     assert first.wait(300) == 0, first.communicate()[1]
     before = {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()}
     assert Path("README.md") in before and stored_runs(tmp_path / "store.duckdb") == 1
 
-    second = report(slow, out, env, start_new_session=True)
-    deadline = time.monotonic() + 240
-    while stored_runs(tmp_path / "store.duckdb") < 2 and time.monotonic() < deadline:
+    # 8 runs of 0.5 s on 2 workers, stored as they finish
+    second = report(slow, out, sleeper_env(tmp_path, 0.5), start_new_session=True)
+    deadline = time.monotonic() + 120
+    while stored_runs(tmp_path / "store.duckdb") < 3 and time.monotonic() < deadline:
         assert second.poll() is None, second.communicate()[1]
-        time.sleep(0.2)
+        time.sleep(0.1)
     os.killpg(second.pid, signal.SIGINT)  # what Ctrl-C does: the whole process group
     _, err = second.communicate(timeout=120)
     assert second.returncode == 130, err
@@ -81,13 +92,13 @@ def test_ctrl_c_keeps_the_previous_report_and_the_rerun_resumes(tmp_path: Path) 
     line = re.search(r"interrupted; (\d+) of (\d+) runs stored; rerun to resume", err)
     assert line, err
     stored, total = map(int, line.groups())
-    assert 2 <= stored < total == 5
+    assert 3 <= stored < total == 8
     after = {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()}
     assert after == before  # the previous report, byte for byte
     assert sorted(p.name for p in tmp_path.iterdir()) == [".rep.lock", "rep", "slow.toml",
                                                           "small.toml", "store.duckdb"]
 
-    third = report(slow, out, env)
+    third = report(slow, out, sleeper_env(tmp_path, 0), workers=0)
     assert third.wait(600) == 0, third.communicate()[1]
     meta = json.loads((out / "metadata.json").read_text())
     assert sum(r["stored"] for r in meta["runs"]) >= stored

@@ -157,6 +157,7 @@ def test_report_has_the_plugin_section(plugin, tmp_path: Path) -> None:
                       # layered over the default report: drop its own sections
                       "[ball_on_plate]\nvelocities_m_s = []\n"
                       "[rigid_flexible]\nvelocities_m_s = []\n"
+                      "[oblique]\nvelocities_m_s = []\n"
                       "[work_precision]\ntimesteps_s = []\n[practical]\nvelocities_m_s = []\n")
     out = tmp_path / "report"
     done = cli(plugin, "report", "--config", str(config), "--out", str(out))

@@ -87,12 +87,12 @@ def stored_points(path: Path) -> int:
 
 
 def test_ctrl_c_stores_what_finished_and_the_rerun_resumes(tmp_path: Path) -> None:
-    """SIGINT a real `impactbench sweep rigid-flexible` (~6 s in one process; points are
-    stored every 2 s): one line, exit 130, no output file; the rerun solves only the rest and
-    writes the uninterrupted sweep's file byte for byte."""
+    """SIGINT a real `impactbench sweep rigid-flexible` (300,000 points, ~5 s on one thread;
+    points are stored every 2 s): one line, exit 130, no output file; the rerun solves only
+    the rest and writes the uninterrupted sweep's file byte for byte."""
     path, out = tmp_path / "r.duckdb", tmp_path / "sweep.csv"
     argv = [sys.executable, "-m", "impactbench.cli", "sweep", "rigid-flexible", "--over",
-            "velocity", "--start", "0.5", "--stop", "1000", "--step", "0.05", "--workers", "0",
+            "velocity", "--start", "0.5", "--stop", "1000", "--step", "0.02", "--workers", "0",
             "--store", str(path), "--out", str(out)]
     proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             start_new_session=True)
@@ -103,15 +103,18 @@ def test_ctrl_c_stores_what_finished_and_the_rerun_resumes(tmp_path: Path) -> No
     os.killpg(proc.pid, signal.SIGINT)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 130, err
-    line = re.fullmatch(r"impactbench: interrupted; (\d+) of 119946 points stored; rerun to "
-                        r"resume\n", err)
+    *progress, last = err.splitlines()  # progress lines (not a terminal), then one line
+    assert all(re.fullmatch(r"impactbench: \d+ of 299856 points done( \(\d+ s\))?", p)
+               for p in progress), err
+    line = re.fullmatch(r"impactbench: interrupted; (\d+) of 299856 points stored; rerun to "
+                        r"resume", last)
     assert line, err
     stored = int(line.group(1))
-    assert 0 < stored < 119946 and stored_points(path) == stored
+    assert 0 < stored < 299856 and stored_points(path) == stored
     assert sorted(p.name for p in tmp_path.iterdir()) == ["r.duckdb"]  # no (partial) table
     again = subprocess.run(argv, capture_output=True, text=True, timeout=300)
     assert again.returncode == 0, again.stderr
-    assert f"{stored} from the store, {119946 - stored} solved" in again.stdout
-    values = 0.5 + 0.05 * np.arange(19991)
+    assert f"{stored} from the store, {299856 - stored} solved" in again.stdout
+    values = 0.5 + 0.02 * np.arange(49976)
     write_table(two_dof.sweep(RigidFlexible(), "velocity", values), tmp_path / "plain.csv")
     assert out.read_bytes() == (tmp_path / "plain.csv").read_bytes()

@@ -1,0 +1,642 @@
+"""The cube on the board in SAPIEN (PhysX), DART, Newton and MJX; pymunk and Box2D refused.
+
+The same physical set-up as :mod:`impactbench.cube_tosses.engines` (a free box, h = 0.0524 m,
+0.37 kg, 0.00081 kg·m² about each axis; the board's surface at ``board_z_m``, z up; gravity
+9.81 m/s²; a fixed step), the same interface (:class:`~impactbench.cube_tosses.engines.CubeEngine`)
+and the same key convention: ``board.`` / ``cube.`` + the engine's own name, plus engine-wide
+keys; ``default`` mode sets none, ``custom`` mode the caller's. The engines are imported when a
+model is built, never at import.
+
+SAPIEN 3 (PhysX 5, CPU)
+    The board is a static PhysX plane (a half-space) at ``board_z_m``, the cube a rigid
+    dynamic box. Keys: ``board.`` / ``cube.`` + ``static_friction``, ``dynamic_friction``,
+    ``restitution`` (the material; a negative restitution −K makes a compliant, undamped
+    contact of stiffness K N/m; PhysX combines a pair's friction and restitution by their
+    average); ``contact_offset``, ``rest_offset`` (both shapes, m); ``cube.`` +
+    ``linear_damping``, ``angular_damping``, ``solver_position_iterations``,
+    ``solver_velocity_iterations``, ``sleep_threshold``; scene: ``bounce_threshold`` (m/s;
+    restitution acts only above it), ``enable_tgs``, ``enable_pcm``. Defaults: SAPIEN's
+    material (friction 0.3, restitution 0.1), bounce threshold 2 m/s, TGS; read back in
+    :meth:`SapienCube.describe`. A fresh scene per toss: PhysX keeps contact caches and sleep
+    state across a teleport (see :data:`SapienCube.fresh_scene_per_toss`).
+DART 6
+    The board is a welded 10 × 10 × 1 m box (its top at ``board_z_m``), the cube a box on a
+    free joint. Contacts are rigid (boxed LCP, Dantzig), velocity-level restitution. Keys:
+    ``board.`` / ``cube.`` + ``friction_coeff``, ``restitution_coeff`` (DART's
+    ``DynamicsAspect``; the pair's friction is the smaller of the two, its restitution their
+    product, as DART's ``ContactConstraint``); ``collision_detector`` (fcl, dart, bullet, ode),
+    ``split_impulse``. Defaults: friction 1, restitution 0, FCL, no split impulse.
+Newton 1.x (warp, CPU device)
+    ``SolverSemiImplicit`` (maximal coordinates, semi-implicit Euler) with its penalty contact:
+    per contact point normal force ke·x + kd·max(ẋ, 0), regularised Coulomb friction
+    min(kf·|v_t|, μ·f_n) (ke, kd, kf, μ averaged over the two shapes). The board is Newton's
+    ground plane, the cube a box shape on a free body. Keys: ``board.`` / ``cube.`` + ``ke``
+    (N/m), ``kd`` (N·s/m), ``kf`` (N·s/m), ``mu``, ``ka`` (adhesion distance, m). Defaults:
+    ``ShapeConfig``'s (ke 2500, kd 100, kf 1000, μ 1, ka 0). float32. **Batched**: every toss is
+    a world of one model (:meth:`NewtonCube.run_many`), stepped together; one step is a warp
+    CPU graph.
+MJX (MuJoCo XLA, jax CPU, float64)
+    MuJoCo's physics on the cube on a **plane** (MJX collides box–plane in 4 fixed contact
+    slots; box–box would be far more costly), so it is compared with C MuJoCo on the same
+    plane model (:class:`MujocoPlaneCube`), not with the box board of
+    :class:`~impactbench.cube_tosses.engines.MujocoCube`. The two agree to rounding until a
+    second corner touches: MJX's ``plane_convex`` keeps only the vertices within 1 mm of the
+    deepest one (``support > max(0, support.max() − 1e-3)``, mujoco-mjx 3.17), C MuJoCo's
+    box–plane every penetrating vertex, so with a soft contact (the default solref 0.02 s
+    lets a corner sink ~7 mm) MJX misses a shallower corner that C MuJoCo has and the
+    trajectories part (measured: toss 155, step 57; out of the box the 64 first test tosses'
+    errors differ by 0.004 widths at the median, 0.7 at worst). Keys: MuJoCo's (``board.`` /
+    ``cube.`` + ``solref``, ``solimp``, ``friction``, ``condim``, ``priority``, ``solmix``;
+    ``option.`` + an ``<option>`` attribute). **Batched**: :meth:`MjxCube.run_many` runs every
+    toss in ``jax.vmap`` over the initial states, a ``lax.scan`` over the samples of a
+    ``fori_loop`` over the substeps, in fixed-length chunks (one compilation per batch size;
+    jax's persistent cache keeps it across processes). Tosses are sorted by length and run in
+    batches of :data:`MJX_BATCH` (``batch=None``: all in one call, padded to the longest).
+pymunk, Box2D
+    :data:`UNSUPPORTED`: two-dimensional engines; a tumbling cube in 3D cannot be expressed.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from impactbench.cube_tosses.engines import CubeEngine, MujocoCube, _version
+from impactbench.cube_tosses.protocol import (
+    GRAVITY_M_S2,
+    HALF_WIDTH_M,
+    INERTIA_KG_M2,
+    MASS_KG,
+    Start,
+)
+
+ENGINES = ("sapien", "dart", "newton", "mjx")
+
+UNSUPPORTED: dict[str, str] = {
+    "pymunk": "pymunk is a 2D engine (bodies move in a plane with one rotation angle): a cube "
+              "tumbling in 3D with a 3-axis spin cannot be expressed",
+    "box2d": "Box2D is a 2D engine (bodies move in a plane with one rotation angle): a cube "
+             "tumbling in 3D with a 3-axis spin cannot be expressed",
+}
+"""engine → why the cube tosses cannot run on it."""
+
+
+def _quat_from_matrix(r: np.ndarray) -> np.ndarray:
+    from scipy.spatial.transform import Rotation
+
+    x, y, z, w = Rotation.from_matrix(np.asarray(r, dtype=float)).as_quat()
+    return np.array([w, x, y, z])
+
+
+# ------------------------------------------------------------------------------ SAPIEN
+
+_SAPIEN_MATERIAL = ("static_friction", "dynamic_friction", "restitution")
+_SAPIEN_SHAPE = ("contact_offset", "rest_offset")
+_SAPIEN_BODY = ("linear_damping", "angular_damping", "solver_position_iterations",
+                "solver_velocity_iterations", "sleep_threshold")
+_SAPIEN_SCENE = ("bounce_threshold", "enable_tgs", "enable_pcm")
+SAPIEN_PLANE_Q = (math.sqrt(0.5), 0.0, -math.sqrt(0.5), 0.0)
+"""A PhysX plane's normal is its local +x: this rotation (−90° about y) turns it to +z."""
+
+
+def _import_sapien() -> tuple[Any, Any]:
+    import warnings
+
+    with warnings.catch_warnings():  # "Failed to find system libvulkan": headless is fine
+        warnings.simplefilter("ignore")
+        import sapien
+        import sapien.physx as physx
+    return sapien, physx
+
+
+class SapienCube(CubeEngine):
+    """SAPIEN 3 / PhysX 5 (module doc)."""
+
+    fresh_scene_per_toss = True
+    """PhysX keeps per-pair contact caches, friction anchors and the sleep state of a body;
+    a teleported body does not clear them, so each toss gets its own scene (0.3 ms)."""
+
+    def __init__(self, params: Mapping[str, Any] = (), step_s: float = 1.0 / 1480.0,
+                 board_z_m: float = 0.0) -> None:
+        keys = (*(f"{b}.{k}" for b in ("board", "cube") for k in _SAPIEN_MATERIAL),
+                *_SAPIEN_SHAPE, *(f"cube.{k}" for k in _SAPIEN_BODY), *_SAPIEN_SCENE)
+        super().__init__(dict(params), step_s, board_z_m, "sapien", keys)
+
+    def _build(self) -> None:
+        sapien, px = _import_sapien()
+        self._sapien, self._px = sapien, px
+        p = self.params
+        scene_cfg = px.PhysxSceneConfig()
+        for k in _SAPIEN_SCENE:
+            if k in p:
+                setattr(scene_cfg, k, type(getattr(scene_cfg, k))(p[k]))
+        scene_cfg.gravity = np.array([0.0, 0.0, -GRAVITY_M_S2], dtype=np.float32)
+        self._scene_cfg = scene_cfg
+        default = px.get_default_material()
+        self._defaults = {"static_friction": float(default.static_friction),
+                          "dynamic_friction": float(default.dynamic_friction),
+                          "restitution": float(default.restitution)}
+        self._materials = {}
+        for body in ("board", "cube"):
+            vals = {k: float(p.get(f"{body}.{k}", self._defaults[k])) for k in _SAPIEN_MATERIAL}
+            self._materials[body] = vals
+        self._scene = None
+        self._new_scene()
+
+    def _new_scene(self) -> None:
+        sapien, px = self._sapien, self._px
+        previous = px.get_scene_config()
+        px.set_scene_config(self._scene_cfg)
+        try:
+            scene = sapien.Scene([px.PhysxCpuSystem()])
+        finally:
+            px.set_scene_config(previous)
+        scene.set_timestep(self.step_s)
+
+        def material(body: str) -> Any:
+            m = self._materials[body]
+            return px.PhysxMaterial(m["static_friction"], m["dynamic_friction"],
+                                    m["restitution"])
+
+        def shape(s: Any) -> Any:
+            if "contact_offset" in self.params:
+                s.set_contact_offset(float(self.params["contact_offset"]))
+            if "rest_offset" in self.params:
+                s.set_rest_offset(float(self.params["rest_offset"]))
+            return s
+
+        board = sapien.Entity()
+        static = px.PhysxRigidStaticComponent()
+        static.attach(shape(px.PhysxCollisionShapePlane(material("board"))))
+        board.add_component(static)
+        board.set_pose(sapien.Pose([0.0, 0.0, self.board_z_m], list(SAPIEN_PLANE_Q)))
+        scene.add_entity(board)
+
+        cube = sapien.Entity()
+        body = px.PhysxRigidDynamicComponent()
+        body.attach(shape(px.PhysxCollisionShapeBox(
+            np.full(3, HALF_WIDTH_M, dtype=np.float32), material("cube"))))
+        cube.add_component(body)
+        cube.set_pose(sapien.Pose([0.0, 0.0, 1.0]))
+        scene.add_entity(cube)
+        body.set_mass(MASS_KG)
+        body.set_inertia(np.full(3, INERTIA_KG_M2, dtype=np.float32))
+        body.set_cmass_local_pose(sapien.Pose())
+        for k in _SAPIEN_BODY:
+            if f"cube.{k}" in self.params:
+                v = self.params[f"cube.{k}"]
+                getattr(body, f"set_{k}")(int(v) if "iterations" in k else float(v))
+        self._scene, self._cube_entity, self._body = scene, cube, body
+
+    def _reset(self, start: Start) -> None:
+        if self.fresh_scene_per_toss:
+            self._new_scene()
+        sapien = self._sapien
+        self._cube_entity.set_pose(sapien.Pose(start.p.astype(np.float32),
+                                               start.q.astype(np.float32)))
+        self._body.set_linear_velocity(start.v.astype(np.float32))
+        self._body.set_angular_velocity(start.w_world.astype(np.float32))  # world frame
+        self._body.wake_up()
+
+    def _advance(self, steps: int) -> None:
+        step = self._scene.step
+        for _ in range(steps):
+            step()
+
+    def _pose(self) -> tuple[np.ndarray, np.ndarray]:
+        pose = self._body.entity_pose
+        return np.asarray(pose.p, dtype=float), np.asarray(pose.q, dtype=float)
+
+    def describe(self) -> dict[str, Any]:
+        sapien, px = self._sapien, self._px
+        b, c = self._materials["board"], self._materials["cube"]
+        cfg, body = self._scene_cfg, self._body
+        (shape,) = body.collision_shapes
+        eff = {"friction": 0.5 * (b["dynamic_friction"] + c["dynamic_friction"]),
+               "static_friction": 0.5 * (b["static_friction"] + c["static_friction"]),
+               "restitution": 0.5 * (b["restitution"] + c["restitution"]),
+               "friction_rule": "average of the two materials (PhysX eAVERAGE combine mode); "
+                                "restitution likewise",
+               "contact": ("compliant, undamped: stiffness −restitution (N/m)"
+                           if b["restitution"] + c["restitution"] < 0 else
+                           f"rigid, restitution only above the bounce threshold "
+                           f"{float(cfg.bounce_threshold):g} m/s"),
+               "bounce_threshold_m_s": float(cfg.bounce_threshold),
+               "solver": "TGS" if cfg.enable_tgs else "PGS",
+               "contact_offset_m": float(shape.contact_offset),
+               "rest_offset_m": float(shape.rest_offset),
+               "linear_damping": float(body.linear_damping),
+               "angular_damping": float(body.angular_damping),
+               "solver_iterations": [int(body.solver_position_iterations),
+                                     int(body.solver_velocity_iterations)]}
+        return {"engine": "sapien",
+                "version": f"{sapien.__version__} (PhysX {px.version()})",
+                "params": dict(self.params), "effective": eff,
+                "materials": {"board": b, "cube": c, "engine_default": self._defaults},
+                "cube_inertia_kg_m2": float(np.asarray(body.inertia)[0]),
+                "board": f"static plane (half-space), surface at z = {self.board_z_m:g} m",
+                "step_s": self.step_s}
+
+
+# ------------------------------------------------------------------------------ DART
+
+_DART_SHAPE_KEYS = ("friction_coeff", "restitution_coeff")
+DART_DETECTORS = {"fcl": "FCL", "dart": "DART", "bullet": "Bullet", "ode": "Ode"}
+DART_BOARD_HALF = (5.0, 5.0, 0.5)
+
+
+class DartCube(CubeEngine):
+    """DART 6 (module doc)."""
+
+    def __init__(self, params: Mapping[str, Any] = (), step_s: float = 1.0 / 1480.0,
+                 board_z_m: float = 0.0) -> None:
+        keys = (*(f"{b}.{k}" for b in ("board", "cube") for k in _DART_SHAPE_KEYS),
+                "collision_detector", "split_impulse")
+        super().__init__(dict(params), step_s, board_z_m, "dart", keys)
+
+    def _build(self) -> None:
+        import dartpy as dart
+
+        self._dart = dart
+        p = self.params
+        world = dart.simulation.World()
+        world.setGravity([0.0, 0.0, -GRAVITY_M_S2])
+        world.setTimeStep(self.step_s)
+        solver = world.getConstraintSolver()
+        if "collision_detector" in p:
+            name = DART_DETECTORS.get(str(p["collision_detector"]))
+            if name is None:
+                raise ValueError(f"param collision_detector = {p['collision_detector']!r}: "
+                                 f"must be one of {', '.join(DART_DETECTORS)}")
+            solver.setCollisionDetector(getattr(dart.collision, f"{name}CollisionDetector")())
+        if "split_impulse" in p:
+            solver.setSplitImpulseEnabled(bool(p["split_impulse"]))
+
+        def aspects(node: Any, body: str) -> Any:
+            node.createCollisionAspect()
+            aspect = node.createDynamicsAspect()
+            if f"{body}.friction_coeff" in p:
+                aspect.setFrictionCoeff(float(p[f"{body}.friction_coeff"]))
+            if f"{body}.restitution_coeff" in p:
+                aspect.setRestitutionCoeff(float(p[f"{body}.restitution_coeff"]))
+            return aspect
+
+        board = dart.dynamics.Skeleton("board")
+        joint, body = board.createWeldJointAndBodyNodePair()
+        tf = dart.math.Isometry3()
+        tf.set_translation([0.0, 0.0, self.board_z_m - DART_BOARD_HALF[2]])
+        joint.setTransformFromParentBodyNode(tf)
+        self._board_aspect = aspects(body.createShapeNode(
+            dart.dynamics.BoxShape([2.0 * v for v in DART_BOARD_HALF])), "board")
+        world.addSkeleton(board)
+
+        cube = dart.dynamics.Skeleton("cube")
+        self._joint, self._node = cube.createFreeJointAndBodyNodePair()
+        self._cube_aspect = aspects(self._node.createShapeNode(
+            dart.dynamics.BoxShape([2.0 * HALF_WIDTH_M] * 3)), "cube")
+        inertia = dart.dynamics.Inertia()
+        inertia.setMass(MASS_KG)
+        inertia.setMoment(np.eye(3) * INERTIA_KG_M2)
+        self._node.setInertia(inertia)
+        world.addSkeleton(cube)
+        self._world, self._cube = world, cube
+
+    def _reset(self, start: Start) -> None:
+        from impactbench.cube_tosses.protocol import quat_to_matrix
+
+        dart = self._dart
+        self._world.reset()
+        tf = dart.math.Isometry3()
+        tf.set_translation(start.p.tolist())
+        tf.set_rotation(quat_to_matrix(start.q))
+        self._cube.setPositions(dart.dynamics.FreeJoint.convertToPositions(tf))
+        self._cube.setVelocities(np.zeros(6))
+        world = dart.dynamics.Frame.World()
+        self._joint.setLinearVelocity(start.v, world, world)
+        self._joint.setAngularVelocity(start.w_world, world, world)
+
+    def _advance(self, steps: int) -> None:
+        step = self._world.step
+        for _ in range(steps):
+            step()
+
+    def _pose(self) -> tuple[np.ndarray, np.ndarray]:
+        tf = self._node.getWorldTransform()
+        return np.array(tf.translation(), dtype=float), _quat_from_matrix(tf.rotation())
+
+    def describe(self) -> dict[str, Any]:
+        b, c = self._board_aspect, self._cube_aspect
+        mu = {"board": float(b.getFrictionCoeff()), "cube": float(c.getFrictionCoeff())}
+        e = {"board": float(b.getRestitutionCoeff()), "cube": float(c.getRestitutionCoeff())}
+        solver = self._world.getConstraintSolver()
+        return {"engine": "dart", "version": _version("dartpy"), "params": dict(self.params),
+                "effective": {"friction": min(mu.values()),
+                              "friction_rule": f"the smaller of board {mu['board']:g} and "
+                                               f"cube {mu['cube']:g} (DART ContactConstraint)",
+                              "restitution": e["board"] * e["cube"],
+                              "restitution_rule": f"product of board {e['board']:g} and cube "
+                                                  f"{e['cube']:g}",
+                              "contact": "rigid (boxed LCP, one impulse per step)",
+                              "collision_detector": str(solver.getCollisionDetector()
+                                                        .getType()),
+                              "split_impulse": bool(solver.isSplitImpulseEnabled())},
+                "cube_inertia_kg_m2": INERTIA_KG_M2,
+                "board": f"welded box {2 * DART_BOARD_HALF[0]:g} × {2 * DART_BOARD_HALF[1]:g}"
+                         f" × {2 * DART_BOARD_HALF[2]:g} m, top at z = {self.board_z_m:g} m",
+                "step_s": self.step_s}
+
+
+# ------------------------------------------------------------------------------ batched
+
+
+class BatchedCube(CubeEngine):
+    """An engine that replays many tosses in one call: :meth:`run_many` is the engine's
+    path; :meth:`run` is ``run_many([start])[0]``."""
+
+    batched = True
+
+    def run(self, start: Start) -> tuple[np.ndarray, np.ndarray]:
+        (out,) = self.run_many([start])
+        if isinstance(out, Exception):
+            raise out
+        return out
+
+    def run_many(self, starts: Sequence[Start]
+                 ) -> list[tuple[np.ndarray, np.ndarray] | Exception]:
+        raise NotImplementedError
+
+    def _check(self, starts: Sequence[Start]) -> int:
+        """The record stride: the gcd of every start's record steps (10 under DAIR's
+        protocol), so that a recorded sample falls every ``stride`` steps."""
+        for s in starts:
+            if not math.isclose(s.step_s, self.step_s, rel_tol=1e-9):
+                raise ValueError(f"toss {s.toss}: step {s.step_s!r} s, engine built for "
+                                 f"{self.step_s!r} s")
+        steps = np.concatenate([s.record_steps for s in starts])
+        return max(1, int(np.gcd.reduce(steps[steps > 0])) if np.any(steps > 0) else 1)
+
+
+def _gather(start: Start, rows: np.ndarray, stride: int) -> tuple[np.ndarray, np.ndarray]:
+    """The records of ``start`` from rows of (p xyz, q wxyz) recorded every ``stride`` steps
+    (row 0 the initial state)."""
+    idx = start.record_steps // stride
+    return rows[idx, :3].astype(float), rows[idx, 3:7].astype(float)
+
+
+# ------------------------------------------------------------------------------ Newton
+
+_NEWTON_SHAPE_KEYS = ("ke", "kd", "kf", "mu", "ka")
+NEWTON_CONTACTS_PER_WORLD = 8
+
+
+def _newton() -> tuple[Any, Any]:
+    from impactbench.engines.newton_adapter import _newton as load
+
+    return load()
+
+
+class NewtonCube(BatchedCube):
+    """Newton with ``SolverSemiImplicit`` (module doc); every toss a world of one model."""
+
+    def __init__(self, params: Mapping[str, Any] = (), step_s: float = 1.0 / 1480.0,
+                 board_z_m: float = 0.0) -> None:
+        keys = tuple(f"{b}.{k}" for b in ("board", "cube") for k in _NEWTON_SHAPE_KEYS)
+        super().__init__(dict(params), step_s, board_z_m, "newton", keys)
+
+    def _build(self) -> None:
+        wp, newton = _newton()
+        self._wp, self._newton = wp, newton
+        defaults = newton.ModelBuilder.ShapeConfig()
+        self._defaults = {k: float(getattr(defaults, k)) for k in _NEWTON_SHAPE_KEYS}
+        self._shape = {b: {k: float(self.params.get(f"{b}.{k}", self._defaults[k]))
+                           for k in _NEWTON_SHAPE_KEYS} for b in ("board", "cube")}
+
+    def _config(self, body: str, **extra: Any) -> Any:
+        cfg = self._newton.ModelBuilder.ShapeConfig(**extra)
+        for k, v in self._shape[body].items():
+            setattr(cfg, k, v)
+        return cfg
+
+    def _model(self, worlds: int) -> Any:
+        wp, newton = self._wp, self._newton
+        cube = newton.ModelBuilder(gravity=(0.0, 0.0, -GRAVITY_M_S2))
+        i = INERTIA_KG_M2
+        body = cube.add_body(xform=wp.transform((0.0, 0.0, 1.0), wp.quat_identity()),
+                             mass=MASS_KG, inertia=wp.mat33(i, 0, 0, 0, i, 0, 0, 0, i),
+                             lock_inertia=True)
+        cube.add_shape_box(body, hx=HALF_WIDTH_M, hy=HALF_WIDTH_M, hz=HALF_WIDTH_M,
+                           cfg=self._config("cube", density=0.0))
+        scene = newton.ModelBuilder(gravity=(0.0, 0.0, -GRAVITY_M_S2))
+        scene.replicate(cube, worlds)
+        scene.add_ground_plane(height=self.board_z_m, cfg=self._config("board"))
+        return scene.finalize(device="cpu")
+
+    def run_many(self, starts: Sequence[Start]
+                 ) -> list[tuple[np.ndarray, np.ndarray] | Exception]:
+        if not starts:
+            return []
+        wp, newton = self._wp, self._newton
+        stride = self._check(starts)
+        n = len(starts)
+        model = self._model(n)
+        states = (model.state(), model.state())
+        control = model.control()
+        q0 = np.empty((n, 7), dtype=np.float32)
+        qd0 = np.empty((n, 6), dtype=np.float32)
+        for k, s in enumerate(starts):
+            w, x, y, z = s.q / np.linalg.norm(s.q)
+            q0[k] = (*s.p, x, y, z, w)
+            qd0[k] = (*s.v, *s.w_world)  # body_qd: linear then angular velocity, world frame
+        states[0].body_q.assign(q0)
+        states[0].body_qd.assign(qd0)
+        solver = newton.solvers.SolverSemiImplicit(model)
+        pipeline = newton.CollisionPipeline(
+            model, rigid_contact_max=NEWTON_CONTACTS_PER_WORLD * n)
+        contacts = pipeline.contacts()
+        dt = self.step_s
+
+        def steps(a: int) -> None:
+            for j in range(stride):
+                s0, s1 = states[(a + j) & 1], states[(a + j + 1) & 1]
+                s0.clear_forces()
+                pipeline.collide(s0, contacts)
+                solver.step(s0, s1, control, contacts, dt)
+
+        graphs = []
+        for a in range(2 if stride & 1 else 1):
+            with wp.ScopedCapture(device="cpu") as cap:
+                steps(a)
+            graphs.append(cap.graph)
+        # capturing records the launches without running them: the state is still q0
+        records = int(max(s.record_steps[-1] for s in starts) // stride) + 1
+        rows = np.empty((records, n, 7), dtype=np.float32)
+        views = tuple(s.body_q.numpy() for s in states)
+        parity = 0
+        rows[0] = views[0]
+        for r in range(1, records):
+            wp.capture_launch(graphs[parity if stride & 1 else 0])
+            parity ^= stride & 1
+            rows[r] = views[parity]
+        out: list[tuple[np.ndarray, np.ndarray] | Exception] = []
+        for k, s in enumerate(starts):
+            block = rows[:, k, :].astype(float)
+            pose = np.column_stack([block[:, :3], block[:, 6], block[:, 3:6]])  # xyzw → wxyz
+            p, q = _gather(s, pose, stride)
+            if not (np.all(np.isfinite(p)) and np.all(np.isfinite(q))):
+                out.append(FloatingPointError("non-finite state"))
+            else:
+                out.append((p, q))
+        return out
+
+    def describe(self) -> dict[str, Any]:
+        b, c = self._shape["board"], self._shape["cube"]
+        eff = {k: 0.5 * (b[k] + c[k]) for k in _NEWTON_SHAPE_KEYS}
+        return {"engine": "newton",
+                "version": f"{_version('newton')} (warp {_version('warp-lang')})",
+                "params": dict(self.params),
+                "effective": {"contact_stiffness_n_per_m": eff["ke"],
+                              "contact_damping_n_s_per_m": eff["kd"],
+                              "friction_damping_n_s_per_m": eff["kf"],
+                              "friction": eff["mu"], "adhesion_distance_m": eff["ka"],
+                              "rule": "each value the average of board and cube "
+                                      "(SolverSemiImplicit's contact kernel); per contact "
+                                      "point f_n = ke·x + kd·max(ẋ, 0), f_t = "
+                                      "min(kf·|v_t|, μ·f_n)",
+                              "solver": "SolverSemiImplicit", "precision": "float32"},
+                "shapes": {"board": b, "cube": c, "engine_default": self._defaults},
+                "cube_inertia_kg_m2": INERTIA_KG_M2,
+                "board": f"ground plane (half-space) at z = {self.board_z_m:g} m",
+                "step_s": self.step_s, "batched": "one world per toss, one model"}
+
+
+# ------------------------------------------------------------------------------ MuJoCo / MJX
+
+
+class MujocoPlaneCube(MujocoCube):
+    """C MuJoCo with the board as a plane geom (MJX's model), for comparing the two on one
+    model; keys as :class:`~impactbench.cube_tosses.engines.MujocoCube`'s."""
+
+    def xml(self) -> str:
+        xml = super().xml()
+        head, rest = xml.split('<geom name="board" type="box" size="', 1)
+        size, tail = rest.split('"', 1)
+        bz = size.split()[2]
+        return (f'{head}<geom name="board" type="plane" size="{size.split()[0]} '
+                f'{size.split()[1]} 0.1" pos="0 0 {bz}"{tail}')
+
+    def describe(self) -> dict[str, Any]:
+        out = super().describe()
+        out["board"] = f"plane geom at z = {self.board_z_m:g} m"
+        return out
+
+
+MJX_BATCH = 64
+"""Tosses per vmapped call of :meth:`MjxCube.run_many` (measured on 2 CPU cores: 64 worlds
+~60k world-steps/s, 367 ~24k: the long tail of one padded call dominates)."""
+MJX_CHUNK_RECORDS = 64
+"""Recorded samples per compiled chunk (a scan over samples of ``stride`` substeps each)."""
+
+
+def _mjx() -> tuple[Any, Any, Any]:
+    from impactbench.engines.mjx_adapter import _mjx as load
+
+    return load()
+
+
+_MJX_CHUNKS: dict[tuple[int, int], Any] = {}
+
+
+def _mjx_chunk(stride: int, records: int) -> Any:
+    """``chunk(mx, dx) → (dx, rows)`` for a batch of data ``dx`` (vmapped): ``records``
+    samples of ``stride`` steps, each row the pose (qpos[:7]) after the sample's steps."""
+    key = (stride, records)
+    if key not in _MJX_CHUNKS:
+        _, jax, mjx = _mjx()
+
+        def one(mx: Any, dx: Any) -> Any:
+            def sample(d: Any, _: Any) -> Any:
+                d = jax.lax.fori_loop(0, stride, lambda _, x: mjx.step(mx, x), d)
+                return d, d.qpos[:7]
+
+            return jax.lax.scan(sample, dx, None, length=records)
+
+        _MJX_CHUNKS[key] = jax.jit(jax.vmap(one, in_axes=(None, 0)))
+    return _MJX_CHUNKS[key]
+
+
+class MjxCube(BatchedCube, MujocoPlaneCube):
+    """MJX on the plane model (module doc)."""
+
+    batch: int | None = MJX_BATCH
+
+    def __init__(self, params: Mapping[str, Any] = (), step_s: float = 1.0 / 1480.0,
+                 board_z_m: float = 0.0, batch: int | None = MJX_BATCH) -> None:
+        self.batch = batch
+        MujocoPlaneCube.__init__(self, params, step_s, board_z_m)
+        self.name = "mjx"
+
+    def _build(self) -> None:
+        super()._build()
+        _, jax, mjx = _mjx()
+        self._jax, self._mjx_mod = jax, mjx
+        try:
+            self._mx = mjx.put_model(self._model)
+        except NotImplementedError as exc:
+            raise ValueError(f"mjx cube parameters {dict(self.params)!r}: {exc}") from None
+        from impactbench.engines.mjx_adapter import _compiled_forward
+
+        self._forward = _compiled_forward()
+        self._dx0 = self._forward(self._mx, mjx.put_data(self._model, self._data))
+        self._init = jax.jit(jax.vmap(
+            lambda mx, dx, q, v: mjx.forward(mx, dx.replace(qpos=q, qvel=v)),
+            in_axes=(None, None, 0, 0)))
+
+    def run_many(self, starts: Sequence[Start]
+                 ) -> list[tuple[np.ndarray, np.ndarray] | Exception]:
+        if not starts:
+            return []
+        stride = self._check(starts)
+        jnp = self._jax.numpy
+        lengths = np.array([int(s.record_steps[-1] // stride) for s in starts])
+        order = np.argsort(-lengths, kind="stable")
+        size = len(starts) if self.batch is None else min(self.batch, len(starts))
+        chunk = _mjx_chunk(stride, MJX_CHUNK_RECORDS)
+        out: list[Any] = [None] * len(starts)
+        for first in range(0, len(starts), size):
+            group = [int(i) for i in order[first:first + size]]
+            members = group + [group[0]] * (size - len(group))   # pad: one compiled shape
+            qpos = np.stack([np.concatenate([starts[i].p, starts[i].q]) for i in members])
+            qvel = np.stack([np.concatenate([starts[i].v, starts[i].w_body]) for i in members])
+            dx = self._init(self._mx, self._dx0, jnp.asarray(qpos), jnp.asarray(qvel))
+            need = int(lengths[group].max())
+            rows = [qpos[:, None, :7]]
+            done = 0
+            while done < need:
+                dx, r = chunk(self._mx, dx)
+                rows.append(np.asarray(r))
+                done += MJX_CHUNK_RECORDS
+            rows = np.concatenate(rows, axis=1)
+            for j, i in enumerate(group):
+                p, q = _gather(starts[i], rows[j], stride)
+                out[i] = ((p, q) if np.all(np.isfinite(p)) and np.all(np.isfinite(q))
+                          else FloatingPointError("non-finite state"))
+        return out
+
+    def describe(self) -> dict[str, Any]:
+        out = super().describe()
+        out["engine"] = "mjx"
+        out["version"] = (f"{_version('mujoco-mjx')} (mujoco {_version('mujoco')}, "
+                          f"jax {_version('jax')})")
+        out["batched"] = (f"jax.vmap over tosses, batches of {self.batch or 'all'}, "
+                          f"lax.scan chunks of {MJX_CHUNK_RECORDS} samples")
+        return out
+
+
+CLASSES: dict[str, type[CubeEngine]] = {"sapien": SapienCube, "dart": DartCube,
+                                        "newton": NewtonCube, "mjx": MjxCube}
+
+__all__ = ["CLASSES", "ENGINES", "UNSUPPORTED", "DartCube", "MjxCube", "MujocoPlaneCube",
+           "NewtonCube", "SapienCube"]

@@ -1,0 +1,401 @@
+"""The cube-toss scenario's engine runs: the spec's ``replay`` hook (:func:`run`), the
+measurement summary its reference shows (:func:`measurement`) and the trajectories the report
+draws (:func:`trajectories`).
+
+A run replays the scenario's tosses (:class:`~impactbench.scenarios.cube_toss.CubeToss`: box,
+data, selection, protocol options) in one engine through
+:func:`~impactbench.cube_tosses.replay.replay` and returns its dict with a few keys more
+(``message``, ``engine_version``, ``timestep_s``, ``timestep_source``, ``substeps``, ``box``,
+``wall_s``). Modes: ``default`` (the engine's own contact) and ``custom`` (a published
+parameter set such as ``dair2022`` and/or engine parameters by the replay's own names,
+``board.``/``cube.``-prefixed); ``tuned``, ``native`` and ``injected`` are ``unsupported`` for
+now, as are the 2D engines (pymunk, Box2D) and engines without a cube replay.
+
+Step: the protocol's, ``sample_dt_s / substeps`` (DAIR: 1/148 s / 10). A given ``timestep_s``
+sets ``substeps = max(1, round(sample_dt_s / timestep_s))``: the engine steps at the nearest
+step that divides the sample interval (the run says which, ``timestep_s`` and
+``timestep_source``), since the replay records the pose at every sample.
+
+Results store: with ``store``, a run is looked up by
+:func:`~impactbench.store.run_inputs` of (engine, scenario, scenario object, mode,
+:class:`ReplaySettings`): the engine and its version, impactbench's version, the scenario's
+fields (box, data path, selection, protocol), the mode, the parameter set, the engine
+parameters and the SHA-256 of the data file; a stored run is returned as stored.
+
+The box: the engine modules build DAIR's cube from their module constants (h, m, I); a box of
+the user's is set by :func:`_box`, which swaps those constants while the engine is built.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import math
+import os
+import threading
+import time
+from collections.abc import Callable, Iterator, Mapping
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+import impactbench.cube_tosses.data as data_mod
+import impactbench.cube_tosses.engines as engines_mod
+from impactbench.cube_tosses.protocol import SAMPLE_DT_S, Protocol, prepare, rotation_angle
+from impactbench.cube_tosses.replay import engine_parameters, replay, select
+
+MODES = ("default", "custom")
+"""The modes a cube replay has (the others are ``unsupported`` for now)."""
+
+TWO_D = {
+    "pymunk": "pymunk is a 2D engine (bodies move in a plane with one rotation angle): a cube "
+              "tumbling in 3D cannot be expressed",
+    "box2d": "Box2D is a 2D engine (bodies move in a plane with one rotation angle): a cube "
+             "tumbling in 3D cannot be expressed",
+}
+"""Engines the tosses cannot run on, and why."""
+
+LATER_MODES = ("tuned, native and injected modes are not implemented for the cube tosses yet "
+               "(available: default, custom)")
+
+METRIC_KEYS = ("position_error_median", "position_error_q1", "position_error_q3",
+               "position_error_mean", "rotation_error_deg_median", "rotation_error_deg_q1",
+               "rotation_error_deg_q3", "rotation_error_deg_mean")
+
+
+@dataclass(frozen=True)
+class ReplaySettings:
+    """What determines a replay besides the engine, the scenario object and the mode (hashed
+    into its store key with them)."""
+
+    param_set: str | None = None
+    params: dict[str, Any] = field(default_factory=dict)
+    data_sha256: str = ""
+
+
+# ------------------------------------------------------------------------------ the scenario
+
+
+def protocol_of(scenario: Any) -> Protocol:
+    """The replay protocol of a :class:`~impactbench.scenarios.cube_toss.CubeToss`."""
+    return Protocol(substeps=scenario.substeps, start_rule=scenario.start_rule,
+                    samples_before=scenario.samples_before, refit=scenario.refit,
+                    min_preceding=scenario.min_preceding, velocity_fit=scenario.velocity_fit,
+                    sample_dt_s=scenario.sample_dt_s, board_z_m=scenario.board_z_m,
+                    half_width_m=scenario.half_width_m)
+
+
+def data_path(scenario: Any) -> Path:
+    """The scenario's data file (the packaged tosses when it names none)."""
+    return Path(scenario.data) if scenario.data else data_mod.DEFAULT_PATH
+
+
+_HASHES: dict[tuple[str, int, int], str] = {}
+
+
+def data_sha256(path: Path) -> str:
+    """SHA-256 of a data file (cached by path, size and modification time)."""
+    st = path.stat()
+    key = (str(path.resolve()), st.st_size, st.st_mtime_ns)
+    if key not in _HASHES:
+        _HASHES[key] = hashlib.sha256(path.read_bytes()).hexdigest()
+    return _HASHES[key]
+
+
+def _interval(dt: float) -> str:
+    """``1/148 s`` for a whole rate, else the seconds."""
+    rate = 1.0 / dt
+    return f"1/{round(rate)} s" if abs(rate - round(rate)) <= 1e-6 * rate else f"{dt:.6g} s"
+
+
+def with_timestep(scenario: Any, timestep_s: float | None) -> tuple[Any, str]:
+    """(the scenario with the substeps a given step maps to, where the step comes from)."""
+    if timestep_s is None:
+        dt = scenario.sample_dt_s
+        every = f"the {_interval(dt)}" if dt is not None else "each toss's"
+        return scenario, (f"protocol: 1/{scenario.substeps} of {every} sample interval"
+                          + (" (DAIR's)" if scenario.substeps == 10 and dt == SAMPLE_DT_S
+                             else ""))
+    if not (isinstance(timestep_s, int | float) and math.isfinite(timestep_s)
+            and timestep_s > 0):
+        raise ValueError(f"timestep = {timestep_s!r}: must be > 0 (s)")
+    if scenario.sample_dt_s is None:
+        raise ValueError(f"timestep = {timestep_s!r}: maps to substeps of the protocol's "
+                         "sample interval; this scenario has sample_dt_s = none (each toss's "
+                         "own): set sample_dt_s or substeps instead")
+    substeps = max(1, round(scenario.sample_dt_s / timestep_s))
+    step = scenario.sample_dt_s / substeps
+    exact = abs(step - timestep_s) <= 1e-9 * timestep_s
+    return replace(scenario, substeps=substeps), (
+        "given" if exact else f"given {timestep_s:g} s, rounded to 1/{substeps} of the "
+        f"{_interval(scenario.sample_dt_s)} sample interval")
+
+
+# ------------------------------------------------------------------------------ the box
+
+
+_BOX_LOCK = threading.Lock()
+_BOX_NAMES = {"half_width_m": "HALF_WIDTH_M", "mass_kg": "MASS_KG",
+              "inertia_kg_m2": "INERTIA_KG_M2"}
+
+
+@contextlib.contextmanager
+def _box(scenario: Any) -> Iterator[None]:
+    """Build engines with the scenario's box: the engine modules read h, m and I from their
+    module constants when they build a model, so those are swapped for the duration (under a
+    lock). A stopgap until :func:`~impactbench.cube_tosses.engines.make` takes a box; a no-op
+    for DAIR's cube."""
+    import sys
+
+    want = {const: float(getattr(scenario, f)) for f, const in _BOX_NAMES.items()}
+    modules = [m for name in ("impactbench.cube_tosses.engines",
+                              "impactbench.cube_tosses.engines_more")
+               if (m := sys.modules.get(name)) is not None]
+    with _BOX_LOCK:
+        old = [(m, {c: getattr(m, c) for c in want if hasattr(m, c)}) for m in modules]
+        try:
+            for m, consts in old:
+                for c in consts:
+                    setattr(m, c, want[c])
+            yield
+        finally:
+            for m, consts in old:
+                for c, v in consts.items():
+                    setattr(m, c, v)
+
+
+def _dair_box(scenario: Any) -> bool:
+    from impactbench.cube_tosses.protocol import HALF_WIDTH_M, INERTIA_KG_M2, MASS_KG
+
+    return (scenario.half_width_m, scenario.mass_kg, scenario.inertia_kg_m2) == (
+        HALF_WIDTH_M, MASS_KG, INERTIA_KG_M2)
+
+
+def _preload(engine: str) -> None:
+    """Import the module that builds ``engine`` (so :func:`_box` can reach its constants)."""
+    if engine not in ("pybullet", "mujoco", "drake"):
+        with contextlib.suppress(ImportError):
+            import impactbench.cube_tosses.engines_more  # noqa: F401
+
+
+# ------------------------------------------------------------------------------ settings
+
+
+def _unsupported_reason(engine: str, mode: str) -> str:
+    if engine in TWO_D:
+        return TWO_D[engine]
+    if engine not in engines_mod.ENGINES:
+        return (f"no cube-toss replay for {engine} yet (replays: "
+                f"{', '.join(engines_mod.ENGINES)})")
+    if mode not in MODES:
+        return f"mode {mode}: {LATER_MODES}"
+    return ""
+
+
+def check(engine: str, mode: str, param_set: str | None = None,
+          params: Mapping[str, Any] | None = None) -> str:
+    """Validate a run's settings: "" when the run can go, the reason when it is
+    ``unsupported``; a one-line ValueError for bad input (a parameter set in default mode, an
+    unknown set with the valid names and a "did you mean")."""
+    why = _unsupported_reason(engine, mode)
+    if why:
+        return why
+    if mode == "default" and (param_set is not None or params):
+        what = f"param-set = {param_set!r}" if param_set is not None else \
+            f"param = {next(iter(params))!r}"
+        raise ValueError(f"{what}: default mode sets no engine parameters (the engine's own "
+                         "contact); use --mode custom")
+    sets = engines_mod.PARAM_SETS.get(engine, {})
+    if mode == "custom" and param_set is None and not params:
+        raise ValueError(f"mode = 'custom': needs --param-set ({', '.join(sets) or 'none for '}"
+                         f"{'' if sets else engine}) or --param KEY=VALUE (the engine's "
+                         "board./cube. keys)")
+    if param_set is not None and param_set not in sets:
+        import difflib
+
+        hint = difflib.get_close_matches(str(param_set), list(sets), n=1)
+        raise ValueError(f"param-set = {param_set!r}: {engine} has "
+                         f"{', '.join(sets) or 'no parameter sets'}"
+                         + (f" (did you mean {hint[0]!r}?)" if hint else ""))
+    return ""
+
+
+# ------------------------------------------------------------------------------ the hook
+
+
+def _empty(engine: str, mode: str, param_set: str | None, status: str, message: str,
+           scenario: Any, timestep_s: float | None, source: str) -> dict[str, Any]:
+    return {"status": status, "message": message, "engine": engine, "engine_version": "",
+            "mode": mode, "param_set": param_set, "split": None, "tosses": 0, "failed": [],
+            **dict.fromkeys(METRIC_KEYS, math.nan), "per_toss": [],
+            "timestep_s": timestep_s, "timestep_source": source,
+            "substeps": scenario.substeps, "box": _box_of(scenario), "wall_s": math.nan}
+
+
+def _box_of(scenario: Any) -> dict[str, float]:
+    return {"half_width_m": scenario.half_width_m, "mass_kg": scenario.mass_kg,
+            "inertia_kg_m2": scenario.inertia_kg_m2}
+
+
+def _message(out: Mapping[str, Any]) -> str:
+    failed = [r for r in out.get("per_toss", []) if r.get("status") != "ok"]
+    if not failed:
+        return ""
+    ids = ", ".join(str(r["toss"]) for r in failed[:5]) + (" …" if len(failed) > 5 else "")
+    return f"{len(failed)} of {out['tosses']} tosses failed ({ids}): {failed[0].get('error')}"
+
+
+def run(engine: str, scenario: Any, mode: str = "default", *, param_set: str | None = None,
+        params: Mapping[str, Any] | None = None, timestep_s: float | None = None,
+        store: Any = None, fresh: bool = False, check_only: bool = False,
+        progress: Callable[[int, int], None] | None = None) -> dict[str, Any] | str:
+    """Replay ``scenario``'s tosses in ``engine`` (the spec's ``replay`` hook; module doc).
+
+    Returns :func:`~impactbench.cube_tosses.replay.replay`'s dict plus ``message``,
+    ``engine_version``, ``timestep_s`` (the engine step), ``timestep_source``, ``substeps``,
+    ``box`` and ``wall_s``; an ``unsupported`` or ``unavailable`` run object (NaN metrics, the
+    reason in ``message``) for what cannot run here. ``check_only``: validate (one-line
+    ValueError) and return why the run would be unsupported ("" when it can run), running
+    nothing.
+    """
+    params = dict(params or {})
+    scenario, source = with_timestep(scenario, timestep_s)
+    why = check(engine, mode, param_set, params)
+    if check_only:
+        return why
+    step = scenario.sample_dt_s / scenario.substeps if scenario.sample_dt_s else None
+    if why:
+        return _empty(engine, mode, param_set, "unsupported", why, scenario, step, source)
+    from impactbench.engines.registry import DISABLE_ENV
+
+    if engine in {x.strip() for x in os.environ.get(DISABLE_ENV, "").split(",")}:
+        return _empty(engine, mode, param_set, "unavailable",
+                      f"engine {engine!r} is disabled by {DISABLE_ENV}", scenario, step, source)
+    key = inputs = None
+    path = data_path(scenario)
+    if store is not None:
+        from impactbench.store import run_inputs, run_key
+
+        settings = ReplaySettings(param_set, params, data_sha256(path))
+        inputs = run_inputs(engine, type(scenario).name, scenario, mode, settings)
+        key = run_key(inputs)
+        if not fresh:
+            got = store.get([key])
+            if key in got:
+                stored = dict(got[key][0])
+                stored.pop("rel_error", None)
+                return stored
+    t0 = time.perf_counter()
+    _preload(engine)
+    try:
+        with _box(scenario):
+            out = replay(engine, mode, tosses=scenario.selection, param_set=param_set,
+                         data=str(path) if scenario.data else None, params=params or None,
+                         protocol=protocol_of(scenario), progress=progress)
+    except ImportError:
+        from impactbench.engines.base import EngineUnavailable
+
+        return _empty(engine, mode, param_set, "unavailable", str(EngineUnavailable(engine)),
+                      scenario, step, source)
+    except (RuntimeError, OSError) as exc:
+        return _empty(engine, mode, param_set, "failed",
+                      f"{type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}",
+                      scenario, step, source)
+    setup = out.get("engine_setup") or {}
+    if out["status"] == "unsupported":  # the replay's own refusal
+        return _empty(engine, mode, param_set, "unsupported",
+                      str(out.get("reason") or "unsupported"), scenario, step, source)
+    _check_box(scenario, engine, params, param_set, setup)
+    result = {"status": out["status"], "message": _message(out), "engine": engine,
+              "engine_version": str(setup.get("version", "")), **out,
+              "timestep_s": setup.get("step_s", step), "timestep_source": source,
+              "substeps": scenario.substeps, "box": _box_of(scenario),
+              "wall_s": time.perf_counter() - t0}
+    if store is not None:
+        job = {"engine": engine, "mode": mode, "scenario": type(scenario).name, "point": (),
+               "study": "replay"}
+        store.put([(key, inputs, job,
+                    {**result, "rel_error": dict.fromkeys(METRIC_KEYS, math.nan)}, {})])
+    return result
+
+
+def _check_box(scenario: Any, engine: str, params: Mapping[str, Any],
+               param_set: str | None, setup: Mapping[str, Any]) -> None:
+    """A box of the user's must have reached the engine (the guard of :func:`_box`)."""
+    if _dair_box(scenario):
+        return
+    eparams = dict(engines_mod.PARAM_SETS.get(engine, {}).get(param_set, {})) | dict(params)
+    got = setup.get("cube_inertia_kg_m2")
+    if "cube.inertia" in eparams or not isinstance(got, int | float):
+        return
+    if not math.isclose(float(got), scenario.inertia_kg_m2, rel_tol=1e-5):
+        raise RuntimeError(f"{engine}: built the cube with I = {got:g} kg·m², not the given "
+                           f"{scenario.inertia_kg_m2:g}: its replay ignores the box")
+
+
+# ------------------------------------------------------------------------------ measurement
+
+
+def measurement(scenario: Any) -> dict[str, Any]:
+    """What the selected measurement holds: the data file, the selection and its ids, the
+    split's sizes in the file, samples, the sample interval, the tosses' initial speed and spin
+    and the resting height (medians), the box, and the metrics' reference values (0: the
+    measurement agrees with itself; a replay's metrics are absolute errors against it)."""
+    path = data_path(scenario)
+    df = data_mod.load(path)
+    ids = select(df, scenario.selection)
+    every = data_mod.toss_ids(df)
+    tosses = list(data_mod.tosses(df, ids))
+    samples = np.array([len(t) for t in tosses])
+    dt = np.concatenate([np.diff(t.t) for t in tosses])
+    return {
+        "data": str(path) if scenario.data else "packaged: impactbench/data/cube_tosses/"
+                                                 + path.name,
+        "data_sha256": data_sha256(path),
+        "selection": scenario.tosses, "tosses": len(ids), "ids": ids,
+        "tosses_in_file": len(every), "train_in_file": len(data_mod.split(every, "train")),
+        "test_in_file": len(data_mod.split(every, "test")),
+        "samples": int(samples.sum()), "samples_per_toss_median": float(np.median(samples)),
+        "sample_dt_s_median": float(np.median(dt)),
+        "duration_s_median": float(np.median([t.t[-1] - t.t[0] for t in tosses])),
+        "initial_speed_m_s_median": float(np.median([np.linalg.norm(t.v[0]) for t in tosses])),
+        "initial_spin_rad_s_median": float(np.median([np.linalg.norm(t.w_body[0])
+                                                      for t in tosses])),
+        "rest_height_m_median": float(np.median([t.p[-1, 2] for t in tosses])),
+        **_box_of(scenario),
+        # the measurement's own errors: what a replay's metrics are compared with
+        **dict.fromkeys(METRIC_KEYS, 0.0),
+    }
+
+
+# ------------------------------------------------------------------------------ trajectories
+
+
+def trajectories(engine: str, scenario: Any, mode: str, toss_ids: list[int], *,
+                 param_set: str | None = None, params: Mapping[str, Any] | None = None
+                 ) -> list[dict[str, Any]]:
+    """Measured and simulated trajectories of ``toss_ids`` (for plots): per toss ``toss``,
+    ``t_s`` (from the replay's start), ``z_ref_m``/``z_sim_m`` (the centre's height) and
+    ``angle_ref_deg``/``angle_sim_deg`` (the rotation from the start orientation)."""
+    protocol = protocol_of(scenario)
+    eparams = engine_parameters(engine, mode, param_set, params)
+    df = data_mod.load(data_path(scenario))
+    starts = [prepare(t, protocol) for t in data_mod.tosses(df, toss_ids)]
+    if not starts:
+        return []
+    _preload(engine)
+    out = []
+    with _box(scenario):
+        sim = engines_mod.make(engine, eparams, starts[0].step_s, protocol.board_z_m)
+    try:
+        for s in starts:
+            p, q = sim.run(s)
+            out.append({"toss": s.toss, "t_s": s.t_ref - s.t_ref[0],
+                        "z_ref_m": s.p_ref[:, 2], "z_sim_m": p[:, 2],
+                        "angle_ref_deg": np.degrees(rotation_angle(s.q_ref[0], s.q_ref)),
+                        "angle_sim_deg": np.degrees(rotation_angle(q[0], q))})
+    finally:
+        sim.close()
+    return out

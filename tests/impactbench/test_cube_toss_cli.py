@@ -1,0 +1,319 @@
+"""The cube-toss scenario wired in (issue 23): ``run --scenario cube-toss`` on the real engines,
+its one-line errors, the data gates and the report's "Against real tosses" section.
+
+A handful of tosses (0, 1, 57) keeps every engine run well under a second; the replays
+themselves are tested in ``test_cube_tosses.py``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import pandas as pd
+import pytest
+from conftest import require_engine
+
+from impactbench import config, gates, scenarios
+from impactbench.cli import main
+from impactbench.cube_tosses import scenario as toss_scenario
+from impactbench.cube_tosses.protocol import HALF_WIDTH_M, INERTIA_KG_M2, MASS_KG, SAMPLE_DT_S
+from impactbench.cube_tosses.replay import RESULT_KEYS, replay
+
+NAME = "cube-toss"
+IDS = [0, 1, 57]
+TIMING = ("elapsed_s", "tosses_per_s")
+"""replay()'s keys that differ between two runs of the same tosses (wall time)."""
+
+
+def run(capsys, *argv: str) -> tuple[int, str, str]:
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def one_line(err: str, *needles: str) -> None:
+    assert err.startswith("impactbench: error:") and err.count("\n") == 1, err
+    for needle in needles:
+        assert needle in err, err
+
+
+def run_json(capsys, engine: str, *flags: str) -> tuple[int, dict]:
+    code, out, _ = run(capsys, "run", "--engine", engine, "--scenario", NAME, *flags, "--json")
+    return code, json.loads(out)
+
+
+# ------------------------------------------------------------------ the spec
+
+
+def test_registered_with_a_replay_hook_and_the_protocol_constants() -> None:
+    spec = scenarios.get(NAME)
+    assert spec.replay and spec.axes == () and spec.table == "cube_toss"
+    box = spec.build()
+    assert (box.half_width_m, box.mass_kg, box.inertia_kg_m2) == (HALF_WIDTH_M, MASS_KG,
+                                                                  INERTIA_KG_M2)
+    assert box.sample_dt_s == SAMPLE_DT_S and box.tosses == "test"
+    assert spec.build(parameters={"tosses": " 0, 1,57"}).tosses == "0,1,57"
+    assert set(spec.metrics) == {k for k in RESULT_KEYS if k.startswith(
+        ("position_error_", "rotation_error_deg_"))}
+    for spec_ in scenarios.specs():  # the others keep the builders' path
+        assert bool(spec_.replay) == (spec_.name == NAME)
+
+
+# ------------------------------------------------------------------ run --json = replay()
+
+
+@pytest.mark.parametrize("engine, flags, mode, param_set", [
+    ("pybullet", (), "default", None),
+    ("mujoco", ("--param-set", "dair2022"), "custom", "dair2022"),
+    ("drake", ("--param-set", "dair2022"), "custom", "dair2022"),
+])
+def test_run_json_equals_replay(capsys, engine, flags, mode, param_set) -> None:
+    require_engine(engine)
+    code, got = run_json(capsys, engine, "--mode", mode, *flags, "--tosses", "0,1,57")
+    want = replay(engine, mode, tosses=IDS, param_set=param_set)
+    assert code == 0 and got["status"] == "ok" and got["message"] == ""
+    for key in ("status", "tosses", "failed", "position_error_mean", "position_error_median",
+                "rotation_error_deg_mean", "rotation_error_deg_median", "position_error_q1",
+                "position_error_q3", "rotation_error_deg_q1", "rotation_error_deg_q3",
+                "per_toss"):
+        assert key in got, key
+    for key in set(RESULT_KEYS) - set(TIMING):
+        assert got[key] == json.loads(json.dumps(want[key])), key
+    assert [r["toss"] for r in got["per_toss"]] == IDS
+    assert got["tosses"] == 3 and got["failed"] == []
+    assert got["engine_version"] == want["engine_setup"]["version"]
+    assert got["timestep_s"] == pytest.approx(SAMPLE_DT_S / 10, rel=1e-12)
+    assert got["substeps"] == 10 and "DAIR" in got["timestep_source"]
+
+
+def test_test_split_is_the_default_and_data_file_means_every_toss(capsys, tmp_path) -> None:
+    require_engine("pybullet")
+    from impactbench.cube_tosses.data import load
+
+    _, got = run_json(capsys, "pybullet", "--mode", "default")
+    assert got["split"] == "test" and got["tosses"] == 89
+    mine = tmp_path / "mine.csv"
+    load()[lambda d: d.toss.isin([0, 57])].to_csv(mine, index=False)
+    _, got = run_json(capsys, "pybullet", "--mode", "default", "--data", mine)
+    assert got["split"] == "all" and [r["toss"] for r in got["per_toss"]] == [0, 57]
+    assert got["data"] == str(mine)
+
+
+def test_timestep_maps_to_substeps(capsys) -> None:
+    require_engine("mujoco")
+    _, got = run_json(capsys, "mujoco", "--mode", "default", "--tosses", "0",
+                      "--timestep", "1e-3")
+    assert got["substeps"] == 7  # round((1/148) / 1e-3) = round(6.76)
+    assert got["timestep_s"] == pytest.approx(SAMPLE_DT_S / 7, rel=1e-12)
+    assert got["protocol"]["substeps"] == 7 and "rounded to 1/7" in got["timestep_source"]
+    _, exact = run_json(capsys, "mujoco", "--mode", "default", "--tosses", "0",
+                        "--timestep", repr(SAMPLE_DT_S / 20))
+    assert exact["substeps"] == 20 and exact["timestep_source"] == "given"
+
+
+def test_the_users_box_reaches_the_engine_and_the_errors(capsys) -> None:
+    require_engine("mujoco")
+    _, got = run_json(capsys, "mujoco", "--mode", "default", "--tosses", "0",
+                      "--half-width", "0.06", "--mass", "0.5", "--inertia", "0.001")
+    assert got["engine_setup"]["cube_inertia_kg_m2"] == 0.001
+    assert got["protocol"]["half_width_m"] == 0.06
+    assert got["box"] == {"half_width_m": 0.06, "mass_kg": 0.5, "inertia_kg_m2": 0.001}
+    import impactbench.cube_tosses.engines as engines_mod
+
+    assert engines_mod.HALF_WIDTH_M == HALF_WIDTH_M  # DAIR's cube again after the run
+
+
+@pytest.mark.parametrize("engine, flags, words", [
+    ("pymunk", ("--mode", "default"), "2D engine"),
+    ("box2d", ("--mode", "default"), "2D engine"),
+    ("mujoco", ("--mode", "tuned"), "mode tuned"),
+    ("pybullet", ("--mode", "native"), "mode native"),
+    ("drake", ("--mode", "injected"), "mode injected"),
+])
+def test_unsupported_engines_and_modes_say_why(capsys, engine, flags, words) -> None:
+    code, out, err = run(capsys, "run", "--engine", engine, "--scenario", NAME, *flags,
+                         "--json")
+    got = json.loads(out)
+    assert code == 1 and got["status"] == "unsupported" and words in got["message"]
+    assert math.isnan(got["position_error_median"] if got["position_error_median"] is not None
+                      else math.nan)
+    assert "exit 1 (--allow-status" in err
+    code, _, _ = run(capsys, "run", "--engine", engine, "--scenario", NAME, *flags,
+                     "--allow-status", "unsupported")
+    assert code == 0
+
+
+# ------------------------------------------------------------------ bad input
+
+
+@pytest.mark.parametrize("argv, needles", [
+    (["--engine", "mujoco", "--scenario", NAME, "--velocity", "2"],
+     ["velocity = 2", NAME, "no impact velocity"]),
+    (["--engine", "mujoco", "--scenario", "ball-on-plate"], ["--velocity", "ball-on-plate"]),
+    (["--engine", "mujoco", "--scenario", NAME, "--mode", "custom", "--param-set", "dair22"],
+     ["param-set = 'dair22'", "dair2022, dair2022x3", "did you mean 'dair2022'"]),
+    (["--engine", "drake", "--scenario", NAME, "--mode", "default", "--param-set",
+      "dair2022"], ["default mode sets no engine parameters"]),
+    (["--engine", "drake", "--scenario", NAME, "--mode", "custom"], ["--param-set (dair2022)"]),
+    (["--engine", "mujoco", "--scenario", NAME, "--tosses", "0,x"], ["tosses = '0,x'"]),
+    (["--engine", "mujoco", "--scenario", NAME, "--tosses", "3"], ["toss 3 not in the data"]),
+    (["--engine", "mujoco", "--scenario", NAME, "--data", "/nonexistent.csv"],
+     ["data = '/nonexistent.csv'", "no such file"]),
+    (["--engine", "mujoco", "--scenario", NAME, "--mass", "-1"], ["mass_kg = -1"]),
+    (["--engine", "pybullet", "--scenario", NAME, "--mode", "custom", "--param",
+      "board.stiffness=1"], ["board.stiffness", "not a pybullet cube parameter"]),
+    (["--engine", "mujoco", "--scenario", NAME, "--param", "board.solref=1,1"],
+     ["--param needs --mode custom"]),
+    (["--engine", "mujoco", "--scenario", NAME, "--allow-status", "partal"],
+     ["allow-status = 'partal'"]),
+    (["--engine", "mujoco", "--scenario", "ball-on-plate", "--velocity", "1", "--param-set",
+      "dair2022"], ["ball-on-plate has no parameter sets"]),
+    (["--engine", "mujoco", "--scenario", NAME, "--max-energy-ratio", "1.1"],
+     ["judged against its measurements"]),
+])
+def test_bad_input_is_one_line_exit_2(capsys, argv, needles) -> None:
+    code, _, err = run(capsys, "run", *argv)
+    assert code == 2
+    one_line(err, *needles)
+
+
+def test_reference_cube_toss_describes_the_measurement(capsys) -> None:
+    code, out, _ = run(capsys, "reference", NAME, "--tosses", "0,1,57", "--json")
+    got = json.loads(out)
+    assert code == 0 and got["ids"] == IDS and got["tosses"] == 3
+    assert (got["tosses_in_file"], got["train_in_file"], got["test_in_file"]) == (456, 367, 89)
+    assert got["sample_dt_s_median"] == pytest.approx(SAMPLE_DT_S, rel=1e-6)
+    code, _, err = run(capsys, "reference", NAME, "--tosses", "train,test")
+    assert code == 2
+    one_line(err, "tosses = 'train,test'")
+
+
+# ------------------------------------------------------------------ gates
+
+
+GATE = """
+[[gate]]
+engine = "pybullet"
+mode = ["default", "custom"]
+scenario = "cube-toss"
+param_set = "dair2022"
+baseline_margin = 0.05
+[gate.tolerance]
+position_error_median = {tol}
+"""
+
+
+def test_data_gate_ids_and_bad_gates() -> None:
+    checks = gates.parse_gates(GATE.format(tol=0.6).replace('mode = ["default", "custom"]',
+                                                            'mode = "custom"'), "g.toml").checks
+    assert [c.id for c in checks] == [
+        "pybullet-custom-cube-toss-dtdefault-param_set=dair2022-position_error_median"]
+    with pytest.raises(ValueError, match=r"g.toml:\d+: gate 1: .*default mode sets no engine"):
+        gates.parse_gates(GATE.format(tol=0.6), "g.toml")  # default mode with a param set
+    with pytest.raises(ValueError, match=r"velocities_m_s.*unknown for a data scenario"):
+        gates.parse_gates(GATE.format(tol=0.6).replace("baseline_margin", "velocities_m_s = "
+                                                       "[1.0]\nbaseline_margin"), "g.toml")
+    custom = GATE.format(tol=0.6).replace('mode = ["default", "custom"]', 'mode = "custom"')
+    with pytest.raises(ValueError, match=r"tolerance key = 'restitution'"):
+        gates.parse_gates(custom.replace("position_error_median", "restitution"), "g.toml")
+    with pytest.raises(ValueError, match=r"param-set = 'dair22'.*did you mean 'dair2022'"):
+        gates.parse_gates(custom.replace('"dair2022"', '"dair22"'), "g.toml")
+
+
+def test_data_gate_is_absolute_and_fails_a_partial_run(tmp_path) -> None:
+    require_engine("pybullet")
+    from impactbench.store import Store
+
+    text = GATE.replace('mode = ["default", "custom"]', 'mode = "custom"')
+    (check,) = gates.parse_gates(text.format(tol=0.6), "g.toml").checks
+    store = Store(tmp_path / "s.duckdb")
+    result = gates.execute_data([check.run], store=store)[check.run]
+    assert result["tosses"] == 89 and result["reference"][check.metric] == 0.0
+    assert result["rel_error"][check.metric] == result[check.metric] > 0
+    assert gates.judge(check, result).mark == gates.PASS
+    (tight,) = gates.parse_gates(text.format(tol=0.01), "g.toml").checks
+    assert gates.judge(tight, result).mark == gates.FAIL
+    baseline = {check.id: {"rel_error": 1.2 * result[check.metric]}}
+    assert gates.judge(check, result, baseline).mark == gates.BETTER
+    partial = gates.data_result({**result, "status": "partial"}, (check.metric,))
+    assert gates.judge(check, partial).mark == gates.FAIL
+    again = gates.execute_data([check.run], store=store)[check.run]  # from the store
+    assert again["per_toss"] == json.loads(json.dumps(result["per_toss"]))
+
+
+def test_shipped_data_gates_have_baselines() -> None:
+    root = Path(__file__).resolve().parents[2]
+    parsed = gates.load_gates(root / "gates.toml")
+    baseline = gates.load_baseline(root / "gates_baseline.json")
+    data = [c for c in parsed.checks if c.run.scenario == NAME]
+    assert {(c.run.engine, c.run.mode) for c in data} == {
+        (e, m) for e in ("pybullet", "mujoco", "drake") for m in ("default", "custom")}
+    for c in data:
+        assert c.id in baseline and baseline[c.id]["reference"] == 0.0
+        assert baseline[c.id]["value"] == baseline[c.id]["rel_error"] < c.tolerance
+
+
+# ------------------------------------------------------------------ config and report
+
+
+def tiny_config(tmp_path: Path, **table) -> config.ReportConfig:
+    return config.parse({"report": {"engines": ["pybullet"]},
+                         "cube_toss": {"engines": ["pybullet", "pymunk"],
+                                       "param_sets": ["dair2022"], "tosses": "0,1,57",
+                                       **table},
+                         "execution": {"store": str(tmp_path / "s.duckdb")}})
+
+
+def test_config_table_plans_no_matrix_jobs_and_checks_its_keys(tmp_path) -> None:
+    from impactbench.matrix import plan
+
+    cfg = tiny_config(tmp_path)
+    (sm,) = cfg.scenarios
+    assert sm.name == NAME and sm.points() == [] and sm.parameters == {"tosses": "0,1,57"}
+    assert plan(cfg) == []
+    for table, words in (({"param_sets": ["dair22"]}, "cube_toss.param_sets: param-set = "
+                                                      "'dair22'"),
+                         ({"modes": ["sometimes"]}, "cube_toss.modes"),
+                         ({"mass_kg": 0}, "cube_toss.mass_kg = 0"),
+                         ({"velocities_m_s": [1.0]}, "cube_toss.velocities_m_s: unknown key")):
+        with pytest.raises(ValueError, match=words.replace("(", r"\(").replace(")", r"\)")):
+            tiny_config(tmp_path, **table)
+    assert "cube_toss" not in (Path(config.__file__).parent / "data" /
+                               "default.toml").read_text()
+
+
+def test_report_section_renders_with_a_tiny_config(tmp_path) -> None:
+    require_engine("pybullet")
+    from impactbench.report_render import ReportContext, render_documents
+    from impactbench.report_sections import real_tosses, sections
+
+    cfg = tiny_config(tmp_path)
+    (tmp_path / "rep" / "figures").mkdir(parents=True)
+    ctx = ReportContext(cfg, pd.DataFrame(), {}, tmp_path / "rep")
+    docs = render_documents(ctx, [s for s in sections() if s.template == "real_tosses"],
+                            "t", "")
+    md = docs["md"]
+    assert "## Against real tosses" in md and "tosses 0,1,57" in md
+    want = replay("pybullet", "custom", tosses=IDS, param_set="dair2022")
+    assert f"| {want['position_error_median']:.3f} [" in md
+    assert "| pymunk | all | — | unsupported |" in md and "2D engine" in md
+    names = sorted(p.name for p in (tmp_path / "rep" / "figures").glob("*.png"))
+    assert names == ["report_cube_toss_error_cdf.png",
+                     "report_cube_toss_pybullet_custom_dair2022_trajectories.png",
+                     "report_cube_toss_pybullet_default_trajectories.png"]
+    assert md.count("![") == 3 and "<img" in docs["html"]
+    empty = ReportContext(config.parse({"report": {"engines": ["pybullet"]}}), pd.DataFrame(),
+                          {}, tmp_path / "rep")
+    assert real_tosses(empty) is None  # no [cube_toss] table, no section
+
+
+def test_trajectories_start_at_the_measured_pose() -> None:
+    require_engine("mujoco")
+    spec = scenarios.get(NAME)
+    (tr,) = toss_scenario.trajectories("mujoco", spec.build(), "custom", [57],
+                                       param_set="dair2022")
+    assert tr["toss"] == 57 and tr["t_s"][0] == 0.0
+    assert tr["z_sim_m"][0] == pytest.approx(tr["z_ref_m"][0], abs=1e-12)
+    assert tr["angle_sim_deg"][0] == 0.0 and len(tr["z_sim_m"]) == len(tr["z_ref_m"])

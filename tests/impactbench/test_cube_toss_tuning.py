@@ -1,0 +1,133 @@
+"""Tuning on the cube tosses (impactbench.cube_tosses.tune) and the extra engines' replays.
+
+A tiny budget on three training tosses: it improves the objective over its start, the same
+seed gives the same parameters, a longer budget resumes from the cache, the optimiser never
+sees a test toss. SAPIEN, DART, Newton and MJX replay two tosses each with finite errors;
+pymunk and Box2D are ``unsupported`` with their reason. The packaged tuned files beat DAIR's
+published parameters on the test split (their recorded errors; the replays that measured them
+take minutes and are not run here).
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+
+import pytest
+
+import impactbench.cube_tosses.tune as tune_mod
+from impactbench.cube_tosses import load, replay, split
+from impactbench.cube_tosses.data import in_test_set
+
+TRAIN3 = [1, 2, 4]   # the first three training tosses (0 is a test toss)
+
+
+@pytest.fixture(scope="module")
+def df():
+    return load()
+
+
+def _tiny(df, engine="mujoco", budget=8, **kw):
+    return tune_mod.tune(engine, budget, data=df, tosses=TRAIN3, cache=kw.pop("cache", None),
+                         score=False, **kw)
+
+
+def test_train3_are_training_tosses(df) -> None:
+    assert TRAIN3 == split(df["toss"].unique(), "train")[:3]
+    assert not any(in_test_set(i) for i in TRAIN3)
+
+
+def test_tiny_budget_improves_and_is_deterministic(df) -> None:
+    a = _tiny(df)
+    b = _tiny(df)
+    assert a.objective < a.objective_start
+    assert a.evaluations == 8
+    assert a.knobs == b.knobs and a.params == b.params and a.objective == b.objective
+    assert [h[0] for h in a.history] == [h[0] for h in b.history]
+    assert a.params["board.solref"] == (-a.knobs["stiffness"], -a.knobs["damping"])
+    c = _tiny(df, seed=tune_mod.SEED + 1)
+    assert [h[0] for h in c.history][1:] != [h[0] for h in a.history][1:]
+
+
+def test_longer_budget_resumes_from_the_cache(df, tmp_path) -> None:
+    cache = tmp_path / "evals.sqlite"
+    short = _tiny(df, "pybullet", 5, cache=cache)
+    assert short.cache_hits == 0
+    longer = _tiny(df, "pybullet", 9, cache=cache)
+    assert longer.cache_hits == 5       # the first five candidates are the same ones
+    assert longer.history[:5] == short.history
+    assert longer.objective <= short.objective
+
+
+def test_the_optimiser_never_sees_a_test_toss(df, monkeypatch) -> None:
+    seen: list[list[int]] = []
+
+    def spy(engine, params, starts, protocol=None):   # records the ids, replays nothing
+        seen.append([s.toss for s in starts])
+        n = len(starts)
+        return tune_mod.Evaluation(1.0, [1.0] * n, [1.0] * n, [], 0.0)
+
+    monkeypatch.setattr(tune_mod, "evaluate", spy)
+    fit = tune_mod.tune("mujoco", 3, data=df, cache=None, score=False)
+    train = split(df["toss"].unique(), "train")
+    assert len(seen) == 3 and all(ids == train for ids in seen)
+    assert len(train) == 367 and not any(in_test_set(i) for i in train)
+    assert fit.train_ids == train and fit.train_ids_hash == tune_mod.ids_hash(train)
+    with pytest.raises(ValueError, match="toss 0 is in the test split"):
+        tune_mod.tune("mujoco", 3, data=df, tosses=[0, 1], cache=None, score=False)
+    with pytest.raises(ValueError, match="'train' split"):
+        tune_mod.tune("mujoco", 3, data=df, tosses="test", cache=None, score=False)
+
+
+def test_every_space_maps_onto_engine_keys() -> None:
+    from impactbench.cube_tosses.engines import make
+
+    for engine, knobs in tune_mod.SPACES.items():
+        assert all(k.choices or (k.low < k.high and (k.low > 0 or not k.log)) for k in knobs)
+        params = tune_mod.engine_params(engine, {k.name: k.start for k in knobs})
+        if engine in ("pybullet", "mujoco", "drake", "dart", "sapien"):
+            make(engine, params).close()   # every key is the engine's own
+
+
+def test_written_file_round_trips(df, tmp_path) -> None:
+    fit = _tiny(df, "pybullet", 3)
+    path = tune_mod.write_tuned(fit, tmp_path / "pybullet.toml",
+                                references={"dair2022": {"test": {"position_error_mean": 1.0}}})
+    doc = tomllib.loads(path.read_text())
+    assert doc["provenance"]["seed"] == tune_mod.SEED
+    assert doc["provenance"]["train_ids_hash"] == tune_mod.ids_hash(TRAIN3)
+    assert doc["reference"]["dair2022"]["test"]["position_error_mean"] == 1.0
+    assert tune_mod.load_tuned("pybullet", path) == fit.params
+
+
+@pytest.mark.parametrize("engine", ["pybullet", "mujoco", "drake"])
+def test_packaged_tuned_beats_dair_on_the_test_split(engine) -> None:
+    doc = tomllib.loads(tune_mod.tuned_path(engine).read_text())
+    tuned = doc["test"]
+    # DAIR's sets as packaged (MuJoCo also ×3 as DAIR evaluated it; Drake also under SAP,
+    # the solver the tuned Drake uses, besides the TAMSI DAIR ran)
+    dair = {k: v["test"] for k, v in doc["reference"].items() if k.startswith("dair2022")}
+    assert "dair2022" in dair and tuned["tosses"] == 89
+    for name, ref in dair.items():
+        assert ref["tosses"] == 89
+        for stat in ("position_error_mean", "position_error_median"):
+            assert tuned[stat] < ref[stat], (engine, name, stat)
+    params = tune_mod.load_tuned(engine)
+    assert params == tune_mod.engine_params(engine, doc["knobs"])
+
+
+@pytest.mark.parametrize("engine", ["sapien", "dart", "newton", "mjx"])
+def test_extra_engines_replay_two_tosses(engine) -> None:
+    pytest.importorskip({"sapien": "sapien", "dart": "dartpy", "newton": "newton",
+                         "mjx": "mujoco.mjx"}[engine])
+    out = replay(engine, "default", TRAIN3[:2])
+    assert out["status"] == "ok" and out["tosses"] == 2
+    for row in out["per_toss"]:
+        assert math.isfinite(row["position_error"]) and math.isfinite(row["rotation_error_deg"])
+    assert out["engine_setup"]["engine"] == engine
+
+
+@pytest.mark.parametrize("engine", ["pymunk", "box2d"])
+def test_2d_engines_are_unsupported(engine) -> None:
+    out = replay(engine, "default", TRAIN3[:2])
+    assert out["status"] == "unsupported" and "2D" in out["reason"]
