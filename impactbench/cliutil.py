@@ -178,20 +178,20 @@ def progress_bar(total: int, unit: str = "run"):
         return bar.update, bar.close
     import time
 
-    state = {"done": 0, "last": time.monotonic(), "start": time.monotonic(), "said": False}
+    state = {"done": 0, "last": time.monotonic(), "start": time.monotonic(), "said": None}
 
     def update(n: int) -> None:
         """``n`` more done (0: nothing new; a line still every PROGRESS_EVERY_S)."""
         state["done"] += n
         now = time.monotonic()
-        if (n and not state["said"]) or now - state["last"] >= PROGRESS_EVERY_S:
+        if (n and state["said"] is None) or now - state["last"] >= PROGRESS_EVERY_S:
             state["last"] = now
-            state["said"] = True
+            state["said"] = state["done"]
             print(f"impactbench: {state['done']} of {total} {unit}s done "
                   f"({now - state['start']:.0f} s)", file=sys.stderr, flush=True)
 
     def close() -> None:
-        if state["said"]:
+        if state["said"] is not None and state["said"] != state["done"]:
             print(f"impactbench: {state['done']} of {total} {unit}s done", file=sys.stderr,
                   flush=True)
 
@@ -238,12 +238,14 @@ def add_execution_flags(p: argparse.ArgumentParser, *, yes: bool = True,
                        "(or sweep points)")
 
 
-def add_timeout_flag(g: Any) -> None:
-    """``--timeout S``: the per-run timeout of engine runs."""
+def add_timeout_flag(g: Any, config: bool = True) -> None:
+    """``--timeout S``: the per-run timeout of engine runs (``config``: a config's
+    ``[execution] timeout_s`` is the default)."""
     g.add_argument("--timeout", type=number, default=None, metavar="S", dest="timeout",
                    help="cancel an engine run after S seconds (a `timeout` row; its worker "
-                   "is restarted); default [execution] timeout_s, else max(60 s, 20 x the "
-                   "run's estimate)")
+                   "is restarted); default " + ("[execution] timeout_s, else " if config
+                                                 else "")
+                   + "max(60 s, 20 x the run's estimate)")
 
 
 def add_store_reset_flag(g: Any) -> None:

@@ -138,12 +138,25 @@ def _quiet_start() -> Iterator[None]:
         signal.raise_signal(sig)
 
 
-def _reap_children() -> None:
-    """Terminate worker processes a cluster failed to close (``multiprocessing`` children of
-    this process only), so that no worker outlives the command."""
+def _worker_pids(cluster: Any) -> set[int]:
+    """The processes of a local cluster's workers (its nannies live in this process)."""
+    pids = set()
+    with contextlib.suppress(Exception):
+        for nanny in list(cluster.workers.values()):
+            pid = getattr(getattr(nanny, "process", None), "pid", None)
+            if pid:
+                pids.add(pid)
+    return pids
+
+
+def _reap(pids: set[int]) -> None:
+    """Terminate those of ``pids`` (worker processes) that a cluster failed to close, so
+    that no worker outlives the command; only this process's own children."""
     import multiprocessing
 
     for child in multiprocessing.active_children():
+        if child.pid not in pids:
+            continue
         with contextlib.suppress(Exception):
             child.terminate()
             child.join(2)
@@ -186,13 +199,14 @@ def client(workers: int | None = None, scheduler: str | None = None) -> Iterator
                 c.register_worker_callbacks(_ignore_sigint)
             yield c
         finally:
+            pids = _worker_pids(cluster) if cluster is not None else set()
             if c is not None:
                 with contextlib.suppress(BaseException):
                     c.close(timeout=5)
             if cluster is not None:
                 with contextlib.suppress(BaseException):
                     cluster.close(timeout=5)
-            _reap_children()
+            _reap(pids)
 
 
 def apply_batch(fn: Callable[[Any], Any], batch: Sequence[Any], topic: str | None = None,

@@ -48,7 +48,7 @@ def register(top: argparse._SubParsersAction, groups: dict) -> None:
                    help="results store (DuckDB); default $IMPACTBENCH_STORE or "
                    "~/.cache/impactbench/results.duckdb")
     add_store_reset_flag(g)
-    add_timeout_flag(g)
+    add_timeout_flag(g, config=False)
     g.add_argument("--yes", action="store_true",
                    help=f"run even when the runs' estimate exceeds {COST_LIMIT:.0e} "
                    "integration steps in all")

@@ -81,3 +81,11 @@ class HangingAdapter(Adapter):
             ctypes.PyDLL(None).sleep(3600)  # PyDLL: the GIL stays held
         time.sleep(0.05)
         return ImpactRecord.failed(Status.NO_CONTACT, "returned", engine=self.name, mode=mode)
+
+
+def nap(x: float) -> tuple[float, int]:
+    """Sleep ``x`` seconds; the process it ran in (for Runner batching tests)."""
+    import time
+
+    time.sleep(x)
+    return x, os.getpid()

@@ -21,7 +21,7 @@ def test_a_dying_run_in_a_batch_costs_only_itself(monkeypatch: pytest.MonkeyPatc
     jobs = [Job("pymunk", "ball-on-plate", (("velocity_m_s", v),), "injected", 1e-5)
             for v in (0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5)]
     jobs.append(Job("crasher", "ball-on-plate", V1, "native", None, study="matrix"))
-    results = run_jobs(jobs, workers=1)  # 8 runs, one worker: batches of two
+    results = run_jobs(jobs, workers=1)  # 8 runs, one worker: pymunk's batched
     status = {r.job.id: r.run["status"] for r in results}
     assert [s for i, s in status.items() if "crasher" in i] == ["crashed"]
     assert all(s == "ok" for i, s in status.items() if "pymunk" in i), status
@@ -69,3 +69,46 @@ def test_runner_keeps_work_under_min_dispatch_s_here(monkeypatch: pytest.MonkeyP
         assert runner.dispatched == 0 and runner._client is None  # no cluster started
         there = runner.map(pid, [0, 1], on_crash=str, estimate_s=0.6)
         assert there[0] == there[1] != os.getpid() and runner.dispatched == 2
+
+
+def test_results_come_back_in_small_batches_as_they_finish(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """A group's first batch is one item per worker (to measure it); later ones hold at most
+    about BATCH_S of predicted work: here 0.1 s items, about 3 per batch (BATCH_S 0.4 s), so
+    results arrive a few at a time, never all at the end."""
+    import time
+
+    from impactbench import cluster
+
+    monkeypatch.syspath_prepend(str(Path(__file__).resolve().parent.parent / "engines"))
+    monkeypatch.setattr(cluster, "BATCH_S", 0.4)
+    from crashing_adapter import nap
+
+    arrivals: list[float] = []
+    with cluster.Runner(workers=2) as runner:
+        runner.run(nap, [0.1] * 24, on_result=lambda _i, _r: arrivals.append(
+            time.monotonic()), on_crash=lambda i, why: pytest.fail(why))
+    assert len(arrivals) == 24
+    bursts = [len(list(g)) for _, g in __import__("itertools").groupby(
+        arrivals, key=lambda t: round(t, 2))]
+    assert bursts[0] <= 2 and max(bursts) <= 6 and len(bursts) >= 5, bursts
+
+
+def test_a_timed_out_item_in_a_batch_costs_only_itself(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Items of 0.05 s in batches; the one sleeping 30 s outlasts its 2 s timeout: reported
+    as timed out, its worker restarted, every other item's result kept."""
+    from impactbench.cluster import Runner
+
+    monkeypatch.syspath_prepend(str(Path(__file__).resolve().parent.parent / "engines"))
+    from crashing_adapter import nap
+
+    items = [0.05] * 7 + [30.0] + [0.05] * 4  # the last of the second batch
+    got, late = [], []
+    with Runner(workers=1) as runner:
+        runner.run(nap, items, on_result=lambda i, r: got.append(i),
+                   on_crash=lambda i, why: pytest.fail(why),
+                   on_timeout=lambda i, why: late.append((i, why)), timeout_s=2.0,
+                   batch_size=4)
+        assert runner.restarted == 1
+    assert late == [(30.0, "timed out after 2 s (cancelled; its worker was restarted)")]
+    assert got == [0.05] * 11
