@@ -191,7 +191,7 @@ def progress_bar(total: int, unit: str = "run"):
                   f"({now - state['start']:.0f} s)", file=sys.stderr, flush=True)
 
     def close() -> None:
-        if state["said"] is not None and state["said"] != state["done"]:
+        if state["said"] is not None:
             print(f"impactbench: {state['done']} of {total} {unit}s done", file=sys.stderr,
                   flush=True)
 
