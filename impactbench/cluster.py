@@ -188,6 +188,12 @@ def client(workers: int | None = None, scheduler: str | None = None) -> Iterator
             return
         n = min(workers or available_cores(), available_cores())
         cluster = c = None
+        # distributed applies silence_logs only while the cluster starts; its scheduler runs
+        # in this process and would log INFO lines (start, workers leaving) through a root
+        # handler an engine installs (pydrake): quiet for the cluster's whole life
+        quiet = logging.getLogger("distributed")
+        level = quiet.level
+        quiet.setLevel(logging.ERROR)
         try:
             with _quiet_start():
                 with warnings.catch_warnings():  # its loopback HTTP port moves if 8787 is taken
@@ -207,6 +213,7 @@ def client(workers: int | None = None, scheduler: str | None = None) -> Iterator
                 with contextlib.suppress(BaseException):
                     cluster.close(timeout=5)
             _reap(pids)
+            quiet.setLevel(level)
 
 
 def apply_batch(fn: Callable[[Any], Any], batch: Sequence[Any], topic: str | None = None,
