@@ -626,31 +626,58 @@ class ObliqueWorld(BallWorld):
                                                        "(Bullet's default clamp)")))
 
 
+
+def _contact_start(s: Any, mode: str, settings: RunSettings, injection: str,
+                   custom: Callable[[dict[str, Any]], dict[str, Any]],
+                   native: Callable[[Any, str, RunSettings],
+                                    tuple[float, float, dict[str, Any]]]
+                   ) -> tuple[dict[str, Any], dict[str, Any] | None, float, float]:
+    """(meta, out-of-box settings or None, contact stiffness K, damping D) of one run of a
+    ball scenario: default/custom leave Bullet's contact unless the user sets K and D
+    (``custom`` validates the keys), injected sets none (the law runs through the secant),
+    native and tuned take ``native``'s."""
+    meta: dict[str, Any] = {"scenario": s.name}
+    if mode in ("default", "custom"):
+        out_of_box = custom(settings.params or {}) if mode == "custom" else {}
+        meta["params"] = dict(out_of_box)
+        return (meta, out_of_box, out_of_box.get("contactStiffness", 0.0),
+                out_of_box.get("contactDamping", 0.0))
+    if mode == "injected":
+        meta["injection"] = injection
+        return meta, None, 0.0, 0.0
+    k0, d0, more = native(s, mode, settings)
+    meta.update(more)
+    return meta, None, k0, d0
+
+
+def _step_cap(s: Any, settings: RunSettings, dt: float, contact_s: float, injected: bool,
+              out_of_box: dict[str, Any] | None, k0: float) -> int:
+    """The largest number of steps: free flight, five contacts and (unless injected) five
+    periods of the contact spring, or the out-of-box cap when Bullet's rigid contact runs."""
+    t_cap = settings.max_time_s or (
+        FLIGHT_STEPS * dt + 5.0 * contact_s
+        + (0.0 if injected else OUT_OF_BOX_TIME_CAP_S if out_of_box is not None and k0 == 0.0
+           else 5.0 * math.pi * math.sqrt(s.mass_kg / k0)))
+    return max(MIN_STEPS, math.ceil(t_cap / dt))
+
+
+def _oblique_native(s: Any, mode: str, settings: RunSettings
+                    ) -> tuple[float, float, dict[str, Any]]:
+    """The native normal contact of the oblique ball: the ball's linear spring–damper."""
+    v_ref = reference_velocity(settings.options)
+    sd = native_normal(s, v_ref)
+    k0, d0 = sd.stiffness_n_per_m, sd.damping_ns_per_m
+    return k0, d0, {"contact_stiffness": k0, "contact_damping": d0,
+                    "reference_velocity_m_s": v_ref}
+
 def _run_oblique(p: Any, s: Any, mode: str, settings: RunSettings, dt: float,
                  injection: str) -> ImpactRecord:
     """Record the oblique impact (normal channels as the ball's, the ball's velocity along t,
     its spin about +y and the friction force Bullet reports on it)."""
     injected = mode == "injected"
-    meta: dict[str, Any] = {"scenario": s.name}
-    out_of_box = None
-    if mode in ("default", "custom"):
-        out_of_box = oblique_parameters(settings.params or {}) if mode == "custom" else {}
-        k0 = out_of_box.get("contactStiffness", 0.0)
-        d0 = out_of_box.get("contactDamping", 0.0)
-        meta["params"] = dict(out_of_box)
-    elif injected:
-        k0, d0 = 0.0, 0.0
-        meta["injection"] = injection
-    else:
-        v_ref = reference_velocity(settings.options)
-        sd = native_normal(s, v_ref)
-        k0, d0 = sd.stiffness_n_per_m, sd.damping_ns_per_m
-        meta.update(contact_stiffness=k0, contact_damping=d0, reference_velocity_m_s=v_ref)
-    t_cap = settings.max_time_s or (
-        FLIGHT_STEPS * dt + 5.0 * elastic_duration_s(s)
-        + (0.0 if injected else OUT_OF_BOX_TIME_CAP_S if out_of_box is not None and k0 == 0.0
-           else 5.0 * math.pi * math.sqrt(s.mass_kg / k0)))
-    n_max = max(MIN_STEPS, math.ceil(t_cap / dt))
+    meta, out_of_box, k0, d0 = _contact_start(s, mode, settings, injection,
+                                              oblique_parameters, _oblique_native)
+    n_max = _step_cap(s, settings, dt, elastic_duration_s(s), injected, out_of_box, k0)
     m, radius = s.mass_kg, s.radius_m
     law = s.normal_scenario().law()
     world = ObliqueWorld(p, s, dt, k0, d0, out_of_box)
@@ -739,24 +766,9 @@ def _run_ball(p: Any, s: BallOnPlate, mode: str, settings: RunSettings, dt: floa
               injection: str) -> ImpactRecord:
     """Record the ball's impact; see the module docstring for the physics."""
     injected = mode == "injected"
-    meta: dict[str, Any] = {"scenario": s.name}
-    out_of_box = None
-    if mode in ("default", "custom"):
-        out_of_box = custom_parameters(settings.params or {}) if mode == "custom" else {}
-        k0 = out_of_box.get("contactStiffness", 0.0)
-        d0 = out_of_box.get("contactDamping", 0.0)
-        meta["params"] = dict(out_of_box)
-    elif injected:
-        k0, d0 = 0.0, 0.0
-        meta["injection"] = injection
-    else:
-        k0, d0, native = _ball_native(s, mode, settings)
-        meta.update(native)
-    t_cap = settings.max_time_s or (
-        FLIGHT_STEPS * dt + 5.0 * _hertz_duration_s(s)
-        + (0.0 if injected else OUT_OF_BOX_TIME_CAP_S if out_of_box is not None and k0 == 0.0
-           else 5.0 * math.pi * math.sqrt(s.mass_kg / k0)))
-    n_max = max(MIN_STEPS, math.ceil(t_cap / dt))
+    meta, out_of_box, k0, d0 = _contact_start(s, mode, settings, injection,
+                                              custom_parameters, _ball_native)
+    n_max = _step_cap(s, settings, dt, _hertz_duration_s(s), injected, out_of_box, k0)
     m, radius = s.mass_kg, s.radius_m
     # tunnelled: the centre past the plate's mid-plane, where the normal would flip; injected,
     # whose explicit force overshoots at a coarse step, already once past the surface
