@@ -60,7 +60,8 @@ from impactbench import scenarios
 
 __all__ = ["RunResult", "TuneFit", "build_report", "reference_solution", "run", "tune"]
 
-RUN_KEYWORDS = ("engine", "scenario", "mode", "params", "tuned_file", "timestep_s", "yes")
+RUN_KEYWORDS = ("engine", "scenario", "mode", "params", "tuned_file", "timestep_s", "yes",
+                "timeout_s")
 """The keywords of :func:`run` besides the scenario's fields and options."""
 TUNE_KEYWORDS = ("engine", "scenario", "velocities_m_s", "targets", "weights", "parameters",
                  "solref_form", "timestep_s", "budget_s", "max_evals", "params", "out", "plot",
@@ -357,7 +358,8 @@ def reference_solution(scenario: str | None = None, **fields: Any) -> dict[str, 
 
 def run(engine: str, scenario: str | None = None, mode: str | None = None, *,
         params: Mapping[str, Any] | None = None, tuned_file: str | Path | None = None,
-        timestep_s: float | None = None, yes: bool = False, **fields: Any) -> RunResult:
+        timestep_s: float | None = None, yes: bool = False, timeout_s: float | None = None,
+        **fields: Any) -> RunResult:
     """Run one scenario in one engine and compare it with the reference (``impactbench run``).
 
     Args:
@@ -375,6 +377,9 @@ def run(engine: str, scenario: str | None = None, mode: str | None = None, *,
             default step (MuJoCo 2 ms, PyBullet 1/240 s, Drake 1 ms, pymunk 1/60 s), otherwise
             the adapter's for the scenario.
         yes: run even when the estimate exceeds 1e7 integration steps.
+        timeout_s: stop a run still going after this many seconds (status ``timeout``, no
+            record; SIGALRM, so only from the main thread and only Python code: an engine
+            stuck in C is stopped when it returns). Default: no limit.
         **fields: the scenario's fields, axes and further options (``velocity_m_s``,
             ``mass_kg``, ``material``, …).
 
@@ -440,7 +445,7 @@ def run(engine: str, scenario: str | None = None, mode: str | None = None, *,
     _yes(check_cost, estimated_steps_of(ref, timestep_s), f"timestep_s = {timestep_s!r}", yes,
          "integration steps")
     with stdout_to_stderr():  # engines print banners on stdout
-        out, record = compare(engine, built, mode, settings, ref)
+        out, record = compare(engine, built, mode, settings, ref, timeout_s=timeout_s)
     return RunResult.from_compare(out, scenarios.get(name).metrics, built, record,
                                   timestep_source)
 
@@ -566,7 +571,8 @@ def build_report(config: str | Path | Mapping[str, Any] | None = None,
                  out: str | Path = "reports",
            *, engines: Sequence[str] | str | None = None, workers: int | None = None,
            scheduler: str | None = None, store: str | Path | bool | None = None,
-           fresh: bool = False, yes: bool = False, progress: bool = True) -> Any:
+           fresh: bool = False, yes: bool = False, progress: bool = True,
+           timeout_s: float | None = None) -> Any:
     """Run a comparison matrix and write its report (``impactbench report``).
 
     Args:
@@ -584,6 +590,9 @@ def build_report(config: str | Path | Mapping[str, Any] | None = None,
         fresh: run everything again instead of serving stored runs.
         yes: run even when the missing runs exceed 1e7 integration steps in all.
         progress: show progress on stderr.
+        timeout_s: the per-run timeout (a run outlasting it is a ``timeout`` row, its worker
+            restarted; default ``[execution] timeout_s``, else max(60 s, 20 × the run's
+            estimate)).
 
     Returns the :class:`impactbench.report.Report`: ``results`` (the tidy DataFrame, one row
     per run and metric, as ``results.csv``), ``files`` (every file written), ``out_dir`` and
@@ -628,6 +637,11 @@ def build_report(config: str | Path | Mapping[str, Any] | None = None,
         opts["workers"] = check_workers(workers)
     if store is False:
         opts["store"] = None
-    return _yes(lambda: report_mod.build(cfg, out, engines=chosen, show_progress=progress,
-                                         **opts))
+    from impactbench.cliutil import timeout_option
+    from impactbench.cluster import run_timeout
+
+    limit = timeout_option(argparse.Namespace(timeout=timeout_s), cfg)
+    with run_timeout(limit):
+        return _yes(lambda: report_mod.build(cfg, out, engines=chosen,
+                                             show_progress=progress, **opts))
 

@@ -235,6 +235,12 @@ def apply_batch(fn: Callable[[Any], Any], batch: Sequence[Any], topic: str | Non
     return out
 
 
+HARD_GRACE_MIN_S = 5.0
+""":func:`deadline`'s backstop: a lone in-process run stuck in C (where SIGALRM cannot reach
+it) is given ``max(HARD_GRACE_MIN_S, its timeout)`` more before the process dumps where it
+hangs and exits."""
+
+
 class RunTimeout(BaseException):
     """Raised in this process by SIGALRM when an in-process item outlasts its timeout (a
     BaseException: an adapter's ``except Exception`` must not turn it into a result)."""
@@ -261,6 +267,34 @@ def alarm(seconds: float | None) -> Iterator[None]:
     finally:
         signal.setitimer(signal.ITIMER_REAL, 0)
         signal.signal(signal.SIGALRM, previous)
+
+
+@contextlib.contextmanager
+def deadline(seconds: float | None) -> Iterator[None]:
+    """:func:`alarm` for a lone run in this process (``impactbench run``), with a backstop
+    for what SIGALRM cannot reach: if the run is still inside C code
+    ``max(HARD_GRACE_MIN_S, seconds)`` after ``seconds``, :mod:`faulthandler`'s watchdog
+    thread (it needs no GIL) prints where every thread hangs on stderr and exits the process
+    with status 1. Not for :meth:`Runner.run`'s in-process batches, whose finished runs may
+    not be stored yet."""
+    if not seconds or not math.isfinite(seconds):
+        yield
+        return
+    import faulthandler
+    import sys
+
+    try:
+        sys.stderr.fileno()
+        stream = sys.stderr
+    except (AttributeError, OSError, ValueError):  # a captured stderr (pytest, notebooks)
+        stream = sys.__stderr__
+    faulthandler.dump_traceback_later(seconds + max(HARD_GRACE_MIN_S, seconds), exit=True,
+                                      file=stream)
+    try:
+        with alarm(seconds):
+            yield
+    finally:
+        faulthandler.cancel_dump_traceback_later()
 
 
 def _per_item(value: Any) -> Callable[[Any], float | None]:

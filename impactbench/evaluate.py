@@ -51,18 +51,33 @@ def record_metrics(rec: ImpactRecord, scenario: Scenario) -> dict[str, Any]:
 
 def compare(engine: str, scenario: Scenario, mode: str,
             settings: RunSettings | None = None,
-            reference: dict[str, Any] | None = None) -> tuple[dict[str, Any], ImpactRecord]:
+            reference: dict[str, Any] | None = None, *, timeout_s: float | None = None,
+            backstop: bool = False) -> tuple[dict[str, Any], ImpactRecord | None]:
     """Run ``engine`` on ``scenario`` and compare with the reference.
 
     Returns the ``run --json`` object (status, engine, engine_version, mode, timestep_s,
     wall_s, the metrics, ``reference``, ``rel_error`` and ``plausibility``, the scenario's
     measures; a run beyond the limits of :mod:`impactbench.plausibility` is ``implausible``,
     its metrics kept) and the engine's record.
+
+    ``timeout_s``: a run still going after this many seconds is stopped (SIGALRM, this
+    process's main thread; :func:`impactbench.cluster.alarm`) and reported with status
+    ``timeout`` and no record; ``backstop`` adds :func:`impactbench.cluster.deadline`'s
+    process exit for a run stuck in C (the CLI's lone run only).
     """
-    rec = _unbound(engine, scenario, mode, settings)
-    if rec is None:
-        rec = run_safely(engine, scenario, mode, settings)
+    from impactbench import cluster
+
     ref = reference if reference is not None else reference_metrics(scenario)
+    rec = _unbound(engine, scenario, mode, settings)
+    if rec is None and timeout_s is None:  # (a caller's own alarm passes through)
+        rec = run_safely(engine, scenario, mode, settings)
+    elif rec is None:
+        guard = cluster.deadline if backstop else cluster.alarm
+        try:
+            with guard(timeout_s):
+                rec = run_safely(engine, scenario, mode, settings)
+        except cluster.RunTimeout:
+            return timed_out(engine, scenario, mode, settings, ref, timeout_s), None
     got = record_metrics(rec, scenario)
     resolved = record_resolution(rec, scenario)
     out: dict[str, Any] = {
@@ -92,6 +107,22 @@ def compare(engine: str, scenario: Scenario, mode: str,
         out.update(status=str(Status.UNSUPPORTED), message=problem,
                    rel_error=dict.fromkeys(got, math.nan))
     return out, rec
+
+
+def timed_out(engine: str, scenario: Scenario, mode: str, settings: RunSettings | None,
+              reference: dict[str, Any], timeout_s: float) -> dict[str, Any]:
+    """:func:`compare`'s object for a run stopped after ``timeout_s`` seconds: status
+    ``timeout``, no numbers (NaN metrics and errors)."""
+    names = spec_of(scenario).metrics
+    return {"status": "timeout",
+            "message": f"no result after {timeout_s:g} s (the per-run timeout; --timeout S "
+                       "allows longer)",
+            "engine": engine, "engine_version": "", "mode": mode,
+            "timestep_s": settings.timestep_s if settings else None, "wall_s": timeout_s,
+            **{k: (0 if k == "impacts" else math.nan) for k in names},
+            "not_comparable": {}, "resolved": dict.fromkeys(names, False), "params": {},
+            "engine_defaults": {}, "reference": reference,
+            "rel_error": dict.fromkeys(names, math.nan)}
 
 
 def record_resolution(rec: ImpactRecord, scenario: Scenario) -> dict[str, bool]:

@@ -14,8 +14,9 @@ from impactbench.cliutil import (
     print_json,
     print_table,
     stdout_to_stderr,
+    timeout_option,
 )
-from impactbench.engines.registry import ENGINES, MODES
+from impactbench.engines.registry import MODES, engine_names
 from impactbench.flags import add_axis_flags, add_parameter_flags, scenario_from_args
 
 HELP = "run one scenario in one engine and compare it with the reference"
@@ -24,7 +25,7 @@ HELP = "run one scenario in one engine and compare it with the reference"
 def register(top: argparse._SubParsersAction, groups: dict) -> None:
     p = top.add_parser("run", help=HELP, description=HELP + ". Parameter flags of every "
                        "scenario are accepted; those of the other scenarios are ignored.")
-    p.add_argument("--engine", required=True, choices=tuple(ENGINES),
+    p.add_argument("--engine", required=True, choices=engine_names(),
                    help="the engine to run")
     names = scenarios.names()
     p.add_argument("--scenario", required=True, choices=names,
@@ -62,6 +63,10 @@ def register(top: argparse._SubParsersAction, groups: dict) -> None:
         add_axis_flags(p, name, added=axes)
     for name in names:
         add_parameter_flags(p, name, added=flags)
+    p.add_argument("--timeout", type=number, default=None, metavar="S", dest="timeout",
+                   help="stop the run after S seconds: status timeout, exit 1 (default "
+                   "max(60 s, 20 x the run's estimate); a run stuck inside an engine's C code "
+                   "is ended as long again later (at least 5 s) with a dump of where it hung)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--allow-status", default="", metavar="LIST",
                    help="comma list of non-ok statuses that still exit 0, e.g. "
@@ -109,15 +114,18 @@ def main(args: argparse.Namespace) -> int:
         tuned, provenance = load_tuned_settings(args.engine, args.scenario, timestep_s,
                                                 args.tuned_file)
         settings = RunSettings(timestep_s=timestep_s, tuned=tuned, tuned_for=provenance)
-    allowed = _allowed_statuses(args.allow_status)
+    allowed = _allowed_statuses(args.allow_status, ("timeout",))
+    from impactbench import cluster
     from impactbench.evaluate import reference_metrics
     from impactbench.matrix import estimated_steps_of
 
     reference = reference_metrics(scenario)
-    check_cost(estimated_steps_of(reference, timestep_s), f"timestep = {timestep_s!r}",
-               args.yes, "integration steps")
+    steps = estimated_steps_of(reference, timestep_s)
+    check_cost(steps, f"timestep = {timestep_s!r}", args.yes, "integration steps")
+    limit = timeout_option(args) or cluster.default_timeout(cluster.run_estimate_s(steps))
     with stdout_to_stderr():
-        out, _ = compare(args.engine, scenario, mode, settings, reference)
+        out, _ = compare(args.engine, scenario, mode, settings, reference, timeout_s=limit,
+                         backstop=True)
     limits = {k: v for k, v in (("max_penetration_ratio", args.max_penetration_ratio),
                                 ("max_energy_ratio", args.max_energy_ratio)) if v is not None}
     if limits:
@@ -163,13 +171,29 @@ def replay_main(args: argparse.Namespace, spec: scenarios.ScenarioSpec) -> int:
     if args.params and mode != "custom":
         raise ValueError(f"param = {args.params[0][0]}: --param needs --mode custom "
                          f"(got {mode})")
-    allowed = _allowed_statuses(args.allow_status, REPLAY_STATUSES)
+    allowed = _allowed_statuses(args.allow_status, (*REPLAY_STATUSES, "timeout"))
     hook = scenarios.load(spec.replay)
     kwargs = {"param_set": args.param_set, "params": dict(args.params) or None,
               "timestep_s": args.timestep_s}
     hook(args.engine, scenario, mode, check_only=True, **kwargs)  # bad input: before the data
-    with stdout_to_stderr():
-        out = hook(args.engine, scenario, mode, **kwargs)
+    from impactbench import cluster
+
+    limit = timeout_option(args)  # a replay's length varies with the tosses: none by default
+    try:
+        with stdout_to_stderr(), cluster.deadline(limit):
+            out = hook(args.engine, scenario, mode, **kwargs)
+    except cluster.RunTimeout:
+        out = {"status": "timeout", "message": f"no result after {limit:g} s (--timeout)",
+               "engine": args.engine, "mode": mode}
+        code = 0 if "timeout" in allowed else 1
+        if code:
+            print(f"impactbench: run status timeout ({out['message']}); exit 1 "
+                  "(--allow-status to accept it)", file=sys.stderr)
+        if args.json:
+            print_json(out)
+        else:
+            print(f"{args.engine}  mode {mode}  status timeout ({out['message']})")
+        return code
     code = 0 if out["status"] == "ok" or out["status"] in allowed else 1
     if code:
         print(f"impactbench: run status {out['status']}"

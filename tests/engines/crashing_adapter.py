@@ -57,9 +57,10 @@ class SleepingAdapter(Adapter):
 
 
 class HangingAdapter(Adapter):
-    """An engine that never returns at 2 m/s (a Python-level hang; at 3 m/s a hang inside C
-    that holds the GIL, which only a process kill ends) and sleeps briefly at any other
-    velocity (for timeout tests)."""
+    """An engine that never returns at 2 m/s (a Python-level hang; at 3 m/s a sleep inside C
+    that holds the GIL, which only a signal or a process kill ends; at 4 m/s the same with
+    SIGALRM blocked, a C loop no alarm reaches) and sleeps briefly at any other velocity
+    (for timeout tests)."""
 
     name = "hanger"
     builders: ClassVar[dict[str, Builder]] = {"ball-on-plate": Builder("run_ball", 1e-6)}
@@ -79,6 +80,12 @@ class HangingAdapter(Adapter):
             import ctypes
 
             ctypes.PyDLL(None).sleep(3600)  # PyDLL: the GIL stays held
+        if scenario.velocity_m_s == 4.0:  # a C loop that never returns to Python
+            import ctypes
+            import signal
+
+            signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGALRM})  # no EINTR either
+            ctypes.PyDLL(None).sleep(3600)
         time.sleep(0.05)
         return ImpactRecord.failed(Status.NO_CONTACT, "returned", engine=self.name, mode=mode)
 

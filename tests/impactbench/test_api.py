@@ -213,7 +213,7 @@ def test_an_unknown_keyword_is_named_with_a_suggestion_and_the_valid_ones() -> N
     text = one_line_error(impactbench.run, engine="pymunk", scenario="ball-on-plate",
                           velocity=2.0)
     assert "unknown keyword 'velocity'" in text and "did you mean 'velocity_m_s'?" in text
-    assert "valid: engine, scenario, mode, params, tuned_file, timestep_s, yes, " \
+    assert "valid: engine, scenario, mode, params, tuned_file, timestep_s, yes, timeout_s, " \
            "velocity_m_s, mass_kg" in text and "material" in text
     text = one_line_error(impactbench.run, engine="pymunk", timestep=1e-3)
     assert "'timestep'" in text and "did you mean 'timestep_s'?" in text

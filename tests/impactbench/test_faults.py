@@ -191,6 +191,51 @@ def test_report_timeout_flag_and_config(tmp_path: Path, plugins: dict[str, str],
     assert "1 no_contact, 1 timeout" in capsys.readouterr().out  # the timeout: not stored
 
 
+def test_run_timeout_turns_a_python_hang_into_a_timeout_status(
+        plugins: dict[str, str], capsys: pytest.CaptureFixture[str]) -> None:
+    """`run --timeout S`: a run hanging in Python is stopped by the alarm: one line, status
+    timeout, exit 1 (0 with --allow-status timeout); the alarm's handler is put back."""
+    argv = ["run", "--engine", "hanger", "--scenario", "ball-on-plate", "--velocity", "2",
+            "--timeout", "0.3"]
+    t0 = time.monotonic()
+    assert cli.main(argv) == 1
+    assert time.monotonic() - t0 < 5.0
+    err = capsys.readouterr().err
+    assert "run status timeout (no result after 0.3 s" in err
+    assert cli.main([*argv, "--json", "--allow-status", "timeout"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert (out["status"], out["restitution"]) == ("timeout", None)
+    assert signal.getsignal(signal.SIGALRM) in (signal.SIG_DFL, None)
+    assert cli.main(["run", "--engine", "hanger", "--scenario", "ball-on-plate", "--velocity",
+                     "1", "--timeout", "0.3", "--allow-status", "no_contact"]) == 0
+
+
+def test_api_run_timeout(plugins: dict[str, str]) -> None:
+    """`impactbench.run(..., timeout_s=S)`: a Python hang is a `timeout` result, no record."""
+    import impactbench
+
+    r = impactbench.run(engine="hanger", scenario="ball-on-plate", velocity_m_s=2.0,
+                        timeout_s=0.3)
+    assert (r.status, r.record, r.ok) == ("timeout", None, False)
+    assert "no result after 0.3 s" in r.message
+
+
+def test_run_timeout_ends_a_hang_in_c_holding_the_gil(plugins: dict[str, str]) -> None:
+    """A run stuck in C with the GIL held and SIGALRM blocked (no alarm can reach it; a sleep
+    in C alone is cut short by the alarm's EINTR, then reported as a timeout as above) is
+    ended by the backstop
+    max(5 s, S) after its timeout S: exit 1 and a dump of where it hung, no hang."""
+    t0 = time.monotonic()
+    proc = subprocess.run([sys.executable, "-m", "impactbench.cli", "run", "--engine", "hanger",
+                           "--scenario", "ball-on-plate", "--velocity", "4", "--timeout",
+                           "0.5"], env=plugins, capture_output=True, text=True, timeout=120)
+    took = time.monotonic() - t0
+    assert proc.returncode == 1
+    assert "Timeout (0:00:05.500000)!" in proc.stderr  # faulthandler's header: 0.5 + 5 s
+    assert "run_ball" in proc.stderr  # where it hung
+    assert 5.5 <= took < 60.0
+
+
 # ----------------------------------------------------------------------------- cost refusal
 
 
