@@ -628,7 +628,7 @@ def _real_tosses_part(ctx: ReportContext, spec: scenarios.ScenarioSpec, sm: Any
 
     table = ctx.cfg.raw.get(spec.table, {})
     engines = table.get("engines", list(ctx.cfg.engines))
-    modes = table.get("modes", ["default", "custom"])
+    modes = table.get("modes", ["default", "custom", "tuned"])
     sets = table.get("param_sets", [])
     scenario = spec.build(parameters=sm.parameters)
     hook = scenarios.load(spec.replay)
@@ -692,7 +692,8 @@ def _real_tosses_part(ctx: ReportContext, spec: scenarios.ScenarioSpec, sm: Any
         picks = _picks(out["per_toss"])
         with stdout_to_stderr():
             got = trajectories(engine, scenario, mode, [t for _, t in picks],
-                               param_set=param_set)
+                               param_set=param_set, params=out.get("params")
+                               if mode == "tuned" else None)
         name = "_".join(x for x in (stem, engine, mode, param_set) if x)
         title = f"Measured and simulated, {label}"
         path = toss_plots.trajectories(got, [p for p, _ in picks], engine, title, how,
@@ -715,7 +716,9 @@ def _real_tosses_part(ctx: ReportContext, spec: scenarios.ScenarioSpec, sm: Any
              "Per engine: `default` is the engine out of the box at the protocol's step; "
              "`custom` with a parameter set applies its published values (`dair2022`: "
              "Acosta, Yang & Posa, RA-L 2022, fitted on all tosses, the test split included, "
-             "so their test errors are not held out).")
+             "so their test errors are not held out); `tuned` applies impactbench's own fit "
+             "(nevergrad CMA-ES on the training split only, "
+             "`impactbench tune --scenario cube-toss`), so its test errors are held out.")
     return {"title": f"{spec.title}: {which}", "intro": intro,
             "table": Table(columns, rows, text_columns=3, prose_columns=1),
             "cdf": figures, "trajectories": trajs}

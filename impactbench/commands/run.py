@@ -174,7 +174,7 @@ def replay_main(args: argparse.Namespace, spec: scenarios.ScenarioSpec) -> int:
     allowed = _allowed_statuses(args.allow_status, (*REPLAY_STATUSES, "timeout"))
     hook = scenarios.load(spec.replay)
     kwargs = {"param_set": args.param_set, "params": dict(args.params) or None,
-              "timestep_s": args.timestep_s}
+              "timestep_s": args.timestep_s, "tuned_file": args.tuned_file}
     hook(args.engine, scenario, mode, check_only=True, **kwargs)  # bad input: before the data
     from impactbench import cluster
 

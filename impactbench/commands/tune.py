@@ -59,8 +59,10 @@ def register(top: argparse._SubParsersAction, groups: dict) -> None:
     p = top.add_parser("tune", help=HELP, description=HELP + ". " + __doc__.split("\n\n")[1])
     p.add_argument("--engine", required=True, metavar="E", help=f"one of {', '.join(ENGINES)}")
     tunable = [s.name for s in scenarios.specs() if "tuning" in s.studies]
+    data_driven = [s.name for s in scenarios.specs() if s.replay]
     p.add_argument("--scenario", default=tunable[0], metavar="S",
-                   help=f"{' | '.join(tunable)} (the scenarios that serve tuning)")
+                   help=f"{' | '.join(tunable + data_driven)} (the scenarios that serve "
+                   "tuning; a data-driven one is fitted to its training measurements)")
     p.add_argument("--velocities", type=number_list, default=list(PAPER_VELOCITIES_M_S),
                    dest="velocities_m_s", metavar="V,…",
                    help="impact velocities (m/s); default the paper's 0.5,1,2,3,4,5")
@@ -81,8 +83,14 @@ def register(top: argparse._SubParsersAction, groups: dict) -> None:
     p.add_argument("--budget-s", type=number, default=DEFAULT_BUDGET_S, metavar="S",
                    help=f"wall-time budget (s), stops cleanly keeping the best; default "
                    f"{DEFAULT_BUDGET_S:g}")
-    p.add_argument("--max-evals", type=int, default=None, metavar="N",
-                   help="evaluation budget (one evaluation = one run per velocity)")
+    p.add_argument("--max-evals", "--budget", type=int, default=None, metavar="N",
+                   dest="max_evals",
+                   help="evaluation budget (one evaluation = one run per velocity; for "
+                   "cube-toss one replay of the training tosses, default 160)")
+    p.add_argument("--seed", type=int, default=None, metavar="N",
+                   help="cube-toss: the optimiser's seed (default 20240607)")
+    p.add_argument("--optimizer", default=None, metavar="NAME",
+                   help="cube-toss: a nevergrad optimiser (default CMA; NGOpt is DAIR's)")
     out = p.add_mutually_exclusive_group()
     out.add_argument("--out", type=Path, default=None, metavar="FILE",
                      help="tuned file to write; default tuned_<engine>.toml in the cwd")
@@ -98,8 +106,9 @@ def register(top: argparse._SubParsersAction, groups: dict) -> None:
                    "e.g. Drake's discrete_contact_approximation=sap for a discrete plant")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     add_execution_flags(p, in_process=True)
-    for name in tunable:
-        add_parameter_flags(p, name)
+    added: set[str] = set()
+    for name in tunable + data_driven:
+        add_parameter_flags(p, name, added=added)
     p.set_defaults(func=main)
 
 
@@ -123,6 +132,16 @@ def main(args: argparse.Namespace) -> int:
 
     check.one_of("engine", args.engine, tuple(ENGINES))
     check.one_of("scenario", args.scenario, scenarios.names())
+    if scenarios.get(args.scenario).replay:
+        from impactbench.commands import tune_tosses
+
+        args.seed = 20240607 if args.seed is None else args.seed
+        args.optimizer = args.optimizer or "CMA"
+        return tune_tosses.main(args)
+    for flag in ("seed", "optimizer"):
+        if getattr(args, flag) is not None:
+            raise ValueError(f"{flag} = {getattr(args, flag)!r}: only the cube-toss fit "
+                             "takes it (the ball's fit is deterministic, scipy)")
     if "tuning" not in scenarios.get(args.scenario).studies:
         tunable = [s.name for s in scenarios.specs() if "tuning" in s.studies]
         raise ValueError(f"scenario = {args.scenario!r}: tuning is not supported yet for it "

@@ -33,7 +33,7 @@ import impactbench.cube_tosses.data as data_mod
 import impactbench.cube_tosses.engines as engines_mod
 from impactbench.cube_tosses.protocol import Protocol, prepare, sample_dt, summarize, toss_errors
 
-MODES = ("default", "custom")
+MODES = ("default", "custom", "tuned")
 
 RESULT_KEYS = ("status", "engine", "mode", "param_set", "split", "tosses", "failed",
                "position_error_mean", "position_error_median", "position_error_q1",
@@ -45,7 +45,8 @@ RESULT_KEYS = ("status", "engine", "mode", "param_set", "split", "tosses", "fail
 def engine_parameters(engine: str, mode: str, param_set: str | None = None,
                       params: Mapping[str, Any] | None = None) -> dict[str, Any]:
     """The engine parameters of a run: none in ``default`` mode; in ``custom`` mode the named
-    set (``param_set``) overlaid with ``params``."""
+    set (``param_set``) overlaid with ``params``; in ``tuned`` mode ``params`` (a tuned
+    file's ``[parameters]``, :func:`impactbench.cube_tosses.tune.load_tuned`)."""
     if engine not in engines_mod.ENGINES:
         raise ValueError(f"engine = {engine!r}: the cube tosses run on "
                          f"{', '.join(engines_mod.ENGINES)}")
@@ -56,6 +57,11 @@ def engine_parameters(engine: str, mode: str, param_set: str | None = None,
             raise ValueError(f"param_set = {param_set!r}: default mode sets no engine "
                              "parameters; use mode 'custom'")
         return {}
+    if mode == "tuned":
+        if param_set is not None or not params:
+            raise ValueError(f"param_set = {param_set!r}: tuned mode takes the fitted "
+                             "parameters (params = load_tuned(engine)), no parameter set")
+        return dict(params)
     if param_set is None and not params:
         raise ValueError(f"param_set = None: custom mode needs a parameter set ("
                          f"{', '.join(engines_mod.PARAM_SETS.get(engine, {})) or 'none'}) "
@@ -89,9 +95,10 @@ def replay(engine: str, mode: str = "default", tosses: str | int | Iterable[int]
     in ``engine`` ("pybullet", "mujoco", "drake", "sapien", "dart", "newton", "mjx") under
     ``protocol`` (DAIR's by default).
 
-    ``mode``: "default" (the engine's own contact settings) or "custom" (``param_set``, a
+    ``mode``: "default" (the engine's own contact settings), "custom" (``param_set``, a
     name from :data:`~impactbench.cube_tosses.engines.PARAM_SETS` such as "dair2022", and/or
-    ``params``, engine parameters by the engine's own names). One engine instance serves every
+    ``params``, engine parameters by the engine's own names) or "tuned" (``params`` fitted to
+    the training tosses, :mod:`~impactbench.cube_tosses.tune`). One engine instance serves every
     toss. Returns the dict described in the module doc."""
     protocol = protocol or Protocol()
     from impactbench.cube_tosses.engines_more import UNSUPPORTED

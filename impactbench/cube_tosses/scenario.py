@@ -8,7 +8,10 @@ data, selection, protocol options) in one engine through
 (``message``, ``engine_version``, ``timestep_s``, ``timestep_source``, ``substeps``, ``box``,
 ``wall_s``). Modes: ``default`` (the engine's own contact) and ``custom`` (a published
 parameter set such as ``dair2022`` and/or engine parameters by the replay's own names,
-``board.``/``cube.``-prefixed); ``tuned``, ``native`` and ``injected`` are ``unsupported`` for
+``board.``/``cube.``-prefixed) and ``tuned`` (the engine's parameters fitted to the training
+tosses, :mod:`~impactbench.cube_tosses.tune`: the packaged tuned file or ``tuned_file``; it
+applies only at the step and to the cube half-width it was fitted for, else the run is
+``unsupported`` naming the difference). ``native`` and ``injected`` are ``unsupported`` for
 now, as are the 2D engines (pymunk, Box2D) and engines without a cube replay.
 
 Step: the protocol's, ``sample_dt_s / substeps`` (DAIR: 1/148 s / 10). A given ``timestep_s``
@@ -46,7 +49,7 @@ import impactbench.cube_tosses.engines as engines_mod
 from impactbench.cube_tosses.protocol import SAMPLE_DT_S, Protocol, prepare, rotation_angle
 from impactbench.cube_tosses.replay import engine_parameters, replay, select
 
-MODES = ("default", "custom")
+MODES = ("default", "custom", "tuned")
 """The modes a cube replay has (the others are ``unsupported`` for now)."""
 
 TWO_D = {
@@ -57,8 +60,8 @@ TWO_D = {
 }
 """Engines the tosses cannot run on, and why."""
 
-LATER_MODES = ("tuned, native and injected modes are not implemented for the cube tosses yet "
-               "(available: default, custom)")
+LATER_MODES = ("native and injected modes are not implemented for the cube tosses yet "
+               "(available: default, custom, tuned)")
 
 METRIC_KEYS = ("position_error_median", "position_error_q1", "position_error_q3",
                "position_error_mean", "rotation_error_deg_median", "rotation_error_deg_q1",
@@ -73,6 +76,7 @@ class ReplaySettings:
     param_set: str | None = None
     params: dict[str, Any] = field(default_factory=dict)
     data_sha256: str = ""
+    tuned_sha256: str = ""
 
 
 # ------------------------------------------------------------------------------ the scenario
@@ -202,6 +206,11 @@ def check(engine: str, mode: str, param_set: str | None = None,
     why = _unsupported_reason(engine, mode)
     if why:
         return why
+    if mode == "tuned" and (param_set is not None or params):
+        what = f"param-set = {param_set!r}" if param_set is not None else \
+            f"param = {next(iter(params))!r}"
+        raise ValueError(f"{what}: tuned mode takes its parameters from the tuned file "
+                         "(--tuned FILE); use --mode custom to set them")
     if mode == "default" and (param_set is not None or params):
         what = f"param-set = {param_set!r}" if param_set is not None else \
             f"param = {next(iter(params))!r}"
@@ -222,6 +231,56 @@ def check(engine: str, mode: str, param_set: str | None = None,
     return ""
 
 
+# ------------------------------------------------------------------------------ tuned files
+
+
+def tuned_binding(engine: str, scenario: Any, tuned_file: str | Path | None = None
+                  ) -> tuple[dict[str, Any], str, str, str]:
+    """(parameters, the file, its SHA-256, why it does not apply or "") of ``engine``'s tuned
+    file for ``scenario``: the packaged one (``impactbench/data/tuned/cube_toss/<engine>.toml``)
+    unless ``tuned_file``. A file applies to the engine it was fitted in, at the engine step
+    and for the cube half-width of its protocol (``[provenance.protocol]``: the contact
+    parameters of a stepped engine are fitted for its step). A given file that does not
+    exist or is not a tuned file is a one-line ValueError; a missing packaged one a reason."""
+    import tomllib
+
+    from impactbench.cube_tosses.tune import load_tuned, tuned_path
+
+    path = Path(tuned_file) if tuned_file is not None else tuned_path(engine)
+    if not path.is_file():
+        if tuned_file is not None:
+            raise ValueError(f"tuned = {str(tuned_file)!r}: no such file")
+        return {}, str(path), "", (f"no packaged tuned file for {engine} (fit one: "
+                                   f"impactbench tune --scenario cube-toss --engine {engine})")
+    try:
+        doc = tomllib.loads(path.read_text())
+        params = load_tuned(engine, path)
+    except (tomllib.TOMLDecodeError, ValueError, UnicodeDecodeError) as exc:
+        raise ValueError(f"tuned = {str(path)!r}: not a cube-toss tuned file "
+                         f"({str(exc).splitlines()[0]})") from None
+    sha = hashlib.sha256(path.read_bytes()).hexdigest()
+    prov = doc.get("provenance", {})
+    proto = prov.get("protocol", {})
+    if prov.get("scenario") != "cube-toss" or prov.get("engine") != engine:
+        return params, str(path), sha, (f"tuned file {path.name} was fitted for "
+                                        f"{prov.get('engine')!r} on {prov.get('scenario')!r}, "
+                                        f"not {engine!r} on 'cube-toss'")
+    want = protocol_of(scenario).describe()
+    for key, what, unit in (("step_s", "engine step", " s"),
+                            ("half_width_m", "cube half-width", " m")):
+        a, b = proto.get(key), want.get(key)
+        if a is None or b is None:
+            if a != b:
+                return params, str(path), sha, (f"tuned file {path.name}: fitted with "
+                                                f"{key} = {a}, this run has {b}")
+            continue
+        if not math.isclose(float(a), float(b), rel_tol=1e-9):
+            return params, str(path), sha, (f"tuned file {path.name} was fitted at {what} "
+                                            f"{float(a):.6g}{unit}, this run has "
+                                            f"{float(b):.6g}{unit}")
+    return params, str(path), sha, ""
+
+
 # ------------------------------------------------------------------------------ the hook
 
 
@@ -239,6 +298,11 @@ def _box_of(scenario: Any) -> dict[str, float]:
             "inertia_kg_m2": scenario.inertia_kg_m2}
 
 
+def result_ids(out: Mapping[str, Any]) -> list[int]:
+    """The toss ids a replay's result covers."""
+    return [int(r["toss"]) for r in out.get("per_toss", [])]
+
+
 def _message(out: Mapping[str, Any]) -> str:
     failed = [r for r in out.get("per_toss", []) if r.get("status") != "ok"]
     if not failed:
@@ -250,19 +314,26 @@ def _message(out: Mapping[str, Any]) -> str:
 def run(engine: str, scenario: Any, mode: str = "default", *, param_set: str | None = None,
         params: Mapping[str, Any] | None = None, timestep_s: float | None = None,
         store: Any = None, fresh: bool = False, check_only: bool = False,
+        tuned_file: str | Path | None = None,
         progress: Callable[[int, int], None] | None = None) -> dict[str, Any] | str:
     """Replay ``scenario``'s tosses in ``engine`` (the spec's ``replay`` hook; module doc).
 
     Returns :func:`~impactbench.cube_tosses.replay.replay`'s dict plus ``message``,
     ``engine_version``, ``timestep_s`` (the engine step), ``timestep_source``, ``substeps``,
-    ``box`` and ``wall_s``; an ``unsupported`` or ``unavailable`` run object (NaN metrics, the
-    reason in ``message``) for what cannot run here. ``check_only``: validate (one-line
-    ValueError) and return why the run would be unsupported ("" when it can run), running
-    nothing.
+    ``box`` and ``wall_s`` (and in ``tuned`` mode ``tuned_file`` and ``params``); an
+    ``unsupported`` or ``unavailable`` run object (NaN metrics, the reason in ``message``)
+    for what cannot run here. ``check_only``: validate (one-line ValueError) and return why
+    the run would be unsupported ("" when it can run), running nothing.
     """
     params = dict(params or {})
     scenario, source = with_timestep(scenario, timestep_s)
+    if tuned_file is not None and mode != "tuned":
+        raise ValueError(f"tuned = {str(tuned_file)!r}: --tuned needs --mode tuned "
+                         f"(got {mode})")
     why = check(engine, mode, param_set, params)
+    tuned = ("", "")
+    if mode == "tuned" and not why:
+        params, *tuned, why = tuned_binding(engine, scenario, tuned_file)
     if check_only:
         return why
     step = scenario.sample_dt_s / scenario.substeps if scenario.sample_dt_s else None
@@ -278,7 +349,7 @@ def run(engine: str, scenario: Any, mode: str = "default", *, param_set: str | N
     if store is not None:
         from impactbench.store import run_inputs, run_key
 
-        settings = ReplaySettings(param_set, params, data_sha256(path))
+        settings = ReplaySettings(param_set, params, data_sha256(path), tuned[1])
         inputs = run_inputs(engine, type(scenario).name, scenario, mode, settings)
         key = run_key(inputs)
         if not fresh:
@@ -313,6 +384,14 @@ def run(engine: str, scenario: Any, mode: str = "default", *, param_set: str | N
               "timestep_s": setup.get("step_s", step), "timestep_source": source,
               "substeps": scenario.substeps, "box": _box_of(scenario),
               "wall_s": time.perf_counter() - t0}
+    if mode == "tuned":
+        result |= {"tuned_file": tuned[0], "params": params}
+        if not scenario.data and scenario.selection != "test":
+            seen = len(data_mod.split(result_ids(out), "train"))
+            if seen:
+                result["message"] = "; ".join(x for x in (
+                    result["message"], f"{seen} of the {out['tosses']} tosses are training "
+                    "tosses the parameters were fitted on (not held out)") if x)
     if store is not None:
         job = {"engine": engine, "mode": mode, "scenario": type(scenario).name, "point": (),
                "study": "replay"}

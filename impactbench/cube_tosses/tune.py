@@ -625,9 +625,9 @@ def write_tuned(fit: CubeTuneFit, path: str | Path | None = None,
     header = (f"# impactbench tune: {fit.engine} fitted to the cube tosses (training split "
               "only).\n# [parameters] are the engine's own keys: replay(engine, 'custom', "
               "params=load_tuned(engine)).\n\n")
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(header + tomli_w.dumps(doc))
-    return out
+    from impactbench.publish import atomic_write
+
+    return atomic_write(out, header + tomli_w.dumps(doc))
 
 
 def load_tuned(engine: str, path: str | Path | None = None) -> dict[str, Any]:

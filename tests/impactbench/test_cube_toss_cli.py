@@ -128,7 +128,7 @@ def test_the_users_box_reaches_the_engine_and_the_errors(capsys) -> None:
 @pytest.mark.parametrize("engine, flags, words", [
     ("pymunk", ("--mode", "default"), "2D engine"),
     ("box2d", ("--mode", "default"), "2D engine"),
-    ("mujoco", ("--mode", "tuned"), "mode tuned"),
+    ("mjx", ("--mode", "tuned"), "no packaged tuned file for mjx"),
     ("pybullet", ("--mode", "native"), "mode native"),
     ("drake", ("--mode", "injected"), "mode injected"),
 ])
@@ -302,8 +302,11 @@ def test_report_section_renders_with_a_tiny_config(tmp_path) -> None:
     names = sorted(p.name for p in (tmp_path / "rep" / "figures").glob("*.png"))
     assert names == ["report_cube_toss_error_cdf.png",
                      "report_cube_toss_pybullet_custom_dair2022_trajectories.png",
-                     "report_cube_toss_pybullet_default_trajectories.png"]
-    assert md.count("![") == 3 and "<img" in docs["html"]
+                     "report_cube_toss_pybullet_default_trajectories.png",
+                     "report_cube_toss_pybullet_tuned_trajectories.png"]
+    assert md.count("![") == 4 and "<img" in docs["html"]
+    # toss 1 is a training toss (data.split): the tuned row says it is not held out
+    assert "1 of the 3 tosses are training tosses the parameters were fitted on" in md
     empty = ReportContext(config.parse({"report": {"engines": ["pybullet"]}}), pd.DataFrame(),
                           {}, tmp_path / "rep")
     assert real_tosses(empty) is None  # no [cube_toss] table, no section
