@@ -55,10 +55,9 @@ from typing import Any
 import numpy as np
 
 from impactbench.cube_tosses.protocol import (
+    DAIR_BOX,
     GRAVITY_M_S2,
-    HALF_WIDTH_M,
-    INERTIA_KG_M2,
-    MASS_KG,
+    Box,
     Start,
 )
 
@@ -131,6 +130,7 @@ class CubeEngine:
     board_z_m: float = 0.0
     name: str = ""
     keys: tuple[str, ...] = ()
+    box: Box = DAIR_BOX
 
     def __post_init__(self) -> None:
         self.params = dict(self.params)
@@ -202,10 +202,10 @@ class PyBulletCube(CubeEngine):
     """PyBullet (module doc)."""
 
     def __init__(self, params: Mapping[str, Any] = (), step_s: float = 1.0 / 1480.0,
-                 board_z_m: float = 0.0) -> None:
+                 board_z_m: float = 0.0, box: Box = DAIR_BOX) -> None:
         keys = (*(f"{b}.{k}" for b in ("board", "cube") for k in _BULLET_BODY_KEYS),
                 "cube.inertia", "numSolverIterations")
-        super().__init__(dict(params), step_s, board_z_m, "pybullet", keys)
+        super().__init__(dict(params), step_s, board_z_m, "pybullet", keys, box)
 
     def _build(self) -> None:
         import pybullet as pb
@@ -228,11 +228,11 @@ class PyBulletCube(CubeEngine):
         self._board = pb.createMultiBody(0.0, board_shape,
                                          basePosition=[0.0, 0.0, self.board_z_m - hz[2]],
                                          physicsClientId=c)
-        cube_shape = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=[HALF_WIDTH_M] * 3,
+        cube_shape = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=[self.box.half_width_m] * 3,
                                              physicsClientId=c)
-        self._cube = pb.createMultiBody(MASS_KG, cube_shape, basePosition=[0.0, 0.0, 1.0],
+        self._cube = pb.createMultiBody(self.box.mass_kg, cube_shape, basePosition=[0.0, 0.0, 1.0],
                                         physicsClientId=c)
-        inertia = self.params.get("cube.inertia", INERTIA_KG_M2)
+        inertia = self.params.get("cube.inertia", self.box.inertia_kg_m2)
         if inertia != "collision":
             pb.changeDynamics(self._cube, -1, localInertiaDiagonal=[float(inertia)] * 3,
                               physicsClientId=c)
@@ -319,8 +319,8 @@ class MujocoCube(CubeEngine):
     """MuJoCo (module doc)."""
 
     def __init__(self, params: Mapping[str, Any] = (), step_s: float = 1.0 / 1480.0,
-                 board_z_m: float = 0.0) -> None:
-        super().__init__(dict(params), step_s, board_z_m, "mujoco", ())
+                 board_z_m: float = 0.0, box: Box = DAIR_BOX) -> None:
+        super().__init__(dict(params), step_s, board_z_m, "mujoco", (), box)
 
     def __post_init__(self) -> None:
         self.keys = tuple(f"{b}.{k}" for b in ("board", "cube") for k in _MUJOCO_GEOM_KEYS)
@@ -338,7 +338,8 @@ class MujocoCube(CubeEngine):
             return "".join(f' {k}="{_mj_value(self.params[f"{body}.{k}"])}"'
                            for k in _MUJOCO_GEOM_KEYS if f"{body}.{k}" in self.params)
 
-        h, (bx, by, bz) = HALF_WIDTH_M, MUJOCO_BOARD_HALF
+        h, (bx, by, bz) = self.box.half_width_m, MUJOCO_BOARD_HALF
+        i = self.box.inertia_kg_m2
         option = " ".join(f'{k}="{v}"' for k, v in opts.items())
         return (
             f'<mujoco model="cube_toss"><compiler inertiafromgeom="false"/>'
@@ -346,8 +347,8 @@ class MujocoCube(CubeEngine):
             f'<body name="board" pos="0 0 {self.board_z_m - bz!r}">'
             f'<geom name="board" type="box" size="{bx} {by} {bz}"{attrs("board")}/></body>'
             f'<body name="cube" pos="0 0 1"><freejoint name="cube"/>'
-            f'<inertial pos="0 0 0" mass="{MASS_KG!r}" diaginertia="{INERTIA_KG_M2!r} '
-            f'{INERTIA_KG_M2!r} {INERTIA_KG_M2!r}"/>'
+            f'<inertial pos="0 0 0" mass="{self.box.mass_kg!r}" diaginertia="{i!r} {i!r} '
+            f'{i!r}"/>'
             f'<geom name="cube" type="box" size="{h!r} {h!r} {h!r}"{attrs("cube")}/>'
             f"</body></worldbody></mujoco>")
 
@@ -423,10 +424,10 @@ _DRAKE_BODY_KEYS = ("point_contact_stiffness", "hunt_crossley_dissipation", "mu"
 DRAKE_APPROXIMATIONS = ("tamsi", "sap", "similar", "lagged")
 
 
-def _cube_urdf() -> str:
-    h2 = 2 * HALF_WIDTH_M
-    i = INERTIA_KG_M2
-    return (f'<robot name="cube"><link name="cube"><inertial><mass value="{MASS_KG!r}"/>'
+def _cube_urdf(box: Box) -> str:
+    h2 = 2 * box.half_width_m
+    i = box.inertia_kg_m2
+    return (f'<robot name="cube"><link name="cube"><inertial><mass value="{box.mass_kg!r}"/>'
             f'<inertia ixx="{i!r}" ixy="0" ixz="0" iyy="{i!r}" iyz="0" izz="{i!r}"/>'
             f'</inertial><collision><geometry><box size="{h2!r} {h2!r} {h2!r}"/></geometry>'
             f"</collision></link></robot>")
@@ -436,10 +437,10 @@ class DrakeCube(CubeEngine):
     """Drake (module doc)."""
 
     def __init__(self, params: Mapping[str, Any] = (), step_s: float = 1.0 / 1480.0,
-                 board_z_m: float = 0.0) -> None:
+                 board_z_m: float = 0.0, box: Box = DAIR_BOX) -> None:
         keys = (*(f"{b}.{k}" for b in ("board", "cube") for k in _DRAKE_BODY_KEYS),
                 "discrete_contact_approximation", "contact_model")
-        super().__init__(dict(params), step_s, board_z_m, "drake", keys)
+        super().__init__(dict(params), step_s, board_z_m, "drake", keys, box)
 
     def _build(self) -> None:
         from pydrake.geometry import HalfSpace, ProximityProperties
@@ -470,7 +471,7 @@ class DrakeCube(CubeEngine):
             raise ValueError(f"drake cube parameters {dict(self.params)!r}: "
                              f"{str(exc).splitlines()[0]}") from None
         plant.mutable_gravity_field().set_gravity_vector([0.0, 0.0, -GRAVITY_M_S2])
-        (model,) = Parser(plant).AddModelsFromString(_cube_urdf(), "urdf")
+        (model,) = Parser(plant).AddModelsFromString(_cube_urdf(self.box), "urdf")
         self._body = plant.GetBodyByName("cube", model)
 
         def props(body: str, base: Any = None) -> Any:
@@ -602,8 +603,9 @@ BULLET_BREAKING_THRESHOLD_M = 0.02
 
 
 def make(engine: str, params: Mapping[str, Any] = (), step_s: float = 1.0 / 1480.0,
-         board_z_m: float = 0.0) -> CubeEngine:
-    """The cube-on-board model of ``engine`` with engine parameters ``params``."""
+         board_z_m: float = 0.0, box: Box = DAIR_BOX) -> CubeEngine:
+    """The cube-on-board model of ``engine`` with engine parameters ``params`` and the cube
+    ``box`` (DAIR's by default)."""
     cls = _CLASSES.get(engine)
     if cls is None and engine in ENGINES:  # by name, as the engine registry loads adapters:
         import importlib  # engines_more builds on this module's classes
@@ -611,4 +613,4 @@ def make(engine: str, params: Mapping[str, Any] = (), step_s: float = 1.0 / 1480
         cls = importlib.import_module(MORE_ENGINES).CLASSES[engine]
     if cls is None:
         raise ValueError(f"engine = {engine!r}: the cube tosses run on {', '.join(ENGINES)}")
-    return cls(params, step_s, board_z_m)
+    return cls(params, step_s, board_z_m, box=box)

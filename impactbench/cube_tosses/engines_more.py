@@ -66,10 +66,9 @@ import numpy as np
 
 from impactbench.cube_tosses.engines import CubeEngine, MujocoCube, _version
 from impactbench.cube_tosses.protocol import (
+    DAIR_BOX,
     GRAVITY_M_S2,
-    HALF_WIDTH_M,
-    INERTIA_KG_M2,
-    MASS_KG,
+    Box,
     Start,
 )
 
@@ -120,10 +119,10 @@ class SapienCube(CubeEngine):
     a teleported body does not clear them, so each toss gets its own scene (0.3 ms)."""
 
     def __init__(self, params: Mapping[str, Any] = (), step_s: float = 1.0 / 1480.0,
-                 board_z_m: float = 0.0) -> None:
+                 board_z_m: float = 0.0, box: Box = DAIR_BOX) -> None:
         keys = (*(f"{b}.{k}" for b in ("board", "cube") for k in _SAPIEN_MATERIAL),
                 *_SAPIEN_SHAPE, *(f"cube.{k}" for k in _SAPIEN_BODY), *_SAPIEN_SCENE)
-        super().__init__(dict(params), step_s, board_z_m, "sapien", keys)
+        super().__init__(dict(params), step_s, board_z_m, "sapien", keys, box)
 
     def _build(self) -> None:
         sapien, px = _import_sapien()
@@ -178,12 +177,12 @@ class SapienCube(CubeEngine):
         cube = sapien.Entity()
         body = px.PhysxRigidDynamicComponent()
         body.attach(shape(px.PhysxCollisionShapeBox(
-            np.full(3, HALF_WIDTH_M, dtype=np.float32), material("cube"))))
+            np.full(3, self.box.half_width_m, dtype=np.float32), material("cube"))))
         cube.add_component(body)
         cube.set_pose(sapien.Pose([0.0, 0.0, 1.0]))
         scene.add_entity(cube)
-        body.set_mass(MASS_KG)
-        body.set_inertia(np.full(3, INERTIA_KG_M2, dtype=np.float32))
+        body.set_mass(self.box.mass_kg)
+        body.set_inertia(np.full(3, self.box.inertia_kg_m2, dtype=np.float32))
         body.set_cmass_local_pose(sapien.Pose())
         for k in _SAPIEN_BODY:
             if f"cube.{k}" in self.params:
@@ -252,10 +251,10 @@ class DartCube(CubeEngine):
     """DART 6 (module doc)."""
 
     def __init__(self, params: Mapping[str, Any] = (), step_s: float = 1.0 / 1480.0,
-                 board_z_m: float = 0.0) -> None:
+                 board_z_m: float = 0.0, box: Box = DAIR_BOX) -> None:
         keys = (*(f"{b}.{k}" for b in ("board", "cube") for k in _DART_SHAPE_KEYS),
                 "collision_detector", "split_impulse")
-        super().__init__(dict(params), step_s, board_z_m, "dart", keys)
+        super().__init__(dict(params), step_s, board_z_m, "dart", keys, box)
 
     def _build(self) -> None:
         import dartpy as dart
@@ -296,10 +295,10 @@ class DartCube(CubeEngine):
         cube = dart.dynamics.Skeleton("cube")
         self._joint, self._node = cube.createFreeJointAndBodyNodePair()
         self._cube_aspect = aspects(self._node.createShapeNode(
-            dart.dynamics.BoxShape([2.0 * HALF_WIDTH_M] * 3)), "cube")
+            dart.dynamics.BoxShape([2.0 * self.box.half_width_m] * 3)), "cube")
         inertia = dart.dynamics.Inertia()
-        inertia.setMass(MASS_KG)
-        inertia.setMoment(np.eye(3) * INERTIA_KG_M2)
+        inertia.setMass(self.box.mass_kg)
+        inertia.setMoment(np.eye(3) * self.box.inertia_kg_m2)
         self._node.setInertia(inertia)
         world.addSkeleton(cube)
         self._world, self._cube = world, cube
@@ -343,7 +342,7 @@ class DartCube(CubeEngine):
                               "collision_detector": str(solver.getCollisionDetector()
                                                         .getType()),
                               "split_impulse": bool(solver.isSplitImpulseEnabled())},
-                "cube_inertia_kg_m2": INERTIA_KG_M2,
+                "cube_inertia_kg_m2": self.box.inertia_kg_m2,
                 "board": f"welded box {2 * DART_BOARD_HALF[0]:g} × {2 * DART_BOARD_HALF[1]:g}"
                          f" × {2 * DART_BOARD_HALF[2]:g} m, top at z = {self.board_z_m:g} m",
                 "step_s": self.step_s}
@@ -402,9 +401,9 @@ class NewtonCube(BatchedCube):
     """Newton with ``SolverSemiImplicit`` (module doc); every toss a world of one model."""
 
     def __init__(self, params: Mapping[str, Any] = (), step_s: float = 1.0 / 1480.0,
-                 board_z_m: float = 0.0) -> None:
+                 board_z_m: float = 0.0, box: Box = DAIR_BOX) -> None:
         keys = tuple(f"{b}.{k}" for b in ("board", "cube") for k in _NEWTON_SHAPE_KEYS)
-        super().__init__(dict(params), step_s, board_z_m, "newton", keys)
+        super().__init__(dict(params), step_s, board_z_m, "newton", keys, box)
 
     def _build(self) -> None:
         wp, newton = _newton()
@@ -423,11 +422,12 @@ class NewtonCube(BatchedCube):
     def _model(self, worlds: int) -> Any:
         wp, newton = self._wp, self._newton
         cube = newton.ModelBuilder(gravity=(0.0, 0.0, -GRAVITY_M_S2))
-        i = INERTIA_KG_M2
+        i = self.box.inertia_kg_m2
         body = cube.add_body(xform=wp.transform((0.0, 0.0, 1.0), wp.quat_identity()),
-                             mass=MASS_KG, inertia=wp.mat33(i, 0, 0, 0, i, 0, 0, 0, i),
+                             mass=self.box.mass_kg, inertia=wp.mat33(i, 0, 0, 0, i, 0, 0, 0, i),
                              lock_inertia=True)
-        cube.add_shape_box(body, hx=HALF_WIDTH_M, hy=HALF_WIDTH_M, hz=HALF_WIDTH_M,
+        h = self.box.half_width_m
+        cube.add_shape_box(body, hx=h, hy=h, hz=h,
                            cfg=self._config("cube", density=0.0))
         scene = newton.ModelBuilder(gravity=(0.0, 0.0, -GRAVITY_M_S2))
         scene.replicate(cube, worlds)
@@ -507,7 +507,7 @@ class NewtonCube(BatchedCube):
                                       "min(kf·|v_t|, μ·f_n)",
                               "solver": "SolverSemiImplicit", "precision": "float32"},
                 "shapes": {"board": b, "cube": c, "engine_default": self._defaults},
-                "cube_inertia_kg_m2": INERTIA_KG_M2,
+                "cube_inertia_kg_m2": self.box.inertia_kg_m2,
                 "board": f"ground plane (half-space) at z = {self.board_z_m:g} m",
                 "step_s": self.step_s, "batched": "one world per toss, one model"}
 
@@ -573,9 +573,10 @@ class MjxCube(BatchedCube, MujocoPlaneCube):
     batch: int | None = MJX_BATCH
 
     def __init__(self, params: Mapping[str, Any] = (), step_s: float = 1.0 / 1480.0,
-                 board_z_m: float = 0.0, batch: int | None = MJX_BATCH) -> None:
+                 board_z_m: float = 0.0, batch: int | None = MJX_BATCH,
+                 box: Box = DAIR_BOX) -> None:
         self.batch = batch
-        MujocoPlaneCube.__init__(self, params, step_s, board_z_m)
+        MujocoPlaneCube.__init__(self, params, step_s, board_z_m, box)
         self.name = "mjx"
 
     def _build(self) -> None:

@@ -53,6 +53,19 @@ VELOCITY_FITS = ("dair", "lstsq")
 
 
 @dataclass(frozen=True)
+class Box:
+    """The tossed cube: half-width h (m), mass (kg), moment of inertia about each principal
+    axis (kg·m²; a uniform cube's is m·(2h)²/6). Default: DAIR's cube."""
+
+    half_width_m: float = HALF_WIDTH_M
+    mass_kg: float = MASS_KG
+    inertia_kg_m2: float = INERTIA_KG_M2
+
+
+DAIR_BOX = Box()
+
+
+@dataclass(frozen=True)
 class Protocol:
     """The replay's options (recorded in every result by :meth:`describe`).
 

@@ -31,7 +31,15 @@ import pandas as pd
 
 import impactbench.cube_tosses.data as data_mod
 import impactbench.cube_tosses.engines as engines_mod
-from impactbench.cube_tosses.protocol import Protocol, prepare, sample_dt, summarize, toss_errors
+from impactbench.cube_tosses.protocol import (
+    DAIR_BOX,
+    Box,
+    Protocol,
+    prepare,
+    sample_dt,
+    summarize,
+    toss_errors,
+)
 
 MODES = ("default", "custom", "tuned")
 
@@ -58,9 +66,12 @@ def engine_parameters(engine: str, mode: str, param_set: str | None = None,
                              "parameters; use mode 'custom'")
         return {}
     if mode == "tuned":
-        if param_set is not None or not params:
+        if param_set is not None:
             raise ValueError(f"param_set = {param_set!r}: tuned mode takes the fitted "
                              "parameters (params = load_tuned(engine)), no parameter set")
+        if not params:
+            raise ValueError(f"params = {params!r}: tuned mode needs the fitted parameters "
+                             "(params = load_tuned(engine))")
         return dict(params)
     if param_set is None and not params:
         raise ValueError(f"param_set = None: custom mode needs a parameter set ("
@@ -89,7 +100,8 @@ def select(df: pd.DataFrame, tosses: str | int | Iterable[int] = "all") -> list[
 def replay(engine: str, mode: str = "default", tosses: str | int | Iterable[int] = "all",
            param_set: str | None = None, data: pd.DataFrame | str | Path | None = None, *,
            params: Mapping[str, Any] | None = None, protocol: Protocol | None = None,
-           progress: Callable[[int, int], None] | None = None) -> dict[str, Any]:
+           progress: Callable[[int, int], None] | None = None, box: Box = DAIR_BOX
+           ) -> dict[str, Any]:
     """Replay ``tosses`` (a split name, an id or ids) of ``data`` (a DataFrame from
     :func:`~impactbench.cube_tosses.data.load`, a CSV path, or None for the packaged tosses)
     in ``engine`` ("pybullet", "mujoco", "drake", "sapien", "dart", "newton", "mjx") under
@@ -99,7 +111,8 @@ def replay(engine: str, mode: str = "default", tosses: str | int | Iterable[int]
     name from :data:`~impactbench.cube_tosses.engines.PARAM_SETS` such as "dair2022", and/or
     ``params``, engine parameters by the engine's own names) or "tuned" (``params`` fitted to
     the training tosses, :mod:`~impactbench.cube_tosses.tune`). One engine instance serves every
-    toss. Returns the dict described in the module doc."""
+    toss. ``box``: the cube (DAIR's by default). Returns the dict described in the module
+    doc."""
     protocol = protocol or Protocol()
     from impactbench.cube_tosses.engines_more import UNSUPPORTED
 
@@ -131,7 +144,7 @@ def replay(engine: str, mode: str = "default", tosses: str | int | Iterable[int]
         (protocol.sample_dt_s or sample_dt(next(data_mod.tosses(df, ids[:1])).t, protocol))
         / protocol.substeps)
 
-    sim = engines_mod.make(engine, eparams, step_s, protocol.board_z_m)
+    sim = engines_mod.make(engine, eparams, step_s, protocol.board_z_m, box)
     try:
         setup = sim.describe()
         t0 = time.perf_counter()

@@ -25,19 +25,18 @@ Results store: with ``store``, a run is looked up by
 fields (box, data path, selection, protocol), the mode, the parameter set, the engine
 parameters and the SHA-256 of the data file; a stored run is returned as stored.
 
-The box: the engine modules build DAIR's cube from their module constants (h, m, I); a box of
-the user's is set by :func:`_box`, which swaps those constants while the engine is built.
+The box: DAIR's cube by default (h, m, I: :class:`~impactbench.cube_tosses.protocol.Box`); a
+box of the user's is passed to :func:`~impactbench.cube_tosses.engines.make`
+(:func:`box_of`) and its inertia read back from the built engine (:func:`_check_box`).
 """
 
 from __future__ import annotations
 
-import contextlib
 import hashlib
 import math
 import os
-import threading
 import time
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -46,7 +45,13 @@ import numpy as np
 
 import impactbench.cube_tosses.data as data_mod
 import impactbench.cube_tosses.engines as engines_mod
-from impactbench.cube_tosses.protocol import SAMPLE_DT_S, Protocol, prepare, rotation_angle
+from impactbench.cube_tosses.protocol import (
+    SAMPLE_DT_S,
+    Box,
+    Protocol,
+    prepare,
+    rotation_angle,
+)
 from impactbench.cube_tosses.replay import engine_parameters, replay, select
 
 MODES = ("default", "custom", "tuned")
@@ -140,34 +145,9 @@ def with_timestep(scenario: Any, timestep_s: float | None) -> tuple[Any, str]:
 # ------------------------------------------------------------------------------ the box
 
 
-_BOX_LOCK = threading.Lock()
-_BOX_NAMES = {"half_width_m": "HALF_WIDTH_M", "mass_kg": "MASS_KG",
-              "inertia_kg_m2": "INERTIA_KG_M2"}
-
-
-@contextlib.contextmanager
-def _box(scenario: Any) -> Iterator[None]:
-    """Build engines with the scenario's box: the engine modules read h, m and I from their
-    module constants when they build a model, so those are swapped for the duration (under a
-    lock). A stopgap until :func:`~impactbench.cube_tosses.engines.make` takes a box; a no-op
-    for DAIR's cube."""
-    import sys
-
-    want = {const: float(getattr(scenario, f)) for f, const in _BOX_NAMES.items()}
-    modules = [m for name in ("impactbench.cube_tosses.engines",
-                              "impactbench.cube_tosses.engines_more")
-               if (m := sys.modules.get(name)) is not None]
-    with _BOX_LOCK:
-        old = [(m, {c: getattr(m, c) for c in want if hasattr(m, c)}) for m in modules]
-        try:
-            for m, consts in old:
-                for c in consts:
-                    setattr(m, c, want[c])
-            yield
-        finally:
-            for m, consts in old:
-                for c, v in consts.items():
-                    setattr(m, c, v)
+def box_of(scenario: Any) -> Box:
+    """The scenario's cube as the engines build it."""
+    return Box(scenario.half_width_m, scenario.mass_kg, scenario.inertia_kg_m2)
 
 
 def _dair_box(scenario: Any) -> bool:
@@ -175,13 +155,6 @@ def _dair_box(scenario: Any) -> bool:
 
     return (scenario.half_width_m, scenario.mass_kg, scenario.inertia_kg_m2) == (
         HALF_WIDTH_M, MASS_KG, INERTIA_KG_M2)
-
-
-def _preload(engine: str) -> None:
-    """Import the module that builds ``engine`` (so :func:`_box` can reach its constants)."""
-    if engine not in ("pybullet", "mujoco", "drake"):
-        with contextlib.suppress(ImportError):
-            import impactbench.cube_tosses.engines_more  # noqa: F401
 
 
 # ------------------------------------------------------------------------------ settings
@@ -359,12 +332,10 @@ def run(engine: str, scenario: Any, mode: str = "default", *, param_set: str | N
                 stored.pop("rel_error", None)
                 return stored
     t0 = time.perf_counter()
-    _preload(engine)
     try:
-        with _box(scenario):
-            out = replay(engine, mode, tosses=scenario.selection, param_set=param_set,
-                         data=str(path) if scenario.data else None, params=params or None,
-                         protocol=protocol_of(scenario), progress=progress)
+        out = replay(engine, mode, tosses=scenario.selection, param_set=param_set,
+                     data=str(path) if scenario.data else None, params=params or None,
+                     protocol=protocol_of(scenario), progress=progress, box=box_of(scenario))
     except ImportError:
         from impactbench.engines.base import EngineUnavailable
 
@@ -402,7 +373,7 @@ def run(engine: str, scenario: Any, mode: str = "default", *, param_set: str | N
 
 def _check_box(scenario: Any, engine: str, params: Mapping[str, Any],
                param_set: str | None, setup: Mapping[str, Any]) -> None:
-    """A box of the user's must have reached the engine (the guard of :func:`_box`)."""
+    """A box of the user's must have reached the engine (its inertia read back)."""
     if _dair_box(scenario):
         return
     eparams = dict(engines_mod.PARAM_SETS.get(engine, {}).get(param_set, {})) | dict(params)
@@ -464,10 +435,9 @@ def trajectories(engine: str, scenario: Any, mode: str, toss_ids: list[int], *,
     starts = [prepare(t, protocol) for t in data_mod.tosses(df, toss_ids)]
     if not starts:
         return []
-    _preload(engine)
     out = []
-    with _box(scenario):
-        sim = engines_mod.make(engine, eparams, starts[0].step_s, protocol.board_z_m)
+    sim = engines_mod.make(engine, eparams, starts[0].step_s, protocol.board_z_m,
+                           box_of(scenario))
     try:
         for s in starts:
             p, q = sim.run(s)
