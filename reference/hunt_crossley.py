@@ -217,7 +217,7 @@ def restitution(alpha: float | np.ndarray) -> float | np.ndarray:
     a = np.asarray(alpha, dtype=float)
     if np.any(~np.isfinite(a)) or np.any(a < 0.0):
         bad = a[~(np.isfinite(a) & (a >= 0.0))].reshape(-1)[0]
-        raise ValueError(f"alpha = {bad!r}: must be >= 0 and finite")
+        raise ValueError(f"alpha = {float(bad)!r}: must be >= 0 and finite")
     ur = _u_restitution(a)
     k = -ur * _e1(a * ur)
     return float(k) if k.ndim == 0 else k
@@ -399,11 +399,11 @@ def _validated_velocities(velocities: Iterable[float] | np.ndarray) -> np.ndarra
     v = np.atleast_1d(np.asarray(list(velocities) if not isinstance(velocities, np.ndarray)
                                  else velocities))
     if v.dtype.kind not in "fiu" or v.dtype.kind == "b":
-        raise ValueError(f"velocities = {v[:3]!r}...: must be real numbers")
+        raise ValueError(f"velocities = {v[:3].tolist()!r}...: must be real numbers")
     v = v.astype(float).reshape(-1)
     bad = ~(np.isfinite(v) & (v > 0.0))
     if np.any(bad):
-        raise ValueError(f"velocity_m_s = {v[bad][0]!r}: must be > 0 and finite")
+        raise ValueError(f"velocity_m_s = {float(v[bad][0])!r}: must be > 0 and finite")
     return v
 
 

@@ -124,7 +124,9 @@ def _edge_time(rec: ImpactRecord, outside: int, inside: int, inner: int) -> floa
     """
     t, x, f = rec.time_s, rec.penetration_m, rec.normal_force_n
     lo, hi = sorted((t[outside], t[inside]))
-    if x[outside] <= 0.0 < x[inside]:
+    # the surfaces meet (or part) between the two samples, or exactly on one of them (a
+    # spring–damper's force is d·ẋ > 0 at the touch itself, so x = 0 can carry force)
+    if x[outside] <= 0.0 <= x[inside] and x[outside] < x[inside]:
         return _lerp_root(t[outside], x[outside], t[inside], x[inside])
     if inner != inside and f[inner] != f[inside]:
         root = _lerp_root(t[inside], f[inside], t[inner], f[inner])

@@ -4,6 +4,9 @@ The closed form of Newton's contact law (damping only while approaching) is chec
 direct integration first; the engine runs then check that law, the force
 derived from the momentum change, the native conversion and the injected reference. Warp
 compiles its kernels once per machine into its kernel cache; the runs here are short.
+
+Tolerances are about 3× the error measured on this machine (warp on CPU, float32), the
+measured number in a comment next to each.
 """
 
 from __future__ import annotations
@@ -26,7 +29,7 @@ from impactbench.engines.newton_adapter import (  # noqa: E402
     approach_damped_restitution,
 )
 from impactbench.reference import hunt_crossley, two_dof  # noqa: E402
-from impactbench.reference.metrics import compute, relative_error  # noqa: E402
+from impactbench.reference.metrics import compute, contacts, relative_error  # noqa: E402
 from impactbench.reference.record import Status  # noqa: E402
 from impactbench.reference.scenarios import BallOnPlate, RigidFlexible  # noqa: E402
 from scipy.integrate import solve_ivp  # noqa: E402
@@ -87,11 +90,12 @@ def test_contact_damps_only_while_approaching(newton: NewtonAdapter) -> None:
     assert rec.meta["float"] == "float32" and rec.meta["solver"] == "featherstone"
     zeta = D / (2.0 * math.sqrt(K * scenario.mass_kg))
     e = compute(rec)["restitution"]
-    assert e == pytest.approx(approach_damped_restitution(zeta), rel=2e-4)
+    assert e == pytest.approx(approach_damped_restitution(zeta), rel=2.7e-4)  # measured 8.9e-5
     assert abs(e - clipped_restitution(zeta)) > 0.05
     inside = rec.penetration_m > 1e-6
     law = K * rec.penetration_m + D * np.maximum(rec.penetration_rate_m_s, 0.0)
-    np.testing.assert_allclose(rec.normal_force_n[inside], law[inside], rtol=2e-3)
+    # measured worst sample 4.8e-4 (float32 state, force from m·Δv/dt)
+    np.testing.assert_allclose(rec.normal_force_n[inside], law[inside], rtol=1.5e-3)
     assert np.all(rec.normal_force_n[rec.penetration_m <= 0.0] == 0.0)
 
 
@@ -100,8 +104,8 @@ def test_native_ball_matches_reference_at_reference_velocity(newton: NewtonAdapt
     rec = newton.run(scenario, "native")
     assert rec.status is Status.OK, rec.message
     err = _errors(compute(rec), hunt_crossley.solve(scenario), ("restitution", "duration_s"))
-    assert err["restitution"] <= 0.005, err
-    assert err["duration_s"] <= 0.01, err
+    assert err["restitution"] <= 2.7e-3, err  # measured 8.9e-4 (at the default 1e-6 s)
+    assert err["duration_s"] <= 1.1e-3, err  # measured 3.6e-4
 
 
 def test_injected_ball_reproduces_reference(newton: NewtonAdapter) -> None:
@@ -109,9 +113,9 @@ def test_injected_ball_reproduces_reference(newton: NewtonAdapter) -> None:
     rec = newton.run(scenario, "injected", RunSettings(timestep_s=1e-7))
     assert rec.status is Status.OK, rec.message
     err = _errors(compute(rec), hunt_crossley.solve(scenario), BALL)
-    assert err["restitution"] <= 0.005, err
-    assert err["duration_s"] <= 0.01, err
-    assert err["peak_force_n"] <= 0.01, err
+    assert err["restitution"] <= 1.3e-7, err  # measured 4.3e-8 (under one float32 ulp)
+    assert err["duration_s"] <= 1.1e-3, err  # measured 3.5e-4
+    assert err["peak_force_n"] <= 1.9e-3, err  # measured 6.1e-4
 
 
 def test_default_mode_records_newton_defaults(newton: NewtonAdapter) -> None:
@@ -123,19 +127,57 @@ def test_default_mode_records_newton_defaults(newton: NewtonAdapter) -> None:
     defaults = rec.meta["engine_defaults"]
     assert defaults["ke"] == 2.5e3 and defaults["kd"] == 100.0
     duration = approach_damped_duration_s(defaults["ke"], defaults["kd"], scenario.mass_kg)
-    assert compute(rec)["duration_s"] == pytest.approx(duration, rel=0.01)
+    # measured 1.07e-3 (the 1e-5 s step against the overdamped closed form)
+    assert compute(rec)["duration_s"] == pytest.approx(duration, rel=3.2e-3)
 
 
-@pytest.mark.parametrize(("local", "mode"), [("elastoplastic", "injected"),
-                                             ("linear", "native")])
-def test_rigid_flexible_matches_reference(newton: NewtonAdapter, local: str, mode: str) -> None:
-    scenario = RigidFlexible(velocity_m_s=3.3, local=local)
+RF_TOL = {  # rel. error at 2e-5 s; measured in the comments
+    ("elastoplastic", "injected", 10.0): {"peak_force_n": 2.5e-5,  # 8.2e-6
+                                          "pulse_width_s": 1.2e-5,  # 3.9e-6
+                                          "impulse_ns": 2.6e-6},  # 8.7e-7
+    ("linear", "native", 3.3): {"peak_force_n": 1.6e-5,  # 5.4e-6
+                                "pulse_width_s": 4.7e-7,  # 1.6e-7
+                                "impulse_ns": 1.0e-6},  # 3.3e-7
+}
+
+
+@pytest.mark.parametrize(("local", "mode", "velocity"), list(RF_TOL))
+def test_rigid_flexible_matches_reference(newton: NewtonAdapter, local: str, mode: str,
+                                          velocity: float) -> None:
+    """At 10 m/s the elastoplastic contact yields (at 3.3 m/s it never passes εs and is the
+    linear law): its second contact runs on the unloading line from the permanent set."""
+    scenario = RigidFlexible(velocity_m_s=velocity, local=local)
     rec = newton.run(scenario, mode, RunSettings(timestep_s=2e-5))
     assert rec.status is Status.OK, rec.message
     ref = two_dof.solve(scenario)
     measured = compute(rec)
     assert measured["impacts"] == ref["impacts"]
-    assert max(_errors(measured, ref, RF).values()) <= 0.01
+    err = _errors(measured, ref, RF)
+    for key, tol in RF_TOL[local, mode, velocity].items():
+        assert err[key] <= tol, (key, err)
+
+
+def test_elastoplastic_contact_yields_and_recontacts_at_its_permanent_set(
+        newton: NewtonAdapter) -> None:
+    """The law's memory at work: at 10 m/s the reference passes the yield point (a 'yield'
+    event), the engine's contact penetrates beyond εs = 0.07 m, and the second contact starts
+    and ends at the permanent set Δx_m − F_m/k1 = (1 − kt/k1)·(Δx_m − εs) of the engine's
+    own largest penetration Δx_m (≈ 1.65 mm; a law without memory would re-contact at 0)."""
+    scenario = RigidFlexible(velocity_m_s=10.0, local="elastoplastic")
+    reference = two_dof.simulate(scenario)
+    assert "yield" in [kind for _, kind, _ in reference.meta["events"]]
+    rec = newton.run(scenario, "injected", RunSettings(timestep_s=2e-5))
+    assert rec.status is Status.OK, rec.message
+    eps, k1, kt = scenario.eps_s_m, scenario.k1_n_per_m, scenario.kt_n_per_m
+    dx_max = float(rec.penetration_m.max())
+    assert dx_max > eps
+    permanent = (1.0 - kt / k1) * (dx_max - eps)
+    ref_permanent = (1.0 - kt / k1) * (float(reference.penetration_m.max()) - eps)
+    assert permanent == pytest.approx(ref_permanent, rel=2e-4)  # measured 6.5e-5
+    second = contacts(rec)[1]
+    at = np.interp([second.start_s, second.end_s], rec.time_s, rec.penetration_m)
+    assert at[0] == pytest.approx(permanent, rel=1.1e-3)  # measured 3.5e-4
+    assert at[1] == pytest.approx(permanent, rel=3.2e-3)  # measured 1.06e-3
 
 
 # --------------------------------------------------------------------------- device-side stepping
@@ -156,7 +198,7 @@ def _assert_same_record(a, b) -> None:
 
 @pytest.mark.parametrize(("scenario", "mode", "dt"), [
     (BallOnPlate(velocity_m_s=5.0), "injected", 1e-7),  # ke from the law in Python per step
-    (RigidFlexible(velocity_m_s=3.3, local="elastoplastic"), "injected", 2e-5),  # + memory
+    (RigidFlexible(velocity_m_s=10.0, local="elastoplastic"), "injected", 2e-5),  # yields
     (RigidFlexible(velocity_m_s=2.0, structure="softening"), "native", 2e-5),  # β·q2³ kernel
 ])
 def test_graph_replay_records_as_the_step_by_step_path(monkeypatch: pytest.MonkeyPatch,

@@ -309,36 +309,36 @@ def test_history_samples_must_be_an_integer_of_at_least_16(bad):
         hc.history(BallOnPlate(), samples=bad)
 
 
-F64 = r"(np\.float64\()?"
-
-
 def test_functions_name_their_bad_arguments():
     law = HuntCrossley()
     cases = [
         (lambda: hc.solve("ball"), r"^scenario = 'ball': must be a BallOnPlate$"),
         (lambda: hc.history("ball"), r"^scenario = 'ball': must be a BallOnPlate$"),
         (lambda: hc.solve_law("law", 0.1, 1.0), r"^law = 'law': must be a HuntCrossley$"),
-        # (the value shows as numpy's repr, np.float64(-0.5), with numpy ≥ 2)
-        (lambda: hc.restitution(-0.5), rf"^alpha = {F64}-0.5\)?: must be >= 0 and finite$"),
-        (lambda: hc.restitution([0.1, -0.5, 0.2]), rf"^alpha = {F64}-0.5\)?: must be"),
-        (lambda: hc.restitution([0.0, -0.5]), rf"^alpha = {F64}-0.5\)?: must be"),  # 0 is valid
-        (lambda: hc.restitution([0.1, math.nan]), rf"^alpha = {F64}nan\)?: must be"),
-        (lambda: hc.restitution([[0.1], [math.inf]]), rf"^alpha = {F64}inf\)?: must be"),
+        # the bad value shows as a plain float, never numpy's repr np.float64(-0.5)
+        (lambda: hc.restitution(-0.5), r"^alpha = -0.5: must be >= 0 and finite$"),
+        (lambda: hc.restitution([0.1, -0.5, 0.2]), r"^alpha = -0.5: must be"),
+        (lambda: hc.restitution([0.0, -0.5]), r"^alpha = -0.5: must be"),  # 0 is valid
+        (lambda: hc.restitution([0.1, math.nan]), r"^alpha = nan: must be"),
+        (lambda: hc.restitution([[0.1], [math.inf]]), r"^alpha = inf: must be"),
         (lambda: hc.sweep([1.0], mass_kg=0.0), r"^mass_kg = 0.0: must be > 0"),
         (lambda: hc.sweep([1.0], stiffness=-1.0), r"^stiffness = -1.0: must be > 0"),
         (lambda: hc.sweep([1.0], exponent=0.0), r"^exponent = 0.0: must be > 0"),
-        (lambda: hc.sweep([1.0, 0.0]), rf"^velocity_m_s = {F64}0.0\)?: must be > 0 and finite"),
+        (lambda: hc.sweep([1.0, 0.0]), r"^velocity_m_s = 0.0: must be > 0 and finite$"),
+        (lambda: hc.sweep(np.array([2.0, -3.5])), r"^velocity_m_s = -3.5: must be > 0"),
         (lambda: hc.sweep(["a", "b", "c", "d"]),
-         r"^velocities = array\(\['a', 'b', 'c'\], dtype='<U1'\)\.\.\.: must be real numbers$"),
-        (lambda: hc.sweep([True, False]), r"^velocities = .*: must be real numbers$"),
+         r"^velocities = \['a', 'b', 'c'\]\.\.\.: must be real numbers$"),
+        (lambda: hc.sweep([True, False]),
+         r"^velocities = \[True, False\]\.\.\.: must be real numbers$"),
         (lambda: hc.velocity(0.0, law, 0.0, 1.0, "compression"), r"^mass_kg = 0.0: must be > 0"),
         (lambda: hc.velocity(0.0, law, 0.1, 0.0, "compression"),
          r"^velocity_m_s = 0.0: must be > 0"),
         (lambda: hc.velocity(0.0, law, 0.1, 1.0, "up"), r"^branch = 'up': must be one of"),
     ]
     for call, message in cases:
-        with pytest.raises(ValueError, match=message):
+        with pytest.raises(ValueError, match=message) as err:
             call()
+        assert "np." not in str(err.value) and "array(" not in str(err.value)
 
 
 def test_scalar_and_array_forms():
