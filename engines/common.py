@@ -176,6 +176,54 @@ def silenced_fds() -> Iterator[None]:
             os.close(fd)
 
 
+@contextlib.contextmanager
+def stderr_without(*noise: str) -> Iterator[None]:
+    """Drop the lines containing any of ``noise`` from what C code writes to file descriptor 2
+    for the duration (e.g. warp's "could not load the CUDA driver" on a CPU-only machine, which
+    a C ``fprintf`` prints whatever Python's warning filters say); every other line is
+    written to stderr afterwards, unchanged."""
+    import ctypes
+    import tempfile
+
+    sys.stderr.flush()
+    saved = os.dup(2)
+    with tempfile.TemporaryFile() as buf:
+        os.dup2(buf.fileno(), 2)
+        try:
+            yield
+        finally:
+            with contextlib.suppress(Exception):
+                ctypes.CDLL(None).fflush(None)
+            os.dup2(saved, 2)
+            os.close(saved)
+            buf.seek(0)
+            kept = [line for line in buf.read().decode(errors="replace").splitlines(True)
+                    if not any(n in line for n in noise)]
+            if kept:
+                sys.stderr.write("".join(kept))
+                sys.stderr.flush()
+
+
+DRAKE_NOISE = ("The TAMSI solver is deprecated",
+               "Rigid (non-deformable) half spaces are not currently supported for deformable")
+"""Drake log lines that say nothing about a rigid-body impact run: TAMSI's deprecation (TAMSI
+is one of the discrete solvers compared, on purpose) and the deformable-contact note on half
+spaces (no deformable bodies here)."""
+
+
+def quiet_drake_log() -> None:
+    """Drop :data:`DRAKE_NOISE` from the ``drake`` logger (idempotent)."""
+    import logging
+
+    log = logging.getLogger("drake")
+    if not any(getattr(f, "impactbench", False) for f in log.filters):
+        def keep(record: logging.LogRecord) -> bool:
+            return not any(n in record.getMessage() for n in DRAKE_NOISE)
+
+        keep.impactbench = True  # type: ignore[attr-defined]
+        log.addFilter(keep)
+
+
 def reference_velocity(options: dict) -> float:
     """The native conversion's reference velocity (m/s): ``options["reference_velocity_m_s"]``
     or :data:`NATIVE_REFERENCE_VELOCITY_M_S`; a non-positive value is a ValueError."""

@@ -192,6 +192,9 @@ def _drake() -> Any:
             import pydrake.all as drake_all
         except ImportError as exc:
             raise EngineUnavailable("drake", str(exc)) from exc
+        from impactbench.engines.common import quiet_drake_log
+
+        quiet_drake_log()
         _DRAKE = drake_all
     return _DRAKE
 

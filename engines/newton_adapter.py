@@ -95,6 +95,7 @@ from impactbench.engines.common import (
     NATIVE_REFERENCE_VELOCITY_M_S,
     SpringDamper,
     classify,
+    stderr_without,
 )
 from impactbench.engines.mujoco_adapter import (
     GAP_STEPS,
@@ -128,7 +129,8 @@ def _newton() -> tuple[Any, Any]:
         raise EngineUnavailable("newton", str(exc)) from exc
     wp.config.quiet = True  # no device banner on stdout
     wp.config.log_level = max(wp.config.log_level, wp.LOG_WARNING)  # nor module load lines
-    wp.init()
+    with stderr_without("Warp CUDA warning: Could not find or load the NVIDIA CUDA driver"):
+        wp.init()  # on a CPU-only machine: the CPU device, and no word about CUDA
     return wp, newton
 
 

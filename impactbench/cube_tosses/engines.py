@@ -208,7 +208,10 @@ class PyBulletCube(CubeEngine):
         super().__init__(dict(params), step_s, board_z_m, "pybullet", keys, box)
 
     def _build(self) -> None:
-        import pybullet as pb
+        from impactbench.engines.common import silenced_fds
+
+        with silenced_fds():  # pybullet prints its build time from C on import
+            import pybullet as pb
 
         self._pb = pb
         self._client = pb.connect(pb.DIRECT)
@@ -454,6 +457,9 @@ class DrakeCube(CubeEngine):
         from pydrake.systems.analysis import Simulator
         from pydrake.systems.framework import DiagramBuilder
 
+        from impactbench.engines.common import quiet_drake_log
+
+        quiet_drake_log()
         approx = self.params.get("discrete_contact_approximation")
         if approx is not None and approx not in DRAKE_APPROXIMATIONS:
             raise ValueError(f"param discrete_contact_approximation = {approx!r}: must be one "
