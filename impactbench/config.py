@@ -7,7 +7,10 @@ tuned); one table per scenario (its spec's ``table``, e.g. ``[ball_on_plate]``):
 axes as a list (``velocities_m_s`` in m/s > 0; categorical axes such as ``local`` and
 ``structure`` as lists of names, defaulting to the spec's), any field of its dataclass
 (``mass_kg``, …) and ``[<table>.timestep_s]`` engine → s;
-``[work_precision]`` velocities_m_s (two or more; ``velocity_m_s`` for one), timesteps_s, modes;
+``[work_precision]`` velocities_m_s (two or more; ``velocity_m_s`` for one), timesteps_s, modes
+(the ball's study), and ``[work_precision.<table>]`` another scenario's at its axes' values
+(e.g. ``[work_precision.oblique] angles_deg = [45.0]``; timesteps_s and modes default to the
+parent's);
 ``[engines.<name>]`` the user's own engine parameters by the engine's names (the adapter's
 ``parameter_keys``, e.g. ``solref = [0.02, 1.0]``): each such engine gets a ``custom`` column;
 ``[tuned]`` engine → a tuned file written by ``impactbench tune --out`` (relative paths are
@@ -84,9 +87,16 @@ class ScenarioMatrix:
 
 @dataclass(frozen=True)
 class WorkPrecision:
+    """A work–precision study: error against wall time over ``timesteps_s``, per mode. The
+    ``[work_precision]`` table's is the ball's at ``velocities_m_s``; a sub-table
+    ``[work_precision.<scenario table>]`` studies that scenario (``scenario``) at ``points``
+    (its axes' values, e.g. the oblique impact at 45°)."""
+
     velocities_m_s: tuple[float, ...]
     timesteps_s: tuple[float, ...]
     modes: tuple[str, ...]
+    scenario: str = ""
+    points: tuple[scenarios.Point, ...] = ()
 
     @property
     def velocity_m_s(self) -> float:
@@ -117,6 +127,8 @@ class ReportConfig:
     engine_params: dict[str, Params] = field(default_factory=dict)
     tuned_files: dict[str, str] = field(default_factory=dict)
     practical: Practical | None = None
+    work_precision_more: tuple[WorkPrecision, ...] = ()
+    """``[work_precision.<table>]``: the other scenarios' work–precision studies."""
     limits: Limits = field(default_factory=Limits)
     """``[plausibility]``: the limits runs are judged by (:mod:`impactbench.plausibility`)."""
     source: str = field(default="", compare=False)
@@ -192,7 +204,7 @@ def _scenario(spec: scenarios.ScenarioSpec, table: dict[str, Any],
     if spec.replay:
         # A data-driven scenario (its spec's ``replay``): its fields, and the runs of the
         # report's "Against real tosses" section: ``engines`` (default the report's),
-        # ``modes`` (default ["default", "custom"]) and ``param_sets`` (custom mode's
+        # ``modes`` (default ["default", "custom", "tuned"]) and ``param_sets`` (custom mode's
         # published parameter sets, default none; each must belong to one of the engines).
         # Paths (``data``) are relative to the working directory. The matrix gets no points of
         # it (one empty axis): its runs are the section's, not the builders'.
@@ -205,7 +217,7 @@ def _scenario(spec: scenarios.ScenarioSpec, table: dict[str, Any],
         except TypeError as exc:
             raise ValueError(f"{name}: {exc}") from None
         own = _names(f"{name}.engines", table.get("engines", list(engines)), engine_names())
-        _names(f"{name}.modes", table.get("modes", ["default", "custom"]), MODES)
+        _names(f"{name}.modes", table.get("modes", ["default", "custom", "tuned"]), MODES)
         hook = scenarios.load(spec.replay)
         for set_name in _names(f"{name}.param_sets", table.get("param_sets", []),
                                tuple(map(str, table.get("param_sets", [])))):
@@ -324,10 +336,16 @@ def parse(data: dict[str, Any], source: str = "") -> ReportConfig:
     matrices = tuple(_scenario(spec, data[name], engines) for name, spec in tables.items()
                      if name in data)
     wp = None
+    wp_more: tuple[WorkPrecision, ...] = ()
     if "work_precision" in data:
         t = data["work_precision"]
-        _check_keys(t, {"velocity_m_s", "velocities_m_s", "timesteps_s", "modes"},
+        subs = {k: v for k, v in t.items() if isinstance(v, dict)}
+        _check_keys(t, {"velocity_m_s", "velocities_m_s", "timesteps_s", "modes"}
+                    | {spec.table for spec in scenarios.specs() if spec.axes
+                       and not spec.replay and "work_precision" not in spec.studies},
                     "work_precision.")
+        wp_more = tuple(w for name, sub in subs.items()
+                        if (w := _work_precision_of(name, sub, t, data)) is not None)
         timesteps = _positive_list("work_precision.timesteps_s", t.get("timesteps_s", []))
         if "velocities_m_s" in t:
             velocities = _positive_list("work_precision.velocities_m_s", t["velocities_m_s"])
@@ -358,9 +376,44 @@ def parse(data: dict[str, Any], source: str = "") -> ReportConfig:
         tuned_files[e] = str(full)
     practical = _practical(data["practical"]) if "practical" in data else None
     return ReportConfig(title, engines, modes, matrices, wp, engine_params, tuned_files,
-                        practical, limits=_limits(data.get("plausibility", {})),
+                        practical, work_precision_more=wp_more,
+                        limits=_limits(data.get("plausibility", {})),
                         source=source, raw=data,
                         execution=_execution(data.get("execution", {})))
+
+
+def _work_precision_of(table_name: str, sub: dict[str, Any], parent: dict[str, Any],
+                       data: dict[str, Any]) -> WorkPrecision | None:
+    """``[work_precision.<table>]``: that scenario's work–precision study. Keys: its axes
+    (lists, e.g. ``angles_deg``; an axis it omits takes the scenario table's values, then the
+    axis's defaults), ``timesteps_s`` and ``modes`` (default the ``[work_precision]`` ones).
+    None when a list is empty (the study dropped)."""
+    import itertools
+
+    spec = next(sp for sp in scenarios.specs() if sp.table == table_name)
+    where = f"work_precision.{table_name}."
+    _check_keys(sub, {a.config_key for a in spec.axes} | {"timesteps_s", "modes"}, where)
+    timesteps = _positive_list(where + "timesteps_s",
+                               sub.get("timesteps_s", parent.get("timesteps_s", [])))
+    modes = _names(where + "modes", sub.get("modes", parent.get("modes",
+                                                              ["native", "injected"])),
+                   ("native", "injected", "default"))
+    own = data.get(table_name, {})
+    axes = []
+    for a in spec.axes:
+        values = sub.get(a.config_key, own.get(a.config_key))
+        if a.categorical:
+            axes.append(_names(where + a.config_key,
+                               list(a.defaults()) if values is None else values, a.allowed()))
+        else:
+            axes.append(_positive_list(where + a.config_key, values or [], a.zero))
+    points = tuple(tuple(zip(spec.axis_names, combo, strict=True))
+                   for combo in itertools.product(*axes))
+    if not (timesteps and points):
+        return None
+    velocities = sorted({v for p in points if (v := dict(p).get("velocity_m_s")) is not None})
+    return WorkPrecision(velocities_m_s=tuple(velocities), timesteps_s=timesteps, modes=modes,
+                         scenario=spec.name, points=points)
 
 
 def _limits(table: dict[str, Any]) -> Limits:

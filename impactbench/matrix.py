@@ -197,6 +197,12 @@ def plan(config: ReportConfig, engines: Iterable[str] | None = None) -> list[Job
                     for dt in wp.timesteps_s:
                         jobs.append(Job(engine, scenario, (("velocity_m_s", v),), mode, dt,
                                         params, study="work_precision"))
+    for more in config.work_precision_more:
+        sm = next((s for s in config.scenarios if s.name == more.scenario), None)
+        params = tuple(sorted(sm.parameters.items())) if sm else ()
+        jobs += [Job(engine, more.scenario, point, mode, dt, params, study="work_precision")
+                 for engine in engines for mode in more.modes for point in more.points
+                 for dt in more.timesteps_s]
     return jobs
 
 

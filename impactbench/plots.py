@@ -30,7 +30,10 @@ MODE_MARKERS = {"native": "s", "injected": "o", "tuned": "^", "default": "D", "c
 LABELS = {"restitution": "restitution k", "duration_s": "duration", "peak_force_n": "peak force",
           "max_penetration_m": "max penetration", "energy_loss_fraction": "energy loss",
           "pulse_width_s": "pulse width", "contact_time_s": "contact time",
-          "impulse_ns": "impulse", "impacts": "impacts"}
+          "impulse_ns": "impulse", "impacts": "impacts", "rebound_angle_deg": "rebound angle",
+          "spin_out_rad_s": "spin after", "tangential_restitution": "tangential restitution",
+          "contact_point_ratio": "contact-point ratio β",
+          "peak_tangential_force_n": "peak friction force"}
 MODE_ORDER = ("native", "injected", "tuned", "default", "custom")
 BAND_LINES = (0.01, 0.05)
 """The report's error bands (1 %, 5 %), marked on the heatmap's colour bar."""
@@ -263,18 +266,25 @@ FAILED_ERROR = 10.0
 
 
 def work_precision(df: pd.DataFrame, metric_names: tuple[str, ...], how: str,
-                   path: Path) -> Path:
+                   path: Path, *, panels: tuple[tuple[str, str], ...] = (
+                       ("velocity_m_s", "V0 = {:g} m/s"),),
+                   title: str = "ball on plate") -> Path:
     """Error against wall time over timesteps, one curve per engine × mode (log–log), one row
-    of panels per impact velocity. Failed runs are drawn as × at |error| = 1000 % (listed in
+    of panels per point (``panels``: (column, label format) of the point's axes; the ball's
+    impact velocity by default). Failed runs are drawn as × at |error| = 1000 % (listed in
     the report's failed runs), unresolved metrics as ▽ there: nothing is dropped."""
     rows = df[df.study == "work_precision"]
-    velocities = sorted(rows.velocity_m_s.unique()) or [math.nan]
-    fig, axes = plt.subplots(len(velocities), len(metric_names),
-                             figsize=(4.2 * len(metric_names), 3.8 * len(velocities)),
+    cols = [c for c, _ in panels]
+    points = sorted({tuple(r) for r in rows[cols].itertuples(index=False)}) or [
+        (math.nan,) * len(cols)]
+    fig, axes = plt.subplots(len(points), len(metric_names),
+                             figsize=(4.2 * len(metric_names), 3.8 * len(points)),
                              squeeze=False)
     resolved = rows.resolved.astype(bool) if "resolved" in rows else rows.status == rows.status
-    for r, v in enumerate(velocities):
-        at_v = rows[rows.velocity_m_s == v]
+    for r, point in enumerate(points):
+        at_v = rows[np.logical_and.reduce([rows[c] == x for c, x in zip(cols, point,
+                                                                           strict=True)])]
+        label = ", ".join(fmt.format(x) for (_, fmt), x in zip(panels, point, strict=True))
         for ax, metric in zip(axes[r], metric_names, strict=True):
             m = at_v[at_v.metric == metric]
             for (engine, mode), g in m.groupby(["engine", "mode"]):
@@ -297,9 +307,9 @@ def work_precision(df: pd.DataFrame, metric_names: tuple[str, ...], how: str,
             ax.axhline(FAILED_ERROR, color="grey", lw=0.5, ls=":")
             ax.set_xlabel("wall time per run (s)")
             ax.set_ylabel(f"|relative error| of {LABELS.get(metric, metric)}")
-            ax.set_title(f"V0 = {v:g} m/s", fontsize=9)
+            ax.set_title(label, fontsize=9)
             ax.grid(alpha=0.3, which="both")
-    fig.suptitle("Work–precision, ball on plate (points: timesteps, coarse to fine; × failed, "
+    fig.suptitle(f"Work–precision, {title} (points: timesteps, coarse to fine; × failed, "
                  "▽ not resolved, both drawn at 1000 %)\n" + how, fontsize=9)
     axes[0][0].legend(fontsize=7)
     return _save(fig, path)

@@ -105,6 +105,13 @@ def modes_text(runs: list[JobResult]) -> str:
     return "modes " + ", ".join(m for m in MODES if m in present)
 
 
+
+def _axis_format(column: str) -> str:
+    """A point's label format from its axis column: ``θ (°)`` → ``θ = {:g} °``."""
+    name, _, unit = column.partition(" (")
+    return f"{name} = {{:g}}" + (f" {unit.rstrip(')')}" if unit else "")
+
+
 def _figures(ctx: ReportContext) -> None:
     """Every report plot into ``ctx.fig_dir``, registered on ``ctx`` with its caption.
 
@@ -145,13 +152,27 @@ def _figures(ctx: ReportContext) -> None:
         path = plots.error_heatmap(df, spec, how, fig_dir / name)
         ctx.add_figure(path, f"|relative error| per engine and mode, {spec.title}; {how}",
                        f"heatmap:{spec.name}")
-    wp = [r for r in ctx.results if r.job.study == "work_precision"]
-    if wp:
-        spec = scenarios.get(wp[0].job.scenario)
-        vs = ", ".join(f"{v:g}" for v in sorted({r.job.velocity_m_s for r in wp}))
-        how = f"{spec.velocity_symbol} = {vs} m/s; {modes_text(wp)}; {timestep_text(wp)}"
-        path = plots.work_precision(df, spec.headline, how,
-                                    fig_dir / "report_work_precision.png")
+    studied = [r for r in ctx.results if r.job.study == "work_precision"]
+    for name in dict.fromkeys(r.job.scenario for r in studied):  # the ball's first
+        wp = [r for r in studied if r.job.scenario == name]
+        spec = scenarios.get(name)
+        numeric = [a for a in spec.axes if not a.categorical]
+        panels = tuple((a.name, _axis_format(a.column)) for a in numeric)
+        if name == scenarios.for_study("work_precision").name:
+            vs = ", ".join(f"{v:g}" for v in sorted({r.job.velocity_m_s for r in wp}))
+            how = f"{spec.velocity_symbol} = {vs} m/s; {modes_text(wp)}; {timestep_text(wp)}"
+            path = plots.work_precision(df[df.scenario == name], spec.headline, how,
+                                        fig_dir / "report_work_precision.png")
+        else:
+            where = "; ".join(
+                _axis_format(a.column).replace("{:g}", ", ".join(
+                    f"{v:g}" for v in sorted({dict(r.job.point)[a.name] for r in wp})))
+                for a in numeric)
+            how = f"{where}; {modes_text(wp)}; {timestep_text(wp)}"
+            stem = spec.figure_stem or name.replace("-", "_")
+            path = plots.work_precision(df[df.scenario == name], spec.headline, how,
+                                        fig_dir / f"report_work_precision_{stem}.png",
+                                        panels=panels, title=spec.title.lower())
         ctx.add_figure(path, f"Work–precision, {spec.title.lower()}; {how}", "work_precision")
     pr = [r for r in ctx.results if r.job.study == "practical"]
     if pr:
