@@ -151,7 +151,10 @@ def _extend_faded(rec: ImpactRecord, firsts: list[int], lasts: list[int],
     out_l: list[int] = []
     for i, j in zip(firsts, lasts, strict=True):
         if out_l and i <= out_l[-1]:
-            continue  # swallowed by the previous, extended contact
+            # starts inside the previous, extended contact: part of it, to its own end if
+            # that is later (force beyond the parting point, e.g. from a contact margin)
+            out_l[-1] = max(out_l[-1], j)
+            continue
         if j < n - 1 and x[j + 1] > 0.0 and _faded(f, i, j):
             apart = np.flatnonzero(x[j + 1:] <= 0.0)
             j = j + apart[0] if apart.size else n - 1

@@ -301,6 +301,17 @@ def test_chatter_inside_a_fading_contact_is_the_same_contact() -> None:
     assert metrics.compute(rec)["impacts"] == 2
 
 
+def test_a_force_run_that_outlasts_the_fading_contact_it_starts_in_extends_it() -> None:
+    """A blip that starts before the surfaces part (sample 8, x = 0.25) and pushes on past the
+    parting (samples 9–10 at x < 0: a contact margin's force) belongs to the fading contact,
+    and so does its force: the contact ends with it (found by the mutation run: the run's end
+    was dropped, leaving force at samples 9–10 in no contact)."""
+    x = [-0.5, 0.5, 1.5, 2.0, 2.0, 1.5, 1.0, 0.75, 0.25, -0.75, -1.0, -1.5, -2.0]
+    f = [*FADE[:8], 1e-3, 1e-3, 1e-3, 0.0, 0.0]
+    (edge,) = edges(record(x, f))
+    assert (edge[2], edge[3]) == (1, 10)
+
+
 def test_penetration_after_the_force_let_go_is_not_the_contacts() -> None:
     """A ball tunnelling on through the plate after its contact let go (force 3, 2, 1, then
     none while x keeps growing): the max penetration is the contact's largest sample, 1.25,
