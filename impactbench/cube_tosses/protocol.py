@@ -39,12 +39,15 @@ import numpy as np
 
 from impactbench.cube_tosses.data import Toss
 
-HALF_WIDTH_M = 0.0524
-"""Half the cube's edge, h (m); DAIR's ``BLOCK_HALF_WIDTH``."""
-MASS_KG = 0.37
-INERTIA_KG_M2 = 0.00081
-"""The cube's moment of inertia about each principal axis (kg·m², DAIR's ``cube.urdf``)."""
-GRAVITY_M_S2 = 9.81
+# DAIR's cube (h: BLOCK_HALF_WIDTH, m, I) and the box type, defined with the reference model
+from impactbench.reference.box_contact import (
+    GRAVITY_M_S2,
+    HALF_WIDTH_M,
+    INERTIA_KG_M2,
+    MASS_KG,
+    Box,
+)
+
 SAMPLE_DT_S = 1.0 / 148.0
 """The motion capture's sample interval (148 Hz)."""
 
@@ -52,17 +55,9 @@ START_RULES = ("drop", "first")
 VELOCITY_FITS = ("dair", "lstsq")
 
 
-@dataclass(frozen=True)
-class Box:
-    """The tossed cube: half-width h (m), mass (kg), moment of inertia about each principal
-    axis (kg·m²; a uniform cube's is m·(2h)²/6). Default: DAIR's cube."""
-
-    half_width_m: float = HALF_WIDTH_M
-    mass_kg: float = MASS_KG
-    inertia_kg_m2: float = INERTIA_KG_M2
-
-
 DAIR_BOX = Box()
+"""DAIR's cube as the engines build it (:class:`impactbench.reference.box_contact.Box`, the
+one box type of the scenario, the engines and the reference model)."""
 
 
 @dataclass(frozen=True)
@@ -313,3 +308,8 @@ def summarize(per_toss: Iterable[Mapping[str, Any]]) -> dict[str, Any]:
         else:
             out |= {f"{m}_{s}": math.nan for s in ("mean", "median", "q1", "q3")}
     return out
+
+
+__all__ = ["DAIR_BOX", "GRAVITY_M_S2", "HALF_WIDTH_M", "INERTIA_KG_M2", "MASS_KG", "SAMPLE_DT_S",
+           "Box", "Protocol", "Start", "prepare", "refit_velocity", "rotation_angle",
+           "sample_dt", "start_index", "summarize", "toss_errors"]
