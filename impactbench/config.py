@@ -204,11 +204,15 @@ def _scenario(spec: scenarios.ScenarioSpec, table: dict[str, Any],
     if spec.replay:
         # A data-driven scenario (its spec's ``replay``): its fields, and the runs of the
         # report's "Against real tosses" section: ``engines`` (default the report's),
-        # ``modes`` (default ["default", "custom", "tuned"]) and ``param_sets`` (custom mode's
+        # ``modes`` (default ["default", "custom", "tuned"]), ``model`` (the reference
+        # model's row, default true) and ``param_sets`` (custom mode's
         # published parameter sets, default none; each must belong to one of the engines).
         # Paths (``data``) are relative to the working directory. The matrix gets no points of
         # it (one empty axis): its runs are the section's, not the builders'.
-        _check_keys(table, fields | {"engines", "modes", "param_sets"}, f"{name}.")
+        _check_keys(table, fields | {"engines", "modes", "param_sets", "model"}, f"{name}.")
+        if not isinstance(table.get("model", True), bool):
+            raise _fail(f"{name}.model", table["model"], "must be true or false (the "
+                        "reference model's row)")
         params = {k: table[k] for k in sorted(fields) if k in table}
         try:
             scenario = spec.cls(**params)

@@ -52,9 +52,9 @@ def error_cdf(runs: Sequence[CdfRun], how: str, path: Path) -> Path:
             if not x.size:
                 continue
             y = np.arange(1, x.size + 1) / x.size
-            line, = ax.step(np.r_[x[0], x], np.r_[0.0, y], where="post",
-                            color=ENGINE_COLORS.get(engine), linestyle=STYLES.get(mode, ":"),
-                            label=name)
+            color = "black" if engine == "reference" else ENGINE_COLORS.get(engine)
+            line, = ax.step(np.r_[x[0], x], np.r_[0.0, y], where="post", color=color,
+                            linestyle=STYLES.get(mode, ":"), label=name)
             ax.plot([np.median(x)], [0.5], "o", color=line.get_color(), ms=4)
         ax.set_xscale("log")
         ax.xaxis.set_major_locator(LogLocator(base=10, subs=(1.0, 2.0, 5.0)))

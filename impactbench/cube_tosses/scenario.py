@@ -385,6 +385,57 @@ def _check_box(scenario: Any, engine: str, params: Mapping[str, Any],
                            f"{scenario.inertia_kg_m2:g}: its replay ignores the box")
 
 
+# ------------------------------------------------------------------------------ the model
+
+
+MODEL_LABEL = "reference model"
+"""How the report names the reference model's row (:mod:`~impactbench.cube_tosses.
+reference_model`: a rigid box with compliant corners, fitted on training tosses)."""
+
+
+def model_run(scenario: Any, *, store: Any = None, fresh: bool = False) -> dict[str, Any]:
+    """The reference model's replay of ``scenario``'s tosses with its packaged fit (the model
+    floor of the comparison: what a converged continuous contact model reaches, no time
+    step in the way): :func:`~impactbench.cube_tosses.reference_model.replay_reference`'s
+    dict plus ``message``, ``engine_version`` (scipy's), ``timestep_s`` (none: adaptive),
+    ``box`` and ``wall_s``; kept in ``store`` keyed by the box, data, selection, protocol,
+    the fitted file's SHA-256 and impactbench's version."""
+    from importlib import metadata
+
+    from impactbench.cube_tosses import reference_model as model
+    from impactbench.store import _canonical, impactbench_version, run_key
+
+    path = data_path(scenario)
+    version = f"scipy {metadata.version('scipy')}"
+    key = inputs = None
+    if store is not None:
+        inputs = _canonical({"engine": model.ENGINE, "engine_version": version,
+                             "impactbench_version": impactbench_version(),
+                             "scenario": type(scenario).name, "physics": scenario.to_dict(),
+                             "mode": "fitted", "data_sha256": data_sha256(path),
+                             "fitted_sha256": hashlib.sha256(
+                                 model.FITTED_PATH.read_bytes()).hexdigest()})
+        key = run_key(inputs)
+        if not fresh:
+            got = store.get([key])
+            if key in got:
+                stored = dict(got[key][0])
+                stored.pop("rel_error", None)
+                return stored
+    t0 = time.perf_counter()
+    out = model.replay_reference(scenario.selection, None, str(path) if scenario.data else None,
+                                 protocol_of(scenario), box=box_of(scenario))
+    result = {**out, "message": _message(out), "engine_version": version,
+              "timestep_s": None, "timestep_source": "adaptive (scipy LSODA)",
+              "substeps": None, "box": _box_of(scenario), "wall_s": time.perf_counter() - t0}
+    if store is not None:
+        job = {"engine": model.ENGINE, "mode": "fitted", "scenario": type(scenario).name,
+               "point": (), "study": "replay"}
+        store.put([(key, inputs, job,
+                    {**result, "rel_error": dict.fromkeys(METRIC_KEYS, math.nan)}, {})])
+    return result
+
+
 # ------------------------------------------------------------------------------ measurement
 
 

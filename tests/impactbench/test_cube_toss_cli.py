@@ -309,11 +309,24 @@ def test_report_section_renders_with_a_tiny_config(tmp_path) -> None:
                      "report_cube_toss_pybullet_default_trajectories.png",
                      "report_cube_toss_pybullet_tuned_trajectories.png"]
     assert md.count("![") == 4 and "<img" in docs["html"]
+    # the reference model's row first (the model floor), its numbers the model's replay
+    from impactbench.cube_tosses.reference_model import replay_reference
+
+    model = replay_reference(IDS)
+    assert "| reference model (scipy " in md and "| fitted | reference.toml | 3/3 | " in md
+    assert f"| {model['position_error_median']:.3f} [" in md
+    assert md.index("| reference model") < md.index("| pybullet ")
     # toss 1 is a training toss (data.split): the tuned row says it is not held out
     assert "1 of the 3 tosses are training tosses the parameters were fitted on" in md
     empty = ReportContext(config.parse({"report": {"engines": ["pybullet"]}}), pd.DataFrame(),
                           {}, tmp_path / "rep")
     assert real_tosses(empty) is None  # no [cube_toss] table, no section
+
+
+def test_the_model_row_can_be_left_out_and_its_key_is_checked(tmp_path) -> None:
+    assert config.parse({"cube_toss": {"model": False}}).raw["cube_toss"]["model"] is False
+    with pytest.raises(ValueError, match=r"cube_toss\.model = 'yes': must be true or false"):
+        config.parse({"cube_toss": {"model": "yes"}})
 
 
 def test_trajectories_start_at_the_measured_pose() -> None:
