@@ -517,28 +517,38 @@ def tune(engine: str, budget: int, *, seed: int = SEED,
     wall = time.perf_counter() - t0
 
     test = all_tosses = None
+    hits = store.hits  # the fit's own evaluations served from the cache
     if score:
-        all_tosses = score_params(engine, params, df, "all", protocol)
+        all_tosses = score_params(engine, params, df, "all", protocol, store)
         test = split_summary(all_tosses, "test")
     return CubeTuneFit(
         engine=engine, params=params, knobs=best_knobs, start_knobs=_plain(start_knobs),
         space=[k.describe() for k in knobs], objective_start=objective_start,
         objective=objective, train=best_ev.summary(ids), test=test, all_tosses=all_tosses,
-        evaluations=len(history), cache_hits=store.hits, budget=budget, seed=seed,
+        evaluations=len(history), cache_hits=hits, budget=budget, seed=seed,
         optimizer=optimizer, optimizer_version=f"nevergrad {engines_mod._version('nevergrad')}",
         engine_version=version, train_ids=ids, train_ids_hash=ids_hash(ids), data_hash=dhash,
         protocol=protocol.describe(), wall_time_s=wall, history=history)
 
 
 def score_params(engine: str, params: Mapping[str, Any], data: pd.DataFrame | None = None,
-                 tosses: str | Iterable[int] = "test", protocol: Protocol | None = None
-                 ) -> dict[str, Any]:
-    """``params`` replayed on a split or ids (not for fitting): the summary of both errors."""
+                 tosses: str | Iterable[int] = "test", protocol: Protocol | None = None,
+                 cache: EvalCache | None = None) -> dict[str, Any]:
+    """``params`` replayed on a split or ids (not for fitting): the summary of both errors.
+    ``cache``: served from / kept in an :class:`EvalCache` (a rerun scores nothing again)."""
     protocol = protocol or Protocol()
     df = data if data is not None else data_mod.load()
     ids = (data_mod.split(data_mod.toss_ids(df), tosses) if isinstance(tosses, str)
            else [int(i) for i in tosses])
-    ev = evaluate(engine, params, _starts(df, ids, protocol), protocol)
+    key = ev = None
+    if cache is not None:
+        key = EvalCache.key(engine, engine_version(engine), params, protocol, ids,
+                            data_hash(df, ids))
+        ev = cache.get(key)
+    if ev is None:
+        ev = evaluate(engine, params, _starts(df, ids, protocol), protocol)
+        if cache is not None:
+            cache.put(key, engine, params, ev)
     per_toss = [{"toss": i, "position_error": p, "rotation_error_deg": r}
                 for i, p, r in zip(ids, ev.position_error, ev.rotation_error_deg, strict=True)]
     return {**ev.summary(ids), "split": tosses if isinstance(tosses, str) else "ids",
