@@ -32,8 +32,8 @@ key the file sets replaces the default's value (lists are replaced, not appended
 ``[report] engines = ["mujoco"]`` alone is the default report for MuJoCo only. To drop a
 default section, empty it: ``[ball_on_plate] velocities_m_s = []``, ``[rigid_flexible]
 velocities_m_s = []`` (an empty velocity list drops that scenario), ``[work_precision]
-timesteps_s = []``, ``[practical] velocities_m_s = []``. :func:`parse` of a dict does not
-layer: the dict is the whole config.
+timesteps_s = []``, ``[practical] velocities_m_s = []``, ``[cube_toss] engines = []``.
+:func:`parse` of a dict does not layer: the dict is the whole config.
 
 A bad file raises ValueError with one line naming the key (``rigid_flexible.velocities_m_s``),
 the value and the rule. The work-precision and practical studies run the first scenario whose
@@ -196,7 +196,7 @@ def _timesteps(key: str, value: Any, engines: tuple[str, ...]) -> dict[str, floa
 
 
 def _scenario(spec: scenarios.ScenarioSpec, table: dict[str, Any],
-              engines: tuple[str, ...]) -> ScenarioMatrix:
+              engines: tuple[str, ...]) -> ScenarioMatrix | None:
     from impactbench.scenario_file import apply_options, option_keys
 
     name = spec.table
@@ -221,6 +221,8 @@ def _scenario(spec: scenarios.ScenarioSpec, table: dict[str, Any],
         except TypeError as exc:
             raise ValueError(f"{name}: {exc}") from None
         own = _names(f"{name}.engines", table.get("engines", list(engines)), engine_names())
+        if "engines" in table and not own:
+            return None  # ``engines = []``: the section dropped (the model's row with it)
         _names(f"{name}.modes", table.get("modes", ["default", "custom", "tuned"]), MODES)
         hook = scenarios.load(spec.replay)
         for set_name in _names(f"{name}.param_sets", table.get("param_sets", []),
@@ -337,8 +339,8 @@ def parse(data: dict[str, Any], source: str = "") -> ReportConfig:
     engines = _names("report.engines", report.get("engines", list(engine_names())),
                      engine_names())
     modes = _names("report.modes", report.get("modes", list(MODES)), MODES)
-    matrices = tuple(_scenario(spec, data[name], engines) for name, spec in tables.items()
-                     if name in data)
+    matrices = tuple(m for name, spec in tables.items() if name in data
+                     if (m := _scenario(spec, data[name], engines)) is not None)
     wp = None
     wp_more: tuple[WorkPrecision, ...] = ()
     if "work_precision" in data:

@@ -278,11 +278,15 @@ def build(cfg: config_mod.ReportConfig, out_dir: Path, *, engines: list[str] | N
     commit = git_commit(exclude=out_dir)  # before anything is written
     with publish.writer_lock(out_dir):
         jobs = plan(cfg, engines)
-        if not jobs:
-            tables = " or ".join(f"[{s.table}]" for s in scenarios.specs())
+        replays = [s for s in cfg.scenarios if scenarios.get(s.name).replay]
+        if not jobs and not replays:
+            tables = " or ".join(f"[{s.table}] {s.axes[0].config_key}" for s in
+                                 scenarios.specs() if s.axes and not s.replay)
+            data = " or ".join(f"[{s.table}]" for s in scenarios.specs() if s.replay)
             raise ValueError(f"config {cfg.source or '<inline>'}: nothing to run (no "
-                             f"{tables} velocities_m_s, or no [work_precision] timesteps_s); "
-                             "see impactbench/data/default.toml")
+                             f"{tables}, no [work_precision] timesteps_s"
+                             + (f", no {data} table" if data else "") + "); see "
+                             "impactbench/data/default.toml")
         update, close = progress_bar(len(jobs)) if show_progress else ((lambda n: None),
                                                                         (lambda: None))
         try:

@@ -37,7 +37,8 @@ def blocked(tmp_path: Path) -> Path:
                                   '[rigid_flexible]\nvelocities_m_s = []\n'
                                   '[oblique]\nvelocities_m_s = []\n'
                                   '[work_precision]\ntimesteps_s = []\n'
-                                  '[practical]\nvelocities_m_s = []\n'])
+                                  '[practical]\nvelocities_m_s = []\n'
+                                  '[cube_toss]\nengines = []\n'])
 def test_a_config_with_nothing_to_run_is_one_line(capsys, tmp_path: Path, text: str) -> None:
     config = tmp_path / "c.toml"
     config.write_text(text)

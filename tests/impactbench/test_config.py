@@ -14,7 +14,8 @@ from impactbench.cli import main
 
 def test_default_config_is_the_issue_matrix() -> None:
     cfg = config.load()
-    ball, rf, oblique = cfg.scenarios
+    ball, rf, oblique, cube = cfg.scenarios
+    assert cube.name == "cube-toss" and cube.points() == []  # the real tosses' section
     assert oblique.values("angle_deg") == (20.0, 45.0, 60.0, 80.0)
     assert oblique.parameters == {"friction": 0.3}
     assert ball.velocities_m_s == (0.5, 1.0, 2.0, 3.0, 4.0, 5.0)

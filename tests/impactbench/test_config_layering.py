@@ -26,6 +26,8 @@ velocities_m_s = []
 timesteps_s = []
 [practical]
 velocities_m_s = []
+[cube_toss]
+engines = []
 """
 
 
@@ -52,7 +54,7 @@ def test_tables_merge_key_by_key_and_lists_replace(tmp_path: Path) -> None:
     cfg = config.load(write(tmp_path, "[ball_on_plate]\nvelocities_m_s = [2.0]\n"
                                       "[ball_on_plate.timestep_s]\nmujoco = 1e-5\n"
                                       "[practical.timesteps_s]\nmujoco = [1e-3]\n"))
-    ball, rf, _oblique = cfg.scenarios
+    ball, rf, _oblique, _cube = cfg.scenarios
     assert ball.velocities_m_s == (2.0,)  # replaced, not appended
     assert ball.timestep_s["mujoco"] == 1e-5 and ball.timestep_s["drake"] == 1e-6  # merged
     assert rf.velocities_m_s == (2.0, 10.0)  # the default's
@@ -64,6 +66,7 @@ def test_tables_merge_key_by_key_and_lists_replace(tmp_path: Path) -> None:
 def test_every_default_section_can_be_dropped(tmp_path: Path) -> None:
     cfg = config.load(write(tmp_path, '[report]\nengines = ["mujoco"]\n' + DROP_ALL))
     assert all(not s.points() for s in cfg.scenarios)
+    assert "cube-toss" not in {s.name for s in cfg.scenarios}  # engines = []: dropped
     assert cfg.work_precision is None and cfg.practical is None
     assert matrix.plan(cfg) == []
 

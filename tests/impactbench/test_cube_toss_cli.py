@@ -284,8 +284,10 @@ def test_config_table_plans_no_matrix_jobs_and_checks_its_keys(tmp_path) -> None
                          ({"velocities_m_s": [1.0]}, "cube_toss.velocities_m_s: unknown key")):
         with pytest.raises(ValueError, match=words.replace("(", r"\(").replace(")", r"\)")):
             tiny_config(tmp_path, **table)
-    assert "cube_toss" not in (Path(config.__file__).parent / "data" /
-                               "default.toml").read_text()
+    # the packaged default replays the test split beside DAIR's sets (Against real tosses)
+    (cube,) = [s for s in config.load().scenarios if s.name == NAME]
+    assert cube.points() == [] and cube.parameters == {"tosses": "test"}
+    assert config.load().raw["cube_toss"]["param_sets"] == ["dair2022"]
 
 
 def test_report_section_renders_with_a_tiny_config(tmp_path) -> None:

@@ -39,7 +39,8 @@ def only_ball(engine: str, velocities: list[float]) -> str:
     for spec in scenarios.specs():
         if spec.table != "ball_on_plate" and "velocities_m_s" in default.get(spec.table, {}):
             lines.append(f"[{spec.table}]\nvelocities_m_s = []")
-    lines += ["[practical]\nvelocities_m_s = []", "[work_precision]\ntimesteps_s = []"]
+    lines += ["[practical]\nvelocities_m_s = []", "[work_precision]\ntimesteps_s = []",
+              "[cube_toss]\nengines = []"]
     return "\n".join(lines) + "\n"
 
 

@@ -30,6 +30,8 @@ velocities_m_s = []
 velocities_m_s = []
 [practical]
 velocities_m_s = []
+[cube_toss]
+engines = []
 """
 SMALL = BASE + """
 [work_precision]

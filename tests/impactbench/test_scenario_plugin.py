@@ -158,7 +158,8 @@ def test_report_has_the_plugin_section(plugin, tmp_path: Path) -> None:
                       "[ball_on_plate]\nvelocities_m_s = []\n"
                       "[rigid_flexible]\nvelocities_m_s = []\n"
                       "[oblique]\nvelocities_m_s = []\n"
-                      "[work_precision]\ntimesteps_s = []\n[practical]\nvelocities_m_s = []\n")
+                      "[work_precision]\ntimesteps_s = []\n[practical]\nvelocities_m_s = []\n"
+                      "[cube_toss]\nengines = []\n")
     out = tmp_path / "report"
     done = cli(plugin, "report", "--config", str(config), "--out", str(out))
     assert done.returncode == 0, done.stdout + done.stderr
