@@ -619,6 +619,23 @@ def _picks(per_toss: list[dict[str, Any]]) -> list[tuple[str, int]]:
             if not (int(r["toss"]) in seen or seen.add(int(r["toss"])))]
 
 
+def _replay_row(who: str, mode: str, param_set: str, out: dict[str, Any]) -> list[Cell]:
+    """One row of the real-tosses table: who ran, mode, parameter set, tosses ok, the
+    quartiles of both errors, their means and the run's message."""
+    status = str(out["status"])
+    numbers = status in ("ok", "partial")
+    n_ok = out["tosses"] - len(out.get("failed") or [])
+    na = Cell("—", "na")
+    return [Cell(who), Cell(mode), Cell(param_set),
+            Cell(f"{n_ok}/{out['tosses']}" if numbers else status,
+                 "" if status == "ok" else "fail"),
+            _quartiles(out, "position_error", ".3f") if numbers else na,
+            _quartiles(out, "rotation_error_deg", ".1f") if numbers else na,
+            Cell(f"{out['position_error_mean']:.3f} / {out['rotation_error_deg_mean']:.1f}")
+            if numbers else na,
+            Cell(str(out.get("message") or ""), wrap=True)]
+
+
 def _real_tosses_part(ctx: ReportContext, spec: scenarios.ScenarioSpec, sm: Any
                       ) -> dict[str, Any]:
     """One data-driven scenario's part of "Against real tosses" (see :func:`real_tosses`)."""
@@ -640,19 +657,8 @@ def _real_tosses_part(ctx: ReportContext, spec: scenarios.ScenarioSpec, sm: Any
 
         out = model_run(scenario, store=store)
         numbers = out["status"] in ("ok", "partial")
-        rows.append([Cell(f"{MODEL_LABEL} ({out['engine_version']})"), Cell("fitted"),
-                     Cell("reference.toml"),
-                     Cell(f"{out['tosses'] - len(out.get('failed') or [])}/{out['tosses']}"
-                          if numbers else str(out["status"]),
-                          "" if out["status"] == "ok" else "fail"),
-                     _quartiles(out, "position_error", ".3f") if numbers
-                     else Cell("—", "na"),
-                     _quartiles(out, "rotation_error_deg", ".1f") if numbers
-                     else Cell("—", "na"),
-                     Cell(f"{out['position_error_mean']:.3f} / "
-                          f"{out['rotation_error_deg_mean']:.1f}") if numbers
-                     else Cell("—", "na"),
-                     Cell(str(out.get("message") or ""), wrap=True)])
+        rows.append(_replay_row(f"{MODEL_LABEL} ({out['engine_version']})", "fitted",
+                                "reference.toml", out))
         if numbers:
             cdf.append((MODEL_LABEL, "reference", "fitted", out["per_toss"]))
     for engine in engines:
@@ -675,22 +681,10 @@ def _real_tosses_part(ctx: ReportContext, spec: scenarios.ScenarioSpec, sm: Any
             for param_set in choices:
                 with stdout_to_stderr():
                     out = hook(engine, scenario, mode, param_set=param_set, store=store)
-                status = str(out["status"])
-                numbers = status in ("ok", "partial")
+                numbers = str(out["status"]) in ("ok", "partial")
                 label = f"{engine} {mode}" + (f" {param_set}" if param_set else "")
-                n_ok = out["tosses"] - len(out.get("failed") or [])
-                rows.append([
-                    Cell(f"{engine} {out.get('engine_version') or ''}".strip()), Cell(mode),
-                    Cell(param_set or "—"),
-                    Cell(f"{n_ok}/{out['tosses']}" if numbers else status,
-                         "" if status == "ok" else "fail"),
-                    _quartiles(out, "position_error", ".3f") if numbers else Cell("—", "na"),
-                    _quartiles(out, "rotation_error_deg", ".1f") if numbers
-                    else Cell("—", "na"),
-                    Cell(f"{out['position_error_mean']:.3f} / "
-                         f"{out['rotation_error_deg_mean']:.1f}") if numbers
-                    else Cell("—", "na"),
-                    Cell(str(out.get("message") or ""), wrap=True)])
+                rows.append(_replay_row(f"{engine} {out.get('engine_version') or ''}".strip(),
+                                        mode, param_set or "—", out))
                 if numbers:
                     cdf.append((label, engine, mode, out["per_toss"]))
                     done.append((label, engine, mode, param_set, out))

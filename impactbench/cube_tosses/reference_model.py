@@ -43,7 +43,6 @@ import argparse
 import math
 import os
 import time
-import warnings
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from concurrent.futures import Executor, ProcessPoolExecutor
 from dataclasses import dataclass, field
@@ -63,6 +62,7 @@ from impactbench.cube_tosses.tune import (
     Knob,
     data_hash,
     ids_hash,
+    search,
     training_ids,
 )
 from impactbench.reference import box_contact as bc
@@ -342,17 +342,6 @@ class ReferenceFit:
     history: list[tuple[dict[str, float], float]] = field(default_factory=list)
 
 
-def _parametrization(knobs: Sequence[Knob], seed: int) -> Any:
-    import nevergrad as ng
-
-    entries = {k.name: (ng.p.Log(init=k.start, lower=k.low, upper=k.high) if k.log
-                        else ng.p.Scalar(init=k.start, lower=k.low, upper=k.high))
-               for k in knobs}
-    p = ng.p.Dict(**entries)
-    p.random_state = np.random.RandomState(seed)
-    return p
-
-
 def fit(budget: int = 200, tosses: str | Iterable[int] = "train", seed: int = SEED,
         workers: int = 1, *, stride: int = STRIDE, law: str = "hunt-crossley",
         optimizer: str = OPTIMIZER, df: pd.DataFrame | str | Path | None = None,
@@ -404,14 +393,7 @@ def fit(budget: int = 200, tosses: str | Iterable[int] = "train", seed: int = SE
             return obj
 
         start_knobs = {k.name: float(k.start) for k in knobs}
-        objective_start = run(start_knobs)
-        opt = ng.optimizers.registry[optimizer](parametrization=_parametrization(knobs, seed),
-                                                budget=budget - 1, num_workers=1)
-        with warnings.catch_warnings():
-            warnings.filterwarnings("ignore", message=".*orphanated injected solution")
-            for _ in range(budget - 1):
-                cand = opt.ask()
-                opt.tell(cand, run(cand.value))
+        objective_start = search(knobs, run, budget, seed, optimizer)
         assert best is not None
         objective, best_knobs, best_rows = best
         wall = time.perf_counter() - t0

@@ -416,6 +416,25 @@ def _parametrization(knobs: Sequence[Knob], seed: int) -> Any:
     return p
 
 
+def search(knobs: Sequence[Knob], run: Callable[[Mapping[str, Any]], float], budget: int,
+           seed: int, optimizer: str = DEFAULT_OPTIMIZER) -> float:
+    """Evaluate the start (each knob's ``start``), then ``budget − 1`` candidates of the
+    nevergrad ``optimizer`` seeded with ``seed`` (one at a time: ask, ``run``, tell); ``run``
+    keeps what it needs (the best). Returns the start's objective."""
+    import nevergrad as ng
+
+    objective_start = run({k.name: k.start for k in knobs})
+    opt = ng.optimizers.registry[optimizer](parametrization=_parametrization(knobs, seed),
+                                            budget=budget - 1, num_workers=1)
+    with warnings.catch_warnings():
+        # cma's "orphanated injected solution": nevergrad injects its candidates; harmless
+        warnings.filterwarnings("ignore", message=".*orphanated injected solution")
+        for _ in range(budget - 1):
+            cand = opt.ask()
+            opt.tell(cand, run(cand.value))
+    return objective_start
+
+
 def _plain(values: Mapping[str, Any]) -> dict[str, Any]:
     return {k: (v if isinstance(v, str) else float(v)) for k, v in values.items()}
 
@@ -502,15 +521,7 @@ def tune(engine: str, budget: int, *, seed: int = SEED,
         return ev.objective
 
     start_knobs = {k.name: k.start for k in knobs}
-    objective_start = run(start_knobs)
-    opt = ng.optimizers.registry[optimizer](parametrization=_parametrization(knobs, seed),
-                                            budget=budget - 1, num_workers=1)
-    with warnings.catch_warnings():
-        # cma's "orphanated injected solution": nevergrad injects its candidates; harmless
-        warnings.filterwarnings("ignore", message=".*orphanated injected solution")
-        for _ in range(budget - 1):
-            cand = opt.ask()
-            opt.tell(cand, run(cand.value))
+    objective_start = search(knobs, run, budget, seed, optimizer)
     assert best is not None
     objective, best_knobs, best_ev = best
     params = engine_params(engine, best_knobs)
