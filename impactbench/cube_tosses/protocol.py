@@ -46,6 +46,8 @@ from impactbench.reference.box_contact import (
     INERTIA_KG_M2,
     MASS_KG,
     Box,
+    quat_matrix,
+    quat_multiply,
 )
 
 SAMPLE_DT_S = 1.0 / 148.0
@@ -153,24 +155,15 @@ class Start:
 # ------------------------------------------------------------------------------ quaternions
 
 
-def quat_to_matrix(q: np.ndarray) -> np.ndarray:
-    """Rotation matrix of the unit quaternion ``q`` (w, x, y, z)."""
-    w, x, y, z = np.asarray(q, dtype=float) / np.linalg.norm(q)
-    return np.array([
-        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+quat_to_matrix = quat_matrix
+"""Rotation matrix of the quaternion ``q`` (w, x, y, z; normalised first): the reference
+model's (:func:`impactbench.reference.box_contact.quat_matrix`)."""
 
 
 def quat_conj_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """a⁻¹ ⊗ b for (arrays of) unit quaternions w, x, y, z (last axis)."""
     a = np.asarray(a, dtype=float)
-    b = np.asarray(b, dtype=float)
-    aw, av = a[..., :1], -a[..., 1:]
-    bw, bv = b[..., :1], b[..., 1:]
-    w = aw * bw - np.sum(av * bv, axis=-1, keepdims=True)
-    v = aw * bv + bw * av + np.cross(av, bv)
-    return np.concatenate([w, v], axis=-1)
+    return quat_multiply(np.concatenate([a[..., :1], -a[..., 1:]], axis=-1), b)
 
 
 def rotation_angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
