@@ -15,13 +15,18 @@ and/or the caller's keys. DAIR's published sets (``dair2022``) are applied as th
 engine's defaults. Each engine reports the *effective* pair values and the rule that made them
 (:meth:`CubeEngine.describe`): Bullet multiplies the two lateral frictions (an unset body has
 0.5), Drake combines 2ab/(a + b) (the URDF parser gives the cube 1.0), MuJoCo takes the larger.
+``native`` mode is custom mode with the reference model's contact mapped into these keys
+(:mod:`impactbench.cube_tosses.model_modes`); ``injected`` mode builds the engine with
+``law`` (:func:`make`): the box–board contact off and the model's corner forces applied as
+an external force and torque at every step (:meth:`CubeEngine._advance_injected`).
 
 PyBullet
     The board is a fixed 5 × 5 × 1 m box (DAIR's ``plane.urdf``), the cube a box multibody.
     Keys: ``board.`` / ``cube.`` + ``lateralFriction``, ``contactStiffness``,
     ``contactDamping`` (N/m, N·s/m: Bullet needs both; pair stiffness in series, damping summed,
     an unset body counting 1e30 N/m and 0.1 N·s/m), ``restitution``, ``rollingFriction``,
-    ``spinningFriction``; ``cube.inertia`` (kg·m² about each axis, or ``"collision"``: Bullet's
+    ``spinningFriction``; ``cube.linearDamping``, ``cube.angularDamping`` (1/s; Bullet's
+    default 0.04); ``cube.inertia`` (kg·m² about each axis, or ``"collision"``: Bullet's
     own value from the collision box, 6.77e-4 kg·m², which is what DAIR's URDF cube got since
     they loaded it without ``URDF_USE_INERTIA_FROM_FILE``); ``numSolverIterations``.
 MuJoCo
@@ -38,7 +43,8 @@ Drake
     defaults) and a ``HalfSpace`` at ``board_z_m``. Keys: ``board.`` / ``cube.`` +
     ``point_contact_stiffness``, ``hunt_crossley_dissipation``, ``mu`` (static = dynamic),
     ``relaxation_time``; ``discrete_contact_approximation`` (tamsi, sap, similar, lagged; the
-    plant's default is lagged), ``contact_model`` (point, hydroelastic_with_fallback, …).
+    plant's default is lagged), ``contact_model`` (point, hydroelastic_with_fallback, …),
+    ``stiction_tolerance`` (m/s, the plant's friction regularisation; used by TAMSI).
     Pair rules: stiffness in series k₁k₂/(k₁+k₂), dissipation (k₂d₁ + k₁d₂)/(k₁+k₂), friction
     2μ₁μ₂/(μ₁+μ₂); SAP ignores the dissipation and uses the relaxation time (Drake's default
     0.1 s); tamsi, similar and lagged use the Hunt–Crossley dissipation.
@@ -131,6 +137,11 @@ class CubeEngine:
     name: str = ""
     keys: tuple[str, ...] = ()
     box: Box = DAIR_BOX
+    law: Any = None
+    """``injected`` mode: the reference model's contact parameters
+    (:class:`~impactbench.reference.box_contact.BoxContactParams`); the engine's box–board
+    contact is then off and the model's corner forces are applied every step
+    (:mod:`impactbench.cube_tosses.model_modes`)."""
 
     def __post_init__(self) -> None:
         self.params = dict(self.params)
@@ -140,6 +151,12 @@ class CubeEngine:
                              f"{', '.join(self.keys)}")
         if not (self.step_s > 0 and math.isfinite(self.step_s)):
             raise ValueError(f"step_s = {self.step_s!r}: must be > 0")
+        self._wrench = None
+        self._contact_off = ""
+        if self.law is not None:
+            from impactbench.cube_tosses.model_modes import CornerWrench
+
+            self._wrench = CornerWrench(self.law, self.box, self.board_z_m, GRAVITY_M_S2)
         self._build()
 
     # -- the interface
@@ -150,16 +167,34 @@ class CubeEngine:
             raise ValueError(f"toss {start.toss}: step {start.step_s!r} s, engine built for "
                              f"{self.step_s!r} s")
         self._reset(start)
+        advance = self._advance if self._wrench is None else self._advance_injected
         n = len(start.record_steps)
         p = np.empty((n, 3))
         q = np.empty((n, 4))
         done = 0
         for i, k in enumerate(start.record_steps):
             if k > done:
-                self._advance(int(k) - done)
+                advance(int(k) - done)
                 done = int(k)
             p[i], q[i] = self._pose()
         return p, q
+
+    def _advance_injected(self, steps: int) -> None:
+        """``steps`` steps with the model's corner forces at each step's start state applied
+        as an external force at the centre and a torque (board frame) for that step."""
+        wrench, state, push = self._wrench, self._state, self._push_step
+        for _ in range(steps):
+            force, torque = wrench(*state())
+            push(force, torque)
+
+    def injected_setup(self) -> dict[str, Any]:
+        """What injected mode did to the engine (empty in the other modes)."""
+        if self._wrench is None:
+            return {}
+        return {"law": self.law.describe(), "engine_contact": self._contact_off,
+                "forces": "the model's corner forces (normal law + regularised Coulomb) at "
+                          "each step's start state, summed into a force at the centre and a "
+                          "torque, applied for that step"}
 
     def describe(self) -> dict[str, Any]:
         """What was built: the engine's version, the parameters set, the effective pair values
@@ -182,6 +217,14 @@ class CubeEngine:
     def _pose(self) -> tuple[np.ndarray, np.ndarray]:
         raise NotImplementedError
 
+    def _state(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(p, q wxyz, v, ω in the board's frame): injected mode's input."""
+        raise NotImplementedError
+
+    def _push_step(self, force: np.ndarray, torque: np.ndarray) -> None:
+        """Apply ``force`` at the centre and ``torque`` (board frame) and take one step."""
+        raise NotImplementedError
+
 
 def _version(dist: str) -> str:
     try:
@@ -194,6 +237,7 @@ def _version(dist: str) -> str:
 
 _BULLET_BODY_KEYS = ("lateralFriction", "contactStiffness", "contactDamping", "restitution",
                      "rollingFriction", "spinningFriction")
+_BULLET_CUBE_KEYS = ("linearDamping", "angularDamping")
 BULLET_DEFAULT_FRICTION = 0.5
 BULLET_BOARD_HALF_EXTENTS = (2.5, 2.5, 0.5)
 
@@ -202,10 +246,11 @@ class PyBulletCube(CubeEngine):
     """PyBullet (module doc)."""
 
     def __init__(self, params: Mapping[str, Any] = (), step_s: float = 1.0 / 1480.0,
-                 board_z_m: float = 0.0, box: Box = DAIR_BOX) -> None:
+                 board_z_m: float = 0.0, box: Box = DAIR_BOX, law: Any = None) -> None:
         keys = (*(f"{b}.{k}" for b in ("board", "cube") for k in _BULLET_BODY_KEYS),
-                "cube.inertia", "numSolverIterations")
-        super().__init__(dict(params), step_s, board_z_m, "pybullet", keys, box)
+                *(f"cube.{k}" for k in _BULLET_CUBE_KEYS), "cube.inertia",
+                "numSolverIterations")
+        super().__init__(dict(params), step_s, board_z_m, "pybullet", keys, box, law)
 
     def _build(self) -> None:
         from impactbench.engines.common import silenced_fds
@@ -247,6 +292,15 @@ class PyBulletCube(CubeEngine):
                                  "Bullet needs both or neither")
             if kw:
                 pb.changeDynamics(uid, -1, physicsClientId=c, **kw)
+        damping = {k: float(self.params[f"cube.{k}"]) for k in _BULLET_CUBE_KEYS
+                   if f"cube.{k}" in self.params}
+        if self.law is not None:  # injected: no engine contact, no drag the model lacks
+            pb.setCollisionFilterPair(self._board, self._cube, -1, -1, 0, physicsClientId=c)
+            damping = {"linearDamping": 0.0, "angularDamping": 0.0}
+            self._contact_off = ("board-cube collision filtered out (setCollisionFilterPair); "
+                                 "the cube's linear and angular damping 0")
+        if damping:
+            pb.changeDynamics(self._cube, -1, physicsClientId=c, **damping)
 
     def _reset(self, start: Start) -> None:
         pb, c = self._pb, self._client
@@ -265,6 +319,21 @@ class PyBulletCube(CubeEngine):
         pos, (x, y, z, w) = self._pb.getBasePositionAndOrientation(self._cube,
                                                                    physicsClientId=self._client)
         return np.array(pos), np.array([w, x, y, z])
+
+    def _state(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        p, q = self._pose()
+        v, w = self._pb.getBaseVelocity(self._cube, physicsClientId=self._client)
+        return p, q, np.array(v), np.array(w)
+
+    def _push_step(self, force: np.ndarray, torque: np.ndarray) -> None:
+        pb, c = self._pb, self._client
+        if force[0] or force[1] or force[2] or torque[0] or torque[1] or torque[2]:
+            pos, _ = pb.getBasePositionAndOrientation(self._cube, physicsClientId=c)
+            pb.applyExternalForce(self._cube, -1, force.tolist(), pos, pb.WORLD_FRAME,
+                                  physicsClientId=c)
+            pb.applyExternalTorque(self._cube, -1, torque.tolist(), pb.WORLD_FRAME,
+                                   physicsClientId=c)
+        pb.stepSimulation(physicsClientId=c)
 
     def describe(self) -> dict[str, Any]:
         pb, c = self._pb, self._client
@@ -322,8 +391,8 @@ class MujocoCube(CubeEngine):
     """MuJoCo (module doc)."""
 
     def __init__(self, params: Mapping[str, Any] = (), step_s: float = 1.0 / 1480.0,
-                 board_z_m: float = 0.0, box: Box = DAIR_BOX) -> None:
-        super().__init__(dict(params), step_s, board_z_m, "mujoco", (), box)
+                 board_z_m: float = 0.0, box: Box = DAIR_BOX, law: Any = None) -> None:
+        super().__init__(dict(params), step_s, board_z_m, "mujoco", (), box, law)
 
     def __post_init__(self) -> None:
         self.keys = tuple(f"{b}.{k}" for b in ("board", "cube") for k in _MUJOCO_GEOM_KEYS)
@@ -365,6 +434,10 @@ class MujocoCube(CubeEngine):
             first = str(exc).strip().splitlines()[0] if str(exc).strip() else "invalid"
             raise ValueError(f"mujoco cube parameters {dict(self.params)!r}: {first}") from None
         self._data = mujoco.MjData(self._model)
+        if self.law is not None:  # injected: MuJoCo's contacts off, the model's forces on
+            self._model.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONTACT)
+            self._cube_body = mujoco.mj_name2id(self._model, mujoco.mjtObj.mjOBJ_BODY, "cube")
+            self._contact_off = "MuJoCo's contacts disabled (mjDSBL_CONTACT)"
 
     def _reset(self, start: Start) -> None:
         mj, m, d = self._mj, self._model, self._data
@@ -382,6 +455,25 @@ class MujocoCube(CubeEngine):
 
     def _pose(self) -> tuple[np.ndarray, np.ndarray]:
         return self._data.qpos[:3].copy(), self._data.qpos[3:7].copy()
+
+    def _state(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        d = self._data
+        q = d.qpos[3:7].copy()
+        # a free joint's angular velocity is in the body frame
+        return (d.qpos[:3].copy(), q, d.qvel[:3].copy(),
+                self._mj_rotation(q) @ d.qvel[3:6])
+
+    @staticmethod
+    def _mj_rotation(q: np.ndarray) -> np.ndarray:
+        from impactbench.cube_tosses.protocol import quat_to_matrix
+
+        return quat_to_matrix(q)
+
+    def _push_step(self, force: np.ndarray, torque: np.ndarray) -> None:
+        d = self._data
+        d.xfrc_applied[self._cube_body, :3] = force   # world frame, at the body's centre
+        d.xfrc_applied[self._cube_body, 3:] = torque
+        self._mj.mj_step(self._model, d)
 
     def describe(self) -> dict[str, Any]:
         m = self._model
@@ -440,10 +532,10 @@ class DrakeCube(CubeEngine):
     """Drake (module doc)."""
 
     def __init__(self, params: Mapping[str, Any] = (), step_s: float = 1.0 / 1480.0,
-                 board_z_m: float = 0.0, box: Box = DAIR_BOX) -> None:
+                 board_z_m: float = 0.0, box: Box = DAIR_BOX, law: Any = None) -> None:
         keys = (*(f"{b}.{k}" for b in ("board", "cube") for k in _DRAKE_BODY_KEYS),
-                "discrete_contact_approximation", "contact_model")
-        super().__init__(dict(params), step_s, board_z_m, "drake", keys, box)
+                "discrete_contact_approximation", "contact_model", "stiction_tolerance")
+        super().__init__(dict(params), step_s, board_z_m, "drake", keys, box, law)
 
     def _build(self) -> None:
         from pydrake.geometry import HalfSpace, ProximityProperties
@@ -469,6 +561,8 @@ class DrakeCube(CubeEngine):
             config.discrete_contact_approximation = approx
         if "contact_model" in self.params:
             config.contact_model = self.params["contact_model"]
+        if "stiction_tolerance" in self.params:
+            config.stiction_tolerance = float(self.params["stiction_tolerance"])
         self._config = config
         builder = DiagramBuilder()
         try:
@@ -498,10 +592,15 @@ class DrakeCube(CubeEngine):
                     out.AddProperty("material", "coulomb_friction", CoulombFriction(mu, mu))
             return out
 
-        plant.RegisterCollisionGeometry(
-            plant.world_body(), RigidTransform(HalfSpace.MakePose([0.0, 0.0, 1.0],
-                                                                  [0.0, 0.0, self.board_z_m])),
-            HalfSpace(), "board", props("board"))
+        if self.law is None:
+            plant.RegisterCollisionGeometry(
+                plant.world_body(), RigidTransform(HalfSpace.MakePose(
+                    [0.0, 0.0, 1.0], [0.0, 0.0, self.board_z_m])),
+                HalfSpace(), "board", props("board"))
+        else:  # injected: no board to collide with; the model's forces come in per step
+            self._contact_off = ("no board geometry (the cube has nothing to collide with); "
+                                 "the wrench enters through the plant's applied spatial "
+                                 "force input, fixed before each discrete step")
         plant.Finalize()
         inspector = scene_graph.model_inspector()
         (cube_geom,) = plant.GetCollisionGeometriesForBody(self._body)
@@ -539,6 +638,24 @@ class DrakeCube(CubeEngine):
     def _pose(self) -> tuple[np.ndarray, np.ndarray]:
         x = self._plant.GetFreeBodyPose(self._plant_context, self._body)
         return np.array(x.translation()), np.array(x.rotation().ToQuaternion().wxyz())
+
+    def _state(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        p, q = self._pose()
+        v = self._plant.EvalBodySpatialVelocityInWorld(self._plant_context, self._body)
+        return p, q, np.array(v.translational()), np.array(v.rotational())
+
+    def _push_step(self, force: np.ndarray, torque: np.ndarray) -> None:
+        from pydrake.multibody.math import SpatialForce
+        from pydrake.multibody.plant import ExternallyAppliedSpatialForce
+
+        applied = ExternallyAppliedSpatialForce()
+        applied.body_index = self._body.index()
+        applied.p_BoBq_B = np.zeros(3)              # at the body origin (its centre)
+        applied.F_Bq_W = SpatialForce(torque, force)   # board (world) frame
+        self._plant.get_applied_spatial_force_input_port().FixValue(self._plant_context,
+                                                                     [applied])
+        self._steps += 1
+        self._sim.AdvanceTo((self._steps + 0.25) * self.step_s)
 
     def _material(self) -> dict[str, dict[str, float]]:
         """Each geometry's effective material (SceneGraph's defaults filled in)."""
@@ -588,6 +705,7 @@ class DrakeCube(CubeEngine):
                 "params": dict(self.params), "effective": eff, "materials": mat,
                 "discrete_contact_approximation": approx,
                 "contact_model": self._config.contact_model,
+                "stiction_tolerance_m_s": self._config.stiction_tolerance,
                 "cube_inertia_kg_m2": float(self._body.default_rotational_inertia()
                                             .get_moments()[0]),
                 "board": f"half-space, surface at z = {self.board_z_m:g} m",
@@ -609,9 +727,12 @@ BULLET_BREAKING_THRESHOLD_M = 0.02
 
 
 def make(engine: str, params: Mapping[str, Any] = (), step_s: float = 1.0 / 1480.0,
-         board_z_m: float = 0.0, box: Box = DAIR_BOX) -> CubeEngine:
+         board_z_m: float = 0.0, box: Box = DAIR_BOX, law: Any = None) -> CubeEngine:
     """The cube-on-board model of ``engine`` with engine parameters ``params`` and the cube
-    ``box`` (DAIR's by default)."""
+    ``box`` (DAIR's by default); with ``law`` (the reference model's
+    :class:`~impactbench.reference.box_contact.BoxContactParams`) the injected model: the
+    engine's own box–board contact off, the model's corner forces applied every step
+    (ValueError naming why for an engine that cannot)."""
     cls = _CLASSES.get(engine)
     if cls is None and engine in ENGINES:  # by name, as the engine registry loads adapters:
         import importlib  # engines_more builds on this module's classes
@@ -619,4 +740,11 @@ def make(engine: str, params: Mapping[str, Any] = (), step_s: float = 1.0 / 1480
         cls = importlib.import_module(MORE_ENGINES).CLASSES[engine]
     if cls is None:
         raise ValueError(f"engine = {engine!r}: the cube tosses run on {', '.join(ENGINES)}")
-    return cls(params, step_s, board_z_m, box=box)
+    if law is None:
+        return cls(params, step_s, board_z_m, box=box)
+    from impactbench.cube_tosses.model_modes import injected_reason
+
+    why = injected_reason(engine)
+    if why:
+        raise ValueError(f"engine = {engine!r}: {why}")
+    return cls(params, step_s, board_z_m, box=box, law=law)

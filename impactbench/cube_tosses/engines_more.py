@@ -5,7 +5,10 @@ The same physical set-up as :mod:`impactbench.cube_tosses.engines` (a free box, 
 9.81 m/s²; a fixed step), the same interface (:class:`~impactbench.cube_tosses.engines.CubeEngine`)
 and the same key convention: ``board.`` / ``cube.`` + the engine's own name, plus engine-wide
 keys; ``default`` mode sets none, ``custom`` mode the caller's. The engines are imported when a
-model is built, never at import.
+model is built, never at import. ``injected`` mode (the reference model's corner forces,
+:mod:`impactbench.cube_tosses.model_modes`): SAPIEN builds no board and zeroes the cube's
+damping, DART leaves the board out of the world; MJX and Newton step in compiled batches and
+have none.
 
 SAPIEN 3 (PhysX 5, CPU)
     The board is a static PhysX plane (a half-space) at ``board_z_m``, the cube a rigid
@@ -119,10 +122,10 @@ class SapienCube(CubeEngine):
     a teleported body does not clear them, so each toss gets its own scene (0.3 ms)."""
 
     def __init__(self, params: Mapping[str, Any] = (), step_s: float = 1.0 / 1480.0,
-                 board_z_m: float = 0.0, box: Box = DAIR_BOX) -> None:
+                 board_z_m: float = 0.0, box: Box = DAIR_BOX, law: Any = None) -> None:
         keys = (*(f"{b}.{k}" for b in ("board", "cube") for k in _SAPIEN_MATERIAL),
                 *_SAPIEN_SHAPE, *(f"cube.{k}" for k in _SAPIEN_BODY), *_SAPIEN_SCENE)
-        super().__init__(dict(params), step_s, board_z_m, "sapien", keys, box)
+        super().__init__(dict(params), step_s, board_z_m, "sapien", keys, box, law)
 
     def _build(self) -> None:
         sapien, px = _import_sapien()
@@ -167,12 +170,16 @@ class SapienCube(CubeEngine):
                 s.set_rest_offset(float(self.params["rest_offset"]))
             return s
 
-        board = sapien.Entity()
-        static = px.PhysxRigidStaticComponent()
-        static.attach(shape(px.PhysxCollisionShapePlane(material("board"))))
-        board.add_component(static)
-        board.set_pose(sapien.Pose([0.0, 0.0, self.board_z_m], list(SAPIEN_PLANE_Q)))
-        scene.add_entity(board)
+        if self.law is None:
+            board = sapien.Entity()
+            static = px.PhysxRigidStaticComponent()
+            static.attach(shape(px.PhysxCollisionShapePlane(material("board"))))
+            board.add_component(static)
+            board.set_pose(sapien.Pose([0.0, 0.0, self.board_z_m], list(SAPIEN_PLANE_Q)))
+            scene.add_entity(board)
+        else:  # injected: no board; the model's forces come in per step
+            self._contact_off = ("no board in the scene; the cube's linear and angular "
+                                 "damping 0 (PhysX's default angular damping 0.05 /s)")
 
         cube = sapien.Entity()
         body = px.PhysxRigidDynamicComponent()
@@ -188,6 +195,9 @@ class SapienCube(CubeEngine):
             if f"cube.{k}" in self.params:
                 v = self.params[f"cube.{k}"]
                 getattr(body, f"set_{k}")(int(v) if "iterations" in k else float(v))
+        if self.law is not None:
+            body.set_linear_damping(0.0)
+            body.set_angular_damping(0.0)
         self._scene, self._cube_entity, self._body = scene, cube, body
 
     def _reset(self, start: Start) -> None:
@@ -208,6 +218,17 @@ class SapienCube(CubeEngine):
     def _pose(self) -> tuple[np.ndarray, np.ndarray]:
         pose = self._body.entity_pose
         return np.asarray(pose.p, dtype=float), np.asarray(pose.q, dtype=float)
+
+    def _state(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        p, q = self._pose()
+        b = self._body
+        return (p, q, np.asarray(b.linear_velocity, dtype=float),
+                np.asarray(b.angular_velocity, dtype=float))   # world frame
+
+    def _push_step(self, force: np.ndarray, torque: np.ndarray) -> None:
+        # a force for one step at the centre of mass (PhysX clears it after the step)
+        self._body.add_force_torque(force.astype(np.float32), torque.astype(np.float32))
+        self._scene.step()
 
     def describe(self) -> dict[str, Any]:
         sapien, px = self._sapien, self._px
@@ -251,10 +272,10 @@ class DartCube(CubeEngine):
     """DART 6 (module doc)."""
 
     def __init__(self, params: Mapping[str, Any] = (), step_s: float = 1.0 / 1480.0,
-                 board_z_m: float = 0.0, box: Box = DAIR_BOX) -> None:
+                 board_z_m: float = 0.0, box: Box = DAIR_BOX, law: Any = None) -> None:
         keys = (*(f"{b}.{k}" for b in ("board", "cube") for k in _DART_SHAPE_KEYS),
                 "collision_detector", "split_impulse")
-        super().__init__(dict(params), step_s, board_z_m, "dart", keys, box)
+        super().__init__(dict(params), step_s, board_z_m, "dart", keys, box, law)
 
     def _build(self) -> None:
         import dartpy as dart
@@ -290,7 +311,10 @@ class DartCube(CubeEngine):
         joint.setTransformFromParentBodyNode(tf)
         self._board_aspect = aspects(body.createShapeNode(
             dart.dynamics.BoxShape([2.0 * v for v in DART_BOARD_HALF])), "board")
-        world.addSkeleton(board)
+        if self.law is None:
+            world.addSkeleton(board)
+        else:  # injected: the board is not in the world; the model's forces come in per step
+            self._contact_off = "the board is not in the world (no collision)"
 
         cube = dart.dynamics.Skeleton("cube")
         self._joint, self._node = cube.createFreeJointAndBodyNodePair()
@@ -325,6 +349,18 @@ class DartCube(CubeEngine):
     def _pose(self) -> tuple[np.ndarray, np.ndarray]:
         tf = self._node.getWorldTransform()
         return np.array(tf.translation(), dtype=float), _quat_from_matrix(tf.rotation())
+
+    def _state(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        p, q = self._pose()
+        n = self._node
+        return (p, q, np.asarray(n.getLinearVelocity(), dtype=float),
+                np.asarray(n.getAngularVelocity(), dtype=float))   # world frame
+
+    def _push_step(self, force: np.ndarray, torque: np.ndarray) -> None:
+        n = self._node
+        n.setExtForce(force, np.zeros(3), False, True)   # world force at the body origin
+        n.setExtTorque(torque, False)                     # world frame
+        self._world.step()
 
     def describe(self) -> dict[str, Any]:
         b, c = self._board_aspect, self._cube_aspect

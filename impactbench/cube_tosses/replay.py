@@ -4,8 +4,8 @@ The result is the dict ``impactbench run --engine E --scenario cube-toss --mode 
 is meant to print (keys in :data:`RESULT_KEYS`):
 
 - ``status``: "ok" (every toss replayed), "partial" (some failed), "failed" (none ran),
-  "unsupported" (a 2D engine, pymunk or Box2D: every other key None or empty, ``reason``
-  says why);
+  "unsupported" (a 2D engine, pymunk or Box2D, or injected mode in MJX or Newton: every
+  other key None or empty, ``reason`` says why);
 - ``engine``, ``mode``, ``param_set``, ``split``, ``tosses`` (how many were replayed),
   ``failed`` (the ids that failed: an engine error or a non-finite state);
 - ``position_error_mean``/``_median``/``_q1``/``_q3``: over tosses, each toss's time-mean
@@ -14,7 +14,10 @@ is meant to print (keys in :data:`RESULT_KEYS`):
   ``refit``, the two errors and their final values; ``error`` when it failed);
 - ``protocol``: the replay options (:class:`~impactbench.cube_tosses.protocol.Protocol`);
 - ``engine_setup``: the engine's version, the parameters set, the effective friction and
-  contact values with their combination rules, the cube's inertia, the board;
+  contact values with their combination rules, the cube's inertia, the board; in ``native``
+  mode also ``native`` (the mapping's rule and inputs: the model's parameters, the operating
+  point, the corner impact there), in ``injected`` mode ``injected`` (the law applied and how
+  the engine's own contact was switched off);
 - ``elapsed_s``, ``tosses_per_s`` (engine build excluded), ``data`` (the file replayed).
 """
 
@@ -41,7 +44,7 @@ from impactbench.cube_tosses.protocol import (
     toss_errors,
 )
 
-MODES = ("default", "custom", "tuned")
+MODES = ("default", "custom", "tuned", "native", "injected")
 
 RESULT_KEYS = ("status", "engine", "mode", "param_set", "split", "tosses", "failed",
                "position_error_mean", "position_error_median", "position_error_q1",
@@ -51,19 +54,30 @@ RESULT_KEYS = ("status", "engine", "mode", "param_set", "split", "tosses", "fail
 
 
 def engine_parameters(engine: str, mode: str, param_set: str | None = None,
-                      params: Mapping[str, Any] | None = None) -> dict[str, Any]:
+                      params: Mapping[str, Any] | None = None, *, box: Box = DAIR_BOX,
+                      model: Any = None) -> dict[str, Any]:
     """The engine parameters of a run: none in ``default`` mode; in ``custom`` mode the named
     set (``param_set``) overlaid with ``params``; in ``tuned`` mode ``params`` (a tuned
-    file's ``[parameters]``, :func:`impactbench.cube_tosses.tune.load_tuned`)."""
+    file's ``[parameters]``, :func:`impactbench.cube_tosses.tune.load_tuned`); in ``native``
+    mode the reference model's contact (``model``, the packaged fit when None) mapped into the
+    engine for the cube ``box`` (:func:`impactbench.cube_tosses.model_modes.native_parameters`);
+    none in ``injected`` mode (the engine's contact is off, the model's forces act)."""
     if engine not in engines_mod.ENGINES:
         raise ValueError(f"engine = {engine!r}: the cube tosses run on "
                          f"{', '.join(engines_mod.ENGINES)}")
     if mode not in MODES:
         raise ValueError(f"mode = {mode!r}: must be one of {', '.join(MODES)}")
-    if mode == "default":
+    if mode in ("default", "native", "injected"):
         if param_set is not None or params:
-            raise ValueError(f"param_set = {param_set!r}: default mode sets no engine "
-                             "parameters; use mode 'custom'")
+            what = ("sets no engine parameters" if mode == "default" else
+                    "maps the reference model's contact" if mode == "native" else
+                    "applies the reference model's corner forces")
+            raise ValueError(f"param_set = {param_set!r}: {mode} mode {what}; use mode "
+                             "'custom' to set engine parameters")
+        if mode == "native":
+            from impactbench.cube_tosses.model_modes import native_parameters
+
+            return native_parameters(engine, model, box)
         return {}
     if mode == "tuned":
         if param_set is not None:
@@ -100,8 +114,8 @@ def select(df: pd.DataFrame, tosses: str | int | Iterable[int] = "all") -> list[
 def replay(engine: str, mode: str = "default", tosses: str | int | Iterable[int] = "all",
            param_set: str | None = None, data: pd.DataFrame | str | Path | None = None, *,
            params: Mapping[str, Any] | None = None, protocol: Protocol | None = None,
-           progress: Callable[[int, int], None] | None = None, box: Box = DAIR_BOX
-           ) -> dict[str, Any]:
+           progress: Callable[[int, int], None] | None = None, box: Box = DAIR_BOX,
+           model: Any = None) -> dict[str, Any]:
     """Replay ``tosses`` (a split name, an id or ids) of ``data`` (a DataFrame from
     :func:`~impactbench.cube_tosses.data.load`, a CSV path, or None for the packaged tosses)
     in ``engine`` ("pybullet", "mujoco", "drake", "sapien", "dart", "newton", "mjx") under
@@ -110,17 +124,32 @@ def replay(engine: str, mode: str = "default", tosses: str | int | Iterable[int]
     ``mode``: "default" (the engine's own contact settings), "custom" (``param_set``, a
     name from :data:`~impactbench.cube_tosses.engines.PARAM_SETS` such as "dair2022", and/or
     ``params``, engine parameters by the engine's own names) or "tuned" (``params`` fitted to
-    the training tosses, :mod:`~impactbench.cube_tosses.tune`). One engine instance serves every
+    the training tosses, :mod:`~impactbench.cube_tosses.tune`), "native" (the reference
+    model's contact mapped into the engine's parameters) or "injected" (the engine's contact
+    off, the model's corner forces applied every step), both with ``model`` (the reference
+    model's :class:`~impactbench.reference.box_contact.BoxContactParams`, the packaged fit
+    when None; :mod:`~impactbench.cube_tosses.model_modes`). One engine instance serves every
     toss. ``box``: the cube (DAIR's by default). Returns the dict described in the module
     doc."""
     protocol = protocol or Protocol()
     from impactbench.cube_tosses.engines_more import UNSUPPORTED
 
-    if engine in UNSUPPORTED:
+    why = UNSUPPORTED.get(engine, "")
+    if not why and mode == "injected" and engine in engines_mod.ENGINES:
+        from impactbench.cube_tosses.model_modes import injected_reason
+
+        why = injected_reason(engine)
+    if why:
         return {**dict.fromkeys(RESULT_KEYS), "status": "unsupported", "engine": engine,
                 "mode": mode, "param_set": param_set, "tosses": 0, "failed": [],
-                "per_toss": [], "protocol": protocol.describe(), "reason": UNSUPPORTED[engine]}
-    eparams = engine_parameters(engine, mode, param_set, params)
+                "per_toss": [], "protocol": protocol.describe(), "reason": why}
+    eparams = engine_parameters(engine, mode, param_set, params, box=box, model=model)
+    law = None
+    if mode in ("native", "injected"):
+        from impactbench.cube_tosses.model_modes import load_model
+
+        model = load_model() if model is None else model
+        law = model if mode == "injected" else None
     if isinstance(data, pd.DataFrame):
         df, source = data_mod.validate(data), "DataFrame"
     else:
@@ -144,9 +173,15 @@ def replay(engine: str, mode: str = "default", tosses: str | int | Iterable[int]
         (protocol.sample_dt_s or sample_dt(next(data_mod.tosses(df, ids[:1])).t, protocol))
         / protocol.substeps)
 
-    sim = engines_mod.make(engine, eparams, step_s, protocol.board_z_m, box)
+    sim = engines_mod.make(engine, eparams, step_s, protocol.board_z_m, box, law=law)
     try:
         setup = sim.describe()
+        if mode == "native":
+            from impactbench.cube_tosses.model_modes import native_mapping
+
+            setup["native"] = native_mapping(engine, model, box).describe()
+        elif mode == "injected":
+            setup["injected"] = sim.injected_setup()
         t0 = time.perf_counter()
         # a batched engine (Newton, MJX) replays every toss in one call
         batch = sim.run_many(starts) if getattr(sim, "batched", False) else None

@@ -11,8 +11,13 @@ parameter set such as ``dair2022`` and/or engine parameters by the replay's own 
 ``board.``/``cube.``-prefixed) and ``tuned`` (the engine's parameters fitted to the training
 tosses, :mod:`~impactbench.cube_tosses.tune`: the packaged tuned file or ``tuned_file``; it
 applies only at the step and to the cube half-width it was fitted for, else the run is
-``unsupported`` naming the difference). ``native`` and ``injected`` are ``unsupported`` for
-now, as are the 2D engines (pymunk, Box2D) and engines without a cube replay.
+``unsupported`` naming the difference), ``native`` (the reference model's fitted corner contact
+mapped into the engine's own parameters, :func:`~impactbench.cube_tosses.model_modes.
+native_mapping`: custom mode with the mapped parameters, which the result's ``params`` and
+``engine_setup["native"]`` record with the mapping's inputs) and ``injected`` (the engine's
+box–board contact off and the model's corner forces applied at every step; ``unsupported`` in
+MJX and Newton, which step in compiled batches: :mod:`~impactbench.cube_tosses.model_modes`).
+The 2D engines (pymunk, Box2D) and engines without a cube replay are ``unsupported``.
 
 Step: the protocol's, ``sample_dt_s / substeps`` (DAIR: 1/148 s / 10). A given ``timestep_s``
 sets ``substeps = max(1, round(sample_dt_s / timestep_s))``: the engine steps at the nearest
@@ -23,7 +28,9 @@ Results store: with ``store``, a run is looked up by
 :func:`~impactbench.store.run_inputs` of (engine, scenario, scenario object, mode,
 :class:`ReplaySettings`): the engine and its version, impactbench's version, the scenario's
 fields (box, data path, selection, protocol), the mode, the parameter set, the engine
-parameters and the SHA-256 of the data file; a stored run is returned as stored.
+parameters and the SHA-256 of the data file (``native``: the mapped parameters and the
+fitted model file's SHA-256; ``injected``: the model's parameters and that SHA-256); a stored
+run is returned as stored.
 
 The box: DAIR's cube by default (h, m, I: :class:`~impactbench.cube_tosses.protocol.Box`); a
 box of the user's is passed to :func:`~impactbench.cube_tosses.engines.make`
@@ -54,8 +61,8 @@ from impactbench.cube_tosses.protocol import (
 )
 from impactbench.cube_tosses.replay import engine_parameters, replay, select
 
-MODES = ("default", "custom", "tuned")
-"""The modes a cube replay has (the others are ``unsupported`` for now)."""
+MODES = ("default", "custom", "tuned", "native", "injected")
+"""The modes a cube replay has."""
 
 TWO_D = {
     "pymunk": "pymunk is a 2D engine (bodies move in a plane with one rotation angle): a cube "
@@ -64,9 +71,6 @@ TWO_D = {
              "tumbling in 3D cannot be expressed",
 }
 """Engines the tosses cannot run on, and why."""
-
-LATER_MODES = ("native and injected modes are not implemented for the cube tosses yet "
-               "(available: default, custom, tuned)")
 
 METRIC_KEYS = ("position_error_median", "position_error_q1", "position_error_q3",
                "position_error_mean", "rotation_error_deg_median", "rotation_error_deg_q1",
@@ -82,6 +86,8 @@ class ReplaySettings:
     params: dict[str, Any] = field(default_factory=dict)
     data_sha256: str = ""
     tuned_sha256: str = ""
+    """The tuned file's SHA-256 (tuned mode) or the fitted reference model's (native,
+    injected)."""
 
 
 # ------------------------------------------------------------------------------ the scenario
@@ -167,7 +173,12 @@ def _unsupported_reason(engine: str, mode: str) -> str:
         return (f"no cube-toss replay for {engine} yet (replays: "
                 f"{', '.join(engines_mod.ENGINES)})")
     if mode not in MODES:
-        return f"mode {mode}: {LATER_MODES}"
+        return f"mode {mode}: no such cube-toss mode (available: {', '.join(MODES)})"
+    if mode == "injected":
+        from impactbench.cube_tosses.model_modes import injected_reason
+
+        why = injected_reason(engine)
+        return f"mode injected in {engine}: {why}" if why else ""
     return ""
 
 
@@ -184,11 +195,15 @@ def check(engine: str, mode: str, param_set: str | None = None,
             f"param = {next(iter(params))!r}"
         raise ValueError(f"{what}: tuned mode takes its parameters from the tuned file "
                          "(--tuned FILE); use --mode custom to set them")
-    if mode == "default" and (param_set is not None or params):
+    if mode in ("default", "native", "injected") and (param_set is not None or params):
         what = f"param-set = {param_set!r}" if param_set is not None else \
             f"param = {next(iter(params))!r}"
-        raise ValueError(f"{what}: default mode sets no engine parameters (the engine's own "
-                         "contact); use --mode custom")
+        how = {"default": "sets no engine parameters (the engine's own contact)",
+               "native": "maps the reference model's fitted contact into the engine's "
+                         "parameters",
+               "injected": "applies the reference model's corner forces (the engine's "
+                           "contact off)"}[mode]
+        raise ValueError(f"{what}: {mode} mode {how}; use --mode custom")
     sets = engines_mod.PARAM_SETS.get(engine, {})
     if mode == "custom" and param_set is None and not params:
         raise ValueError(f"mode = 'custom': needs --param-set ({', '.join(sets) or 'none for '}"
@@ -305,10 +320,20 @@ def run(engine: str, scenario: Any, mode: str = "default", *, param_set: str | N
                          f"(got {mode})")
     why = check(engine, mode, param_set, params)
     tuned = ("", "")
+    key_params = params
     if mode == "tuned" and not why:
         params, *tuned, why = tuned_binding(engine, scenario, tuned_file)
+        key_params = params
     if check_only:
         return why
+    if mode in ("native", "injected") and not why:
+        from impactbench.cube_tosses import reference_model
+        from impactbench.cube_tosses.model_modes import native_parameters
+
+        tuned = (str(reference_model.FITTED_PATH),
+                 hashlib.sha256(reference_model.FITTED_PATH.read_bytes()).hexdigest())
+        key_params = (native_parameters(engine, None, box_of(scenario)) if mode == "native"
+                      else {"reference_model": reference_model.load_fitted().describe()})
     step = scenario.sample_dt_s / scenario.substeps if scenario.sample_dt_s else None
     if why:
         return _empty(engine, mode, param_set, "unsupported", why, scenario, step, source)
@@ -322,7 +347,7 @@ def run(engine: str, scenario: Any, mode: str = "default", *, param_set: str | N
     if store is not None:
         from impactbench.store import run_inputs, run_key
 
-        settings = ReplaySettings(param_set, params, data_sha256(path), tuned[1])
+        settings = ReplaySettings(param_set, key_params, data_sha256(path), tuned[1])
         inputs = run_inputs(engine, type(scenario).name, scenario, mode, settings)
         key = run_key(inputs)
         if not fresh:
@@ -355,14 +380,19 @@ def run(engine: str, scenario: Any, mode: str = "default", *, param_set: str | N
               "timestep_s": setup.get("step_s", step), "timestep_source": source,
               "substeps": scenario.substeps, "box": _box_of(scenario),
               "wall_s": time.perf_counter() - t0}
+    if mode in ("native", "injected"):
+        result |= {"model_file": tuned[0], "params": key_params if mode == "native" else {}}
     if mode == "tuned":
         result |= {"tuned_file": tuned[0], "params": params}
-        if not scenario.data and scenario.selection != "test":
-            seen = len(data_mod.split(result_ids(out), "train"))
-            if seen:
-                result["message"] = "; ".join(x for x in (
-                    result["message"], f"{seen} of the {out['tosses']} tosses are training "
-                    "tosses the parameters were fitted on (not held out)") if x)
+    if mode in ("tuned", "native", "injected") and not scenario.data \
+            and scenario.selection != "test":
+        seen = len(data_mod.split(result_ids(out), "train"))
+        what = ("the parameters were fitted on" if mode == "tuned" else
+                "the reference model's fit drew on")
+        if seen:
+            result["message"] = "; ".join(x for x in (
+                result["message"], f"{seen} of the {out['tosses']} tosses are training "
+                f"tosses {what} (not held out)") if x)
     if store is not None:
         job = {"engine": engine, "mode": mode, "scenario": type(scenario).name, "point": (),
                "study": "replay"}
@@ -481,14 +511,20 @@ def trajectories(engine: str, scenario: Any, mode: str, toss_ids: list[int], *,
     ``t_s`` (from the replay's start), ``z_ref_m``/``z_sim_m`` (the centre's height) and
     ``angle_ref_deg``/``angle_sim_deg`` (the rotation from the start orientation)."""
     protocol = protocol_of(scenario)
-    eparams = engine_parameters(engine, mode, param_set, params)
+    box = box_of(scenario)
+    eparams = engine_parameters(engine, mode, param_set, params, box=box)
     df = data_mod.load(data_path(scenario))
     starts = [prepare(t, protocol) for t in data_mod.tosses(df, toss_ids)]
     if not starts:
         return []
     out = []
-    sim = engines_mod.make(engine, eparams, starts[0].step_s, protocol.board_z_m,
-                           box_of(scenario))
+    law = None
+    if mode == "injected":
+        from impactbench.cube_tosses.reference_model import load_fitted
+
+        law = load_fitted()
+    sim = engines_mod.make(engine, eparams, starts[0].step_s, protocol.board_z_m, box,
+                           law=law)
     try:
         for s in starts:
             p, q = sim.run(s)

@@ -133,8 +133,8 @@ def test_the_users_box_reaches_the_engine_and_the_errors(capsys, engine: str) ->
     ("pymunk", ("--mode", "default"), "2D engine"),
     ("box2d", ("--mode", "default"), "2D engine"),
     ("mjx", ("--mode", "tuned"), "no packaged tuned file for mjx"),
-    ("pybullet", ("--mode", "native"), "mode native"),
-    ("drake", ("--mode", "injected"), "mode injected"),
+    ("mjx", ("--mode", "injected"), "mode injected in mjx"),
+    ("newton", ("--mode", "injected"), "captured warp CPU graphs"),
 ])
 def test_unsupported_engines_and_modes_say_why(capsys, engine, flags, words) -> None:
     code, out, err = run(capsys, "run", "--engine", engine, "--scenario", NAME, *flags,
