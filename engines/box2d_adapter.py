@@ -46,14 +46,16 @@ stiffness m2·(2πf)² = k2; the softening structure's +β·x2³ is an applied f
   applied as −F1 to body 1, +F1 to body 2.
 - ``default`` (restitution 0: plastic), ``custom``, ``tuned``: as for the ball.
 
-Oblique impact (gravity off): the ball is a circle with the *sphere's* moment of inertia
-(2/5)·m·R² — a sphere's oblique impact on a plane is planar, so the circle carries its motion
-exactly and the sphere's references apply (a disc, k² = R²/2, would need references the
-scenario does not have yet) — moving along +x and −y; spin ω = −angularVelocity (about
-n × t = −z). The plate circle's top sits under the point of first touch (its curvature tilts
-the normal by the ball's travel over 1 m). Friction: Box2D's Coulomb in the rigid contact, the
-pair's μ = √(μ_ball·μ_plate) (both fixtures μ). Tangential force: the contact's own impulses
-on the ball (``PostSolve``'s normal and tangent impulses along the world manifold) / dt.
+Oblique impact (gravity off): the ball is a circle with the scenario's moment of inertia —
+the sphere's (2/5)·m·R² by default (a sphere's oblique impact on a plane is planar, so the
+circle carries its motion exactly and the sphere's references apply), a disc's m·R²/2 with
+``shape = "disc"`` (the disc's references; the records are marked ``planar``,
+:data:`impactbench.engines.oblique_common.PLANAR`) — moving along +x and −y; spin
+ω = −angularVelocity (about n × t = −z). The plate circle's top sits under the point of first
+touch (its curvature tilts the normal by the ball's travel over 1 m). Friction: Box2D's
+Coulomb in the rigid contact, the pair's μ = √(μ_ball·μ_plate) (both fixtures μ). Tangential
+force: the contact's own impulses on the ball (``PostSolve``'s normal and tangent impulses
+along the world manifold) / dt.
 
 - ``native``: the ball's native restitution and μ: the rigid Coulomb theory with the contact's
   own restitution — 0 at normal velocities ≤ 1 m/s (the threshold: 60° and 80° at 2 m/s).
@@ -72,7 +74,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from impactbench.engines import stepping
+from impactbench.engines import oblique_common, stepping
 from impactbench.engines.base import EngineUnavailable, RunSettings, Scenario
 from impactbench.engines.common import native_ball_restitution, reference_velocity
 from impactbench.reference import validation as check
@@ -308,9 +310,10 @@ class PairModel(stepping.WorldModel):
 
 
 class ObliqueModel:
-    """The oblique impact in the x–y plane: the ball (a circle with the sphere's moment of
-    inertia) moving along +x and −y onto the plate circle; ``contact`` set: no fixture and
-    the injected normal law and Coulomb friction act at the contact point."""
+    """The oblique impact in the x–y plane: the ball (a circle with the scenario's moment of
+    inertia: the sphere's or the disc's) moving along +x and −y onto the plate circle;
+    ``contact`` set: no fixture and the injected normal law and Coulomb friction act at the
+    contact point."""
 
     def __init__(self, scenario: Oblique, params: dict[str, Any], dt: float,
                  contact: stepping.CoulombContact | None = None) -> None:
@@ -383,6 +386,7 @@ class Box2dAdapter(stepping.SteppedAdapter):
                            ) -> tuple[dict[str, Any], dict[str, Any]]:
         params, meta = oblique_parameters(scenario, mode, settings)
         meta["build_constants"] = build_constants()
+        meta[oblique_common.PLANAR] = True  # a circle: the disc runs too
         return params, meta
 
 
@@ -431,8 +435,9 @@ def oblique_parameters(scenario: Oblique, mode: str, settings: RunSettings
     """The complete Box2D parameter set of the oblique impact for ``mode`` and its meta (the
     friction facts in ``meta["engine_defaults"]``).
 
-    The ball is a circle with the sphere's moment of inertia (2/5)·m·R²: an oblique impact
-    of a sphere on a plane is planar, so the circle carries exactly the sphere's motion.
+    The ball is a circle with the scenario's moment of inertia: the sphere's (2/5)·m·R² (an
+    oblique impact of a sphere on a plane is planar, so the circle carries exactly the
+    sphere's motion) or, ``shape = "disc"``, the disc's m·R²/2.
     ``default``: Box2D's fixture defaults and the manual's iterations, with the scenario's μ
     on both fixtures (the pair's √(μ·μ) = μ); ``custom``: that plus ``settings.params``;
     ``native``: the ball's native restitution (at the reference velocity) and μ;

@@ -18,6 +18,14 @@ one metrics path, the velocities after from the last sample).
 
 Friction facts reach the results through ``meta["engine_defaults"]`` (flat keys, read back
 from the engine where it can report them): :func:`friction_facts`.
+
+The disc (``Oblique.shape = "disc"``, k² = R²/2) exists only in the plane: a 2D engine's
+builder marks its records ``meta["planar"] = True`` (:data:`PLANAR`; its circle carries the
+scenario's moment of inertia, :attr:`Oblique.moment_of_inertia_kg_m2`). Every other builder's
+disc run is turned into ``unsupported`` with the reason (:data:`DISC_UNSUPPORTED`) by
+:func:`finish`, which every oblique builder calls — so the 3D adapters need no code of their
+own for it (they simulate their sphere first; :func:`shape_unsupported` is the same check
+before the run for a builder that wants to skip it).
 """
 
 from __future__ import annotations
@@ -32,6 +40,11 @@ from impactbench.engines.common import SpringDamper, classify, native_ball_sprin
 from impactbench.reference.oblique_scenario import SPIN_FACTOR, Oblique
 from impactbench.reference.record import ImpactRecord, Status
 
+PLANAR = "planar"
+"""The ``meta`` key a 2D engine's oblique builder sets to True: it runs the in-plane problem
+(a circle), so a disc is as valid as a sphere there."""
+DISC_UNSUPPORTED = ("shape 'disc': a disc (k² = R²/2) exists only in the 2D engines (pymunk, "
+                    "Box2D); this engine's ball is a sphere (run shape 'sphere')")
 GAP_STEPS = 2.5
 """Free flight before first touch, in steps (first touch falls inside a step)."""
 COMBINATIONS = ("product", "max", "min", "average", "harmonic")
@@ -73,7 +86,7 @@ def start(s: Oblique, dt: float) -> Start:
 
 
 def kinetic_energy_j(s: Oblique, v_n: float, v_t: float, spin: float) -> float:
-    """½·m·(v_n² + v_t²) + ½·I·ω², I = (2/5)·m·R²."""
+    """½·m·(v_n² + v_t²) + ½·I·ω², I = m·k² of the shape (sphere (2/5)·m·R², disc m·R²/2)."""
     return 0.5 * s.mass_kg * (v_n * v_n + v_t * v_t) + 0.5 * s.moment_of_inertia_kg_m2 * spin**2
 
 
@@ -87,11 +100,25 @@ def record(s: Oblique, t: Any, x: Any, rate: Any, normal: Any, v_t: Any, spin: A
                         spin_rad_s=spin, tangential_force_n=tangential)
 
 
+def shape_unsupported(s: Oblique, planar: bool = False) -> ImpactRecord | None:
+    """``unsupported`` (:data:`DISC_UNSUPPORTED`) for a disc outside a planar (2D) engine,
+    else None."""
+    if s.shape == "disc" and not planar:
+        return ImpactRecord.failed(Status.UNSUPPORTED, DISC_UNSUPPORTED)
+    return None
+
+
 def finish(rec: ImpactRecord, s: Oblique, *, tunneled: bool = False,
            timed_out: bool = False) -> ImpactRecord:
     """Classify an oblique record (:func:`impactbench.engines.common.classify`) with the
     whole kinetic energy, translation and spin: a run that ends with more than 1 % more than
-    it started with diverged; a non-finite tangential channel too."""
+    it started with diverged; a non-finite tangential channel too. A disc run of a builder
+    that did not mark its record planar (``meta["planar"]``, the 2D engines) is returned as
+    an empty ``unsupported`` record with the reason (its meta kept; module doc)."""
+    bad = shape_unsupported(s, bool(rec.meta.get(PLANAR, False)))
+    if bad is not None:
+        bad.meta.update(rec.meta)
+        return bad
     if len(rec):
         final = kinetic_energy_j(s, float(rec.penetration_rate_m_s[-1]),
                                  float(rec.tangential_velocity_m_s[-1]),
@@ -158,15 +185,16 @@ def friction_relaxation_rate(s: Oblique, dt: float) -> float:
 
 
 def coulomb_force(normal_n: float, slip_m_s: float, friction: float, mass_kg: float,
-                  dt: float) -> float:
+                  dt: float, spin_factor: float = SPIN_FACTOR) -> float:
     """Coulomb friction on the ball along the slip's axis, F_t = −μ·F_n·s/max(|s|, v_s),
     regularised only where one explicit step would overshoot: v_s = κ·(1 + R²/k²)·μ·F_n·dt/m
-    (κ = :data:`REGULARISATION_STEPS`), so inside it the slip decays at the rate 1/(κ·dt) —
-    the rigid limit as dt → 0, stable for an explicit Runge–Kutta step — and outside it the
-    force is exactly μ·F_n against the slip."""
+    (κ = :data:`REGULARISATION_STEPS`; ``spin_factor`` 1 + R²/k², the sphere's 3.5 unless
+    given), so inside it the slip decays at the rate 1/(κ·dt) — the rigid limit as dt → 0,
+    stable for an explicit Runge–Kutta step — and outside it the force is exactly μ·F_n
+    against the slip."""
     if normal_n <= 0.0 or friction == 0.0 or slip_m_s == 0.0:
         return 0.0
-    scale = REGULARISATION_STEPS * SPIN_FACTOR * friction * normal_n * dt / mass_kg
+    scale = REGULARISATION_STEPS * spin_factor * friction * normal_n * dt / mass_kg
     return -friction * normal_n * slip_m_s / max(abs(slip_m_s), scale)
 
 
@@ -212,8 +240,10 @@ def neutral_plate(rule: str, friction: float) -> float:
 
 __all__ = [
     "COMBINATIONS",
+    "DISC_UNSUPPORTED",
     "FRICTION_RELAXATION_PER_CONTACT",
     "GAP_STEPS",
+    "PLANAR",
     "REGULARISATION_STEPS",
     "SPIN_FACTOR",
     "TUNED_UNSUPPORTED",
@@ -230,6 +260,7 @@ __all__ = [
     "normal_duration_s",
     "record",
     "reject_keys",
+    "shape_unsupported",
     "start",
     "unsupported_tuned",
 ]

@@ -106,9 +106,10 @@ stops a few steps after it lets go (moving away, no force, no overlap), or as ``
 once its centre is past the plate.
 
 Oblique impact (:class:`~impactbench.reference.oblique_scenario.Oblique`, gravity off): the
-ball is a circle with the *sphere's* moment of inertia (2/5)·m·R² — a sphere's oblique impact
-on a plane is planar, so the circle carries its motion exactly and the sphere's references
-apply (a disc, k² = R²/2, would need references the scenario does not have yet) — moving
+ball is a circle with the scenario's moment of inertia — the sphere's (2/5)·m·R² by default (a
+sphere's oblique impact on a plane is planar, so the circle carries its motion exactly and the
+sphere's references apply), a disc's m·R²/2 with ``shape = "disc"`` (the disc's references;
+the records are marked ``planar``, :data:`impactbench.engines.oblique_common.PLANAR`) — moving
 along +x and −y onto the same segment; spin ω about n × t = −z (ω = −angular_velocity).
 Friction: Chipmunk's Coulomb in the rigid contact, the pair's μ the product of the shapes'
 (ball μ, plate 1). Tangential force: pymunk's own contact impulse (``total_impulse``'s x) / dt.
@@ -355,9 +356,11 @@ class RigidFlexibleModel:
 
 
 class ObliqueModel:
-    """The oblique impact's space: the ball (a circle with the sphere's moment of inertia
-    (2/5)·m·R²: a sphere's oblique impact on a plane is planar, so the circle carries its
-    motion exactly) moving along +x and −y onto the plate segment; spin ω about n × t = −z.
+    """The oblique impact's space: the ball (a circle with the scenario's moment of inertia,
+    :attr:`~impactbench.reference.oblique_scenario.Oblique.moment_of_inertia_kg_m2`: the
+    sphere's (2/5)·m·R² — a sphere's oblique impact on a plane is planar, so the circle
+    carries its motion exactly — or a disc's m·R²/2) moving along +x and −y onto the plate
+    segment; spin ω about n × t = −z.
 
     Args:
         scenario: the oblique impact.
@@ -870,5 +873,5 @@ def run_oblique(model: ObliqueModel, settings: RunSettings, meta: dict[str, Any]
     steps = xs.size - 1
     timed_out = steps == n_max and tail != 0 and not (tunneled or nonfinite)
     out = oblique_common.record(sc, np.arange(xs.size) * dt, xs, vs, fs, vts, ws, fts,
-                                dict(meta, steps=steps))
+                                {**meta, "steps": steps, oblique_common.PLANAR: True})
     return oblique_common.finish(out, sc, tunneled=tunneled, timed_out=timed_out)

@@ -279,18 +279,19 @@ def _numbers(value: Any, field_name: str, zero: bool = False) -> list[float]:
     return [check.positive(field_name, v) for v in items]
 
 
-def _parameters(value: Any, spec: scenarios.ScenarioSpec) -> tuple[tuple[str, float], ...]:
-    """A gate's ``parameters`` table, validated by building the scenario with them."""
+def _parameters(value: Any, spec: scenarios.ScenarioSpec) -> tuple[tuple[str, Any], ...]:
+    """A gate's ``parameters`` table, validated by building the scenario with them (numbers,
+    or text for a text field such as the oblique impact's ``shape``)."""
     if not isinstance(value, dict) or not value:
         raise ValueError(f"parameters = {value!r}: must be a non-empty table of scenario "
-                         "field = number")
+                         "field = value")
     names = [f for f in spec.cls.field_names() if f not in spec.axis_names]
-    out = []
-    for key, number in sorted(value.items()):
+    out: list[tuple[str, Any]] = []
+    for key, item in sorted(value.items()):
         check.one_of("parameters key", key, tuple(names))
-        if isinstance(number, bool) or not isinstance(number, int | float):
-            raise ValueError(f"parameters.{key} = {number!r}: must be a number")
-        out.append((key, float(number)))
+        if isinstance(item, bool) or not isinstance(item, int | float | str):
+            raise ValueError(f"parameters.{key} = {item!r}: must be a number or text")
+        out.append((key, item if isinstance(item, str) else float(item)))
     spec.cls(**dict(out))  # the scenario's own validation (one-line ValueError)
     return tuple(out)
 

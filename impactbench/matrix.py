@@ -76,7 +76,8 @@ class RunKey:
     def label(self) -> str:
         """``mujoco-injected-ball-on-plate-v1-dt1e-06`` (gate names, baseline keys)."""
         spec = self.spec
-        params = "".join(f"-{k}{v:g}" for k, v in self.parameters)
+        params = "".join(f"-{k}{v:g}" if isinstance(v, int | float) and not isinstance(v, bool)
+                         else f"-{k}{v}" for k, v in self.parameters)
         dt = "default" if self.timestep_s is None else f"{self.timestep_s:g}"
         return (f"{self.engine}-{self.mode}-{self.scenario}{spec.point_label(self.point)}"
                 f"{params}{spec.numeric_label(self.point)}-dt{dt}")

@@ -3,7 +3,7 @@
 Kept free of numpy, scipy and pandas (the command line builds its flags from it; ``--help``
 must stay light). The physics is in :mod:`impactbench.reference.oblique` (the rigid closed
 form and the metrics) and :mod:`impactbench.reference.oblique_integrate` (the time
-integration and the Mindlin reference).
+integration and the compliant references).
 """
 
 from __future__ import annotations
@@ -25,12 +25,27 @@ from impactbench.reference.scenarios import (
     hertz_stiffness,
 )
 
-GYRATION_RATIO = 0.4
-"""k²/R² of a solid sphere (2/5)."""
+SHAPES: tuple[str, ...] = ("sphere", "disc")
+"""The ball's shape (``Oblique.shape``): a solid sphere, or (the 2D engines' circle) a solid
+disc; only the radius of gyration differs (the contact laws are the scenario's in both)."""
+GYRATION_RATIOS: dict[str, float] = {"sphere": 0.4, "disc": 0.5}
+"""k²/R² of each shape: solid sphere 2/5, solid disc 1/2 (:attr:`Oblique.gyration_ratio`)."""
+GYRATION_RATIO = GYRATION_RATIOS["sphere"]
+"""k²/R² of a solid sphere (2/5); a scenario's own is :attr:`Oblique.gyration_ratio`."""
 SPIN_FACTOR = 1.0 + 1.0 / GYRATION_RATIO
-"""1 + R²/k² = 3.5 for a solid sphere: the slip changes this many times faster than v_t."""
-TANGENTIAL_MODELS: tuple[str, ...] = ("rigid", "mindlin")
-"""``rigid``: ideal Coulomb, closed form; ``mindlin``: tangential no-slip spring (integrated)."""
+"""1 + R²/k² = 3.5 for a solid sphere: the slip changes this many times faster than v_t
+(a scenario's own, 3 for a disc, is :attr:`Oblique.spin_factor`)."""
+TANGENTIAL_MODELS: tuple[str, ...] = ("rigid", "mindlin", "mindlin-deresiewicz")
+"""``rigid``: ideal Coulomb, closed form; ``mindlin``: Mindlin's no-slip spring 8·G*·a capped at
+μ·F_n (the DEM codes' simplified law, event-switched); ``mindlin-deresiewicz``: the full
+Cattaneo–Mindlin/Mindlin–Deresiewicz law — micro-slip and the memory of how the contact was
+loaded — as a spring bed (:mod:`impactbench.reference.oblique_integrate`)."""
+COMPLIANT_MODELS: tuple[str, ...] = ("mindlin", "mindlin-deresiewicz")
+"""The tangentially compliant laws (Hertz geometry: they need the Hertz normal law)."""
+COMPLIANT_DEFAULT = "mindlin-deresiewicz"
+"""The compliant reference the suite draws beside the rigid theory: the full contact-mechanics
+law (no simplification of the Cattaneo–Mindlin problem), and the closest to Kharaz et al.'s
+measurements in every angle range (tests/reference/test_oblique_microslip.py)."""
 OBLIQUE_MODELS: tuple[str, ...] = tuple(m for m in MODELS if m != "kelvin-voigt")
 """The zoo's laws an oblique impact accepts: every one but the unclipped Kelvin–Voigt spring,
 whose force pulls (F_n < 0) while the ball leaves, where a Coulomb cap μ·F_n means nothing."""
@@ -97,7 +112,8 @@ def _poisson(name: str, value: object) -> float:
 
 @dataclass(frozen=True)
 class Oblique(_Scenario):
-    """A sphere hitting a massive plate at an angle, with friction and spin (module doc).
+    """A sphere (or disc) hitting a massive plate at an angle, with friction and spin (module
+    doc).
 
     Defaults: the preprint's steel ball (m = 0.1 kg, c = 1.7135e10 N/m^1.5, n = 1.5,
     b = 0.1 s/m, R = 1.452 cm, steel E = 2e11 Pa, ν = 0.25 for ball and plate) at 2 m/s and
@@ -105,13 +121,16 @@ class Oblique(_Scenario):
 
     Fields (SI): ``velocity_m_s`` V; ``angle_deg`` θ from the normal, in [0, 90);
     ``friction`` μ ≥ 0; ``spin_rad_s`` ω0 (positive: forward rolling); ``tangential``
-    ``rigid`` | ``mindlin``; the ball's normal law as :class:`BallOnPlate` (``mass_kg``,
-    ``stiffness``, ``exponent``, ``damping_s_per_m``, ``radius_m``, ``model``,
-    ``nominal_restitution``; a nominal e sets b = α(e)/v_n at the normal velocity, any given
-    b is then unused); the elastic constants of ball and plate for Mindlin's tangential
-    stiffness (``youngs_modulus_pa``, ``poisson``, ``plate_youngs_modulus_pa`` — ``inf`` is a
-    rigid plate — and ``plate_poisson``). The normal stiffness c is as given: the constants
-    do not change it (:meth:`from_materials` derives it).
+    ``rigid`` | ``mindlin`` | ``mindlin-deresiewicz`` (:data:`TANGENTIAL_MODELS`); ``shape``
+    ``sphere`` (k² = 2R²/5) | ``disc`` (k² = R²/2: the 2D engines' circle with a disc's
+    inertia; the 3D engines run only the sphere; the contact laws are the same for both); the
+    ball's normal law as :class:`BallOnPlate` (``mass_kg``, ``stiffness``, ``exponent``,
+    ``damping_s_per_m``, ``radius_m``, ``model``, ``nominal_restitution``; a nominal e sets
+    b = α(e)/v_n at the normal velocity, any given b is then unused); the elastic constants of
+    ball and plate for Mindlin's tangential stiffness (``youngs_modulus_pa``, ``poisson``,
+    ``plate_youngs_modulus_pa`` — ``inf`` is a rigid plate — and ``plate_poisson``). The
+    normal stiffness c is as given: the constants do not change it (:meth:`from_materials`
+    derives it).
     """
 
     name: ClassVar[str] = "oblique"
@@ -121,6 +140,7 @@ class Oblique(_Scenario):
     friction: float = 0.3
     spin_rad_s: float = 0.0
     tangential: str = "rigid"
+    shape: str = "sphere"
     mass_kg: float = 0.1
     stiffness: float = PAPER_STIFFNESS
     exponent: float = 1.5
@@ -145,6 +165,7 @@ class Oblique(_Scenario):
         check.non_negative("friction", self.friction)
         check.finite("spin_rad_s", self.spin_rad_s)
         check.one_of("tangential", self.tangential, TANGENTIAL_MODELS)
+        check.one_of("shape", self.shape, SHAPES)
         check.positive("mass_kg", self.mass_kg)
         check.positive("stiffness", self.stiffness)
         check.positive("exponent", self.exponent)
@@ -166,11 +187,12 @@ class Oblique(_Scenario):
         if self.model in LINEAR_MODELS and self.exponent != 1.0:
             raise ValueError(f"exponent = {self.exponent!r}: model {self.model!r} is a linear "
                              "spring (stiffness in N/m); must be 1")
-        if self.tangential == "mindlin" and (self.exponent != 1.5
-                                            or self.model in LINEAR_MODELS):
-            raise ValueError(f"tangential = 'mindlin': must have the Hertz law (exponent 1.5, a "
-                             f"hysteresis model; got exponent {self.exponent!r}, model "
-                             f"{self.model!r}): k_t = 8·G*·√(R·x) is Hertz geometry")
+        if self.tangential in COMPLIANT_MODELS and (self.exponent != 1.5
+                                                    or self.model in LINEAR_MODELS):
+            raise ValueError(f"tangential = {self.tangential!r}: must have the Hertz law "
+                             f"(exponent 1.5, a hysteresis model; got exponent "
+                             f"{self.exponent!r}, model {self.model!r}): k_t = 8·G*·√(R·x) is "
+                             "Hertz geometry")
 
     # ------------------------------------------------------------------ constructors
     @classmethod
@@ -210,9 +232,20 @@ class Oblique(_Scenario):
         return self.tangential_velocity_m_s - self.radius_m * self.spin_rad_s
 
     @property
+    def gyration_ratio(self) -> float:
+        """k²/R² of the shape: 2/5 (sphere), 1/2 (disc)."""
+        return GYRATION_RATIOS[self.shape]
+
+    @property
+    def spin_factor(self) -> float:
+        """1 + R²/k²: 3.5 (sphere), 3 (disc); the slip s = v_t − R·ω changes this many times
+        faster than v_t under a tangential force."""
+        return 1.0 + 1.0 / self.gyration_ratio
+
+    @property
     def moment_of_inertia_kg_m2(self) -> float:
-        """I = m·k² = (2/5)·m·R²."""
-        return GYRATION_RATIO * self.mass_kg * self.radius_m**2
+        """I = m·k²: (2/5)·m·R² (sphere), (1/2)·m·R² (disc)."""
+        return self.gyration_ratio * self.mass_kg * self.radius_m**2
 
     @property
     def shear_modulus_pa(self) -> float:

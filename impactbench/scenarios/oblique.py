@@ -2,12 +2,13 @@
 (MODELS.md §3).
 
 Physics: :class:`~impactbench.reference.oblique_scenario.Oblique` (any normal law of the zoo,
-Coulomb friction μ, initial spin ω0); references: the rigid tangential theory in closed form
-(``tangential = "rigid"``, :mod:`impactbench.reference.oblique`) or the tangentially compliant
-Mindlin law, integrated (``tangential = "mindlin"``,
-:mod:`impactbench.reference.oblique_integrate`). One point per incidence angle θ (degrees from
-the normal) and impact speed V (m/s). Its subcommand (``reference oblique``) is in
-:mod:`impactbench.commands.oblique`.
+Coulomb friction μ, initial spin ω0; a sphere, or for the 2D engines a disc); references: the
+rigid tangential theory in closed form (``tangential = "rigid"``,
+:mod:`impactbench.reference.oblique`) or a tangentially compliant law, integrated
+(``tangential = "mindlin"``: Mindlin's no-slip spring; ``"mindlin-deresiewicz"``: with
+micro-slip and the contact's memory; :mod:`impactbench.reference.oblique_integrate`). One
+point per incidence angle θ (degrees from the normal) and impact speed V (m/s). Its
+subcommand (``reference oblique``) is in :mod:`impactbench.commands.oblique`.
 
 """
 
@@ -58,8 +59,10 @@ MATERIAL_FIELDS = ("youngs_modulus_pa", "poisson", "plate_youngs_modulus_pa", "p
 
 DESCRIPTIONS = {
     "velocity_m_s": "impact speed V (m/s)",
-    "tangential": "tangential contact: rigid (ideal Coulomb, closed form) or mindlin (no-slip "
-                  "spring k_t = 8·G*·a capped at μ·F_n, integrated)",
+    "tangential": "tangential contact: rigid (ideal Coulomb, closed form), mindlin (no-slip "
+                  "spring k_t = 8·G*·a capped at μ·F_n, integrated) or mindlin-deresiewicz "
+                  "(with micro-slip and the contact's memory, integrated)",
+    "shape": "the ball: sphere (k² = 2R²/5) or disc (k² = R²/2; the 2D engines only)",
     "model": "normal contact model of the zoo, set up at the normal velocity V·cos θ",
     "nominal_restitution": "nominal restitution e of the normal law (its damping follows at "
                            "V·cos θ); none: the paper's b",
@@ -90,19 +93,19 @@ def record_metrics(rec: Any, scenario: Any) -> dict[str, float]:
 def plausibility(scenario: Any, rec: Any, metrics: dict[str, Any]) -> dict[str, float]:
     """The largest overlap over the ball's radius (from the record), and the kinetic energy
     after over before, translation and spin: (m·(v_n'² + v_t'²) + I·ω'²)/(m·V² + I·ω0²),
-    I = (2/5)·m·R², with v_n' = e·v_n and v_t' = e_t·V·sin θ (the tangential restitution; at
-    θ = 0, v_t' = 0)."""
+    I = m·k² of the shape ((2/5)·m·R² sphere, (1/2)·m·R² disc), with v_n' = e·v_n and
+    v_t' = e_t·V·sin θ (the tangential restitution; at θ = 0, v_t' = 0)."""
     pen = float(rec.penetration_m.max()) if len(rec) else math.nan
     e = float(metrics.get("restitution", math.nan))
     w = float(metrics.get("spin_out_rad_s", math.nan))
-    m, r = scenario.mass_kg, scenario.radius_m
-    inertia = 0.4 * m * r * r
+    m = scenario.mass_kg
+    inertia = scenario.moment_of_inertia_kg_m2
     vn = e * scenario.normal_velocity_m_s
     v_t_in = scenario.velocity_m_s * math.sin(math.radians(scenario.angle_deg))
     vt = float(metrics.get("tangential_restitution", math.nan)) * v_t_in if v_t_in else 0.0
     before = m * scenario.velocity_m_s**2 + inertia * scenario.spin_rad_s**2
     after = m * (vn * vn + vt * vt) + inertia * w * w
-    return {"penetration_ratio": pen / r, "energy_ratio": after / before}
+    return {"penetration_ratio": pen / scenario.radius_m, "energy_ratio": after / before}
 
 
 def reference_problem(scenario: Any, ref: dict[str, Any]) -> str:
@@ -118,10 +121,15 @@ def reference_problem(scenario: Any, ref: dict[str, Any]) -> str:
 
 def add_options(group: argparse._ArgumentGroup, with_gravity: bool = True) -> None:
     """The normal contact model and nominal restitution (shared with the ball when both are
-    on one parser), the tangential model and a named case. No gravity: the reference is the
-    gravity-free impact (``with_gravity`` is accepted for the spec's signature)."""
+    on one parser), the tangential model, the ball's shape and a named case. No gravity: the
+    reference is the gravity-free impact (``with_gravity`` is accepted for the spec's signature)."""
     from impactbench.cliutil import number
-    from impactbench.reference.oblique_scenario import CASES, OBLIQUE_MODELS, TANGENTIAL_MODELS
+    from impactbench.reference.oblique_scenario import (
+        CASES,
+        OBLIQUE_MODELS,
+        SHAPES,
+        TANGENTIAL_MODELS,
+    )
 
     have = group._option_string_actions  # shared with the parser: another scenario's flags
     if "--model" not in have:
@@ -136,8 +144,14 @@ def add_options(group: argparse._ArgumentGroup, with_gravity: bool = True) -> No
     if "--tangential" not in have:
         group.add_argument("--tangential", choices=TANGENTIAL_MODELS, default=None,
                            help="tangential contact: rigid (ideal Coulomb, closed form; the "
-                           "default) or mindlin (no-slip spring k_t = 8·G*·a capped at μ·F_n, "
-                           "integrated)")
+                           "default), mindlin (no-slip spring k_t = 8·G*·a capped at μ·F_n, "
+                           "integrated) or mindlin-deresiewicz (the full law: micro-slip and "
+                           "the contact's memory, a spring bed)")
+    if "--shape" not in have:
+        group.add_argument("--shape", choices=SHAPES, default=None,
+                           help="the ball: sphere (k² = 2R²/5, the default) or disc (k² = "
+                           "R²/2: the 2D engines' circle with a disc's inertia; the 3D engines "
+                           "return unsupported)")
     if "--case" not in have:
         group.add_argument("--case", choices=tuple(CASES), default=None,
                            help="a named set of fields (kharaz2001: Kharaz et al. 2001's "
@@ -224,10 +238,11 @@ FIGURE_METRICS = (("rebound_angle_deg", "rebound angle (°)"),
 
 
 def angle_figure(df: Any, scenario: Any, path: Any, how: str, kharaz: bool = False) -> Any:
-    """Rebound angle, spin and tangential restitution against incidence angle: both
-    references (rigid Coulomb, closed form; Mindlin, integrated) as curves, every engine and
-    mode of ``df``'s oblique rows at ``scenario``'s speed as points, and Kharaz et al.'s
-    measurements when ``kharaz`` (the experiment's own sphere)."""
+    """Rebound angle, spin and tangential restitution against incidence angle: the references
+    (rigid Coulomb, closed form; Mindlin–Deresiewicz, the compliant reference; Mindlin's
+    no-slip law, thin) as curves, every engine and mode of ``df``'s oblique rows at
+    ``scenario``'s speed as points, and Kharaz et al.'s measurements when ``kharaz`` (the
+    experiment's own sphere)."""
     import matplotlib.pyplot as plt
     import numpy as np
 
@@ -236,13 +251,16 @@ def angle_figure(df: Any, scenario: Any, path: Any, how: str, kharaz: bool = Fal
 
     fine = np.linspace(0.0, 85.0, 69)
     rigid = oblique.sweep(scenario.replace(tangential="rigid"), fine)
-    coarse = np.linspace(0.0, 85.0, 18)
+    coarse = np.sort(np.concatenate([[1.0, 2.0, 3.5], np.linspace(0.0, 85.0, 18)]))  # + near-normal
     mindlin = oblique.sweep(scenario.replace(tangential="mindlin"), coarse)
+    compliant = oblique.sweep(scenario.replace(tangential=oblique.COMPLIANT_DEFAULT), coarse)
     fig, axes = plt.subplots(1, 3, figsize=(13.5, 4.2))
     for ax, (key, label) in zip(axes, FIGURE_METRICS, strict=True):
         ax.plot(rigid.angle_deg, rigid[key], color="black", lw=2, label="rigid Coulomb")
-        ax.plot(mindlin.angle_deg, mindlin[key], color="black", lw=1.5, ls="--",
-                label="Mindlin (compliant)")
+        ax.plot(compliant.angle_deg, compliant[key], color="black", lw=1.5, ls="--",
+                label="Mindlin–Deresiewicz (compliant)")
+        ax.plot(mindlin.angle_deg, mindlin[key], color="0.4", lw=0.8, ls=":",
+                label="Mindlin no-slip")
         if kharaz:
             from impactbench.reference import kharaz2001
 

@@ -43,6 +43,17 @@ def test_params_run_custom_with_a_distinguishing_label() -> None:
     assert len({c.id for c in both.checks}) == 2
 
 
+def test_a_text_scenario_field_gets_a_label() -> None:
+    """A gate on the disc (``shape``, a text field) names it in its id (it crashed: the
+    label formatted every field as a number)."""
+    body = ('[[gate]]\nengine = "pymunk"\nmode = "injected"\nscenario = "oblique"\n'
+            'angles_deg = [20.0]\nvelocities_m_s = [2.0]\ntimesteps_s = [1e-6]\n'
+            'parameters = {friction = 0.3, shape = "disc"}\n[gate.tolerance]\n'
+            'restitution = 1.0\n')
+    (c,) = parse_gates(body, "g.toml").checks
+    assert c.id == "pymunk-injected-oblique-friction0.3-shapedisc-a20-v2-dt1e-06-restitution"
+
+
 @pytest.mark.parametrize(("body", "needle"), [
     ('mode = "custom"', "gate 1: mode = 'custom': needs params"),
     ('mode = ["native", "custom"]', "mode = 'custom': needs params"),
