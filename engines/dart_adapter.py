@@ -54,7 +54,9 @@ Tangential force: DART's own ``Contact.force`` (impulse / dt) along x, taken on 
 - ``injected``: no collision; the normal law and ideal Coulomb friction (−s·m_s/dt clipped to
   ±μ·F_n, :func:`impactbench.engines.stepping.coulomb_force`) as joint forces and torque.
 - ``default``: DART's defaults (restitution 0) with the scenario's μ; ``custom``: that plus
-  ``settings.params``; ``tuned``: ``unsupported``.
+  ``settings.params``; ``tuned``: ``native`` with a tuned file's ``friction_coeff`` (both
+  shapes; :data:`impactbench.engines.oblique_tuned.SPACES`); no file: ``unsupported`` with the
+  reason.
 
 The run loop and stopping rules are :mod:`impactbench.engines.stepping`'s. Default timesteps:
 ball and oblique 1e-6 s, rigid–flexible 1e-5 s.
@@ -64,11 +66,12 @@ from __future__ import annotations
 
 from typing import Any
 
-from impactbench.engines import stepping
+from impactbench.engines import oblique_tuned, stepping
 from impactbench.engines.base import EngineUnavailable, RunSettings, Scenario
 from impactbench.engines.common import native_ball_restitution, reference_velocity
 from impactbench.reference import validation as check
 from impactbench.reference.oblique_scenario import Oblique
+from impactbench.reference.record import ImpactRecord
 from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
 
 COLLISION_DETECTORS: tuple[str, ...] = ("fcl", "dart", "bullet", "ode")
@@ -347,6 +350,12 @@ class DartAdapter(stepping.SteppedAdapter):
                            ) -> tuple[dict[str, Any], dict[str, Any]]:
         return oblique_parameters(scenario, mode, settings)
 
+    def run_oblique(self, scenario: Oblique, mode: str, settings: RunSettings
+                    ) -> ImpactRecord:
+        if mode == "tuned":  # native plus the tuned file's friction knobs
+            return oblique_tuned.run_stepped(self, scenario, settings)
+        return super().run_oblique(scenario, mode, settings)
+
 
 def parameters(scenario: Scenario, mode: str, settings: RunSettings, ball: bool
                ) -> tuple[dict[str, Any], dict[str, Any]]:
@@ -426,10 +435,17 @@ def oblique_parameters(scenario: Oblique, mode: str, settings: RunSettings
                         "injected_law": scenario.model, "engine_defaults": facts}
     v_ref = reference_velocity(settings.options)
     native["restitution_coeff"] = native_ball_restitution(scenario.normal_scenario(), v_ref)
+    tuned: dict[str, Any] = {}
+    if mode == "tuned":  # native plus the fitted friction knobs
+        applied = oblique_tuned.friction("dart", settings, scenario, settings.timestep_s)
+        native.update(applied)
+        tuned = oblique_tuned.meta(applied, settings)
+        mu = applied["friction_coeff"]
     facts = stepping.friction_facts(FRICTION_MODEL, FRICTION_COMBINATION, mu, mu, mu,
                                     moment_of_inertia_kg_m2=inertia,
                                     collision_detector=native["collision_detector"],
                                     split_impulse=native["split_impulse"])
     return native, {**rigid, "reference_velocity_m_s": v_ref,
                     "restitution": native["restitution_coeff"], "engine_defaults": facts,
-                    "not_expressible": "contact stiffness and damping (DART contacts are rigid)"}
+                    "not_expressible": "contact stiffness and damping (DART contacts are rigid)",
+                    **tuned}

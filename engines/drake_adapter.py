@@ -117,7 +117,12 @@ Oblique impact (MODELS.md §3; frame and channels of :mod:`impactbench.engines.o
       stiction tolerance 1e-4 m/s, point properties from the penetration allowance) with
       ``CoulombFriction(μ, μ)`` on both geometries; custom takes the ball's keys
       (``stiction_tolerance``, ``discrete_contact_approximation``, …).
-    * tuned: ``unsupported`` (no friction parameters are fitted yet).
+    * tuned: native with a tuned file's friction knobs
+      (:data:`impactbench.engines.oblique_tuned.SPACES`: ``coulomb_friction``, the
+      CoulombFriction(μ, μ) of both geometries, and the continuous plant's
+      ``stiction_tolerance``); μ is read back from the scene graph
+      (``friction_effective``), the stiction tolerance has no getter. No file:
+      ``unsupported`` with the reason.
 
 Cost
     Stepping runs inside one ``Simulator.AdvanceTo`` with a per-step monitor (no Python call
@@ -134,6 +139,7 @@ from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 import numpy as np
+from impactbench.engines import oblique_tuned
 from impactbench.engines.base import (
     PIP,
     Adapter,
@@ -151,7 +157,6 @@ from impactbench.engines.oblique_common import (
     friction_facts,
     record,
     start,
-    unsupported_tuned,
 )
 from impactbench.reference import validation as check
 from impactbench.reference.laws import LocalLaw, StructuralLaw, no_further_contact
@@ -641,6 +646,11 @@ def build_oblique(scenario: Any, mode: str, settings: RunSettings) -> DrakeModel
     m, r, mu = s.mass_kg, s.radius_m, s.friction
     builder = d.DiagramBuilder()
     meta: dict[str, Any] = {"scenario": s.name}
+    applied: dict[str, Any] = {}
+    if mode == "tuned":  # native's continuous plant, the fitted friction knobs
+        applied = oblique_tuned.friction("drake", settings, s, dt)
+        mu = applied["coulomb_friction"]
+        meta.update(oblique_tuned.meta(applied, settings))
     if discrete is not None:
         config_keys = ("discrete_contact_approximation", "contact_model",
                        "penetration_allowance", "stiction_tolerance")
@@ -655,6 +665,8 @@ def build_oblique(scenario: Any, mode: str, settings: RunSettings) -> DrakeModel
         plant.set_contact_model(d.ContactModel.kPoint)
         stiction = check.positive("options.stiction_tolerance", settings.options.get(
             "stiction_tolerance", DRAKE_STICTION_TOLERANCE_M_S))
+        if applied:
+            stiction = applied["stiction_tolerance"]
         plant.set_stiction_tolerance(stiction)
         meta["plant"] = "continuous (time_step = 0), point contact"
     ball = plant.AddRigidBody("ball", d.SpatialInertia.SolidSphereWithMass(m, r))
@@ -878,7 +890,9 @@ class DrakeAdapter(Adapter):
 
     def run_oblique(self, scenario: Scenario, mode: str, settings: RunSettings) -> ImpactRecord:
         if mode == "tuned":
-            return unsupported_tuned()
+            refused = oblique_tuned.refused(self.name, settings)
+            if refused is not None:
+                return refused
         return self._run_with(_run_oblique, scenario, mode, settings)
 
     def _run_with(self, run: Callable[[DrakeModel, Any, RunSettings], ImpactRecord],

@@ -40,7 +40,8 @@ Oblique impact (:func:`run_oblique`): MuJoCo's model, modes and friction setting
 ``impratio``, ``solreffriction`` on a contact pair — MJX implements them all), the whole
 contact sensor recorded inside the scan; injected writes the law's secant into the pair's
 solref inside the scan. MJX has no noslip solver (it would ignore ``noslip_iterations``, so
-that key is not offered). The records equal C MuJoCo's (tests).
+that key is not offered). The records equal C MuJoCo's (tests). ``tuned``: MuJoCo's (native
+with a tuned file's ``cone``, ``impratio`` and sliding ``friction``; its own packaged file).
 """
 
 from __future__ import annotations
@@ -54,6 +55,7 @@ from pathlib import Path
 from typing import Any, ClassVar
 
 import numpy as np
+from impactbench.engines import oblique_tuned
 from impactbench.engines.base import Adapter, Builder, EngineUnavailable, RunSettings
 from impactbench.engines.common import NATIVE_REFERENCE_VELOCITY_M_S, classify
 from impactbench.engines.mujoco_adapter import (
@@ -86,7 +88,7 @@ from impactbench.engines.mujoco_adapter import (
     rigid_flexible_record,
     set_contact,
 )
-from impactbench.engines.oblique_common import reject_keys, start, unsupported_tuned
+from impactbench.engines.oblique_common import reject_keys, start
 from impactbench.reference.models import KelvinVoigt
 from impactbench.reference.record import ImpactRecord, Status
 from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
@@ -426,7 +428,7 @@ def run_oblique(s: Any, mode: str, settings: RunSettings) -> ImpactRecord:
     mujoco_adapter.prepare_oblique`), stepped in compiled scans; injected writes the law's
     secant into the contact pair's solref inside the scan."""
     dt = float(settings.timestep_s or OBLIQUE_TIMESTEP_S)
-    model, data, meta, _ = prepare_oblique(s, mode, settings)
+    model, data, meta, _ = prepare_oblique(s, mode, settings, engine="mjx")
     control, params = "none", np.zeros(6)
     if mode == "injected":
         injected = injected_parameters(s.normal_scenario().law(), meta["normal_compliance"])
@@ -491,7 +493,9 @@ class MjxAdapter(Adapter):
 
     def run_oblique(self, scenario: Any, mode: str, settings: RunSettings) -> ImpactRecord:
         if mode == "tuned":
-            return unsupported_tuned()
+            refused = oblique_tuned.refused(self.name, settings)
+            if refused is not None:
+                return refused
         return run_oblique(scenario, mode, settings)
 
     def run_rigid_flexible(self, scenario: RigidFlexible, mode: str, settings: RunSettings

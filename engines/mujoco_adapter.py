@@ -113,7 +113,11 @@ pyramidal one (its four edges share the normal force).
   :data:`OBLIQUE_KEYS` (``condim``, ``cone``, ``impratio``, ``friction``,
   ``noslip_iterations``, ``solreffriction`` — the last builds a ``<pair>``, where MuJoCo keeps
   it), validated and read back from the compiled model into ``meta["engine_defaults"]``.
-- ``tuned``: ``unsupported`` (no friction parameters are fitted yet).
+- ``tuned``: ``native`` with the friction knobs of a tuned file
+  (:data:`impactbench.engines.oblique_tuned.SPACES`: ``cone``, ``impratio``, the geoms' sliding
+  ``friction``) written into the model; the normal contact stays native. No file:
+  ``unsupported`` with the reason. What the model holds (``opt.cone``, ``opt.impratio``,
+  ``geom_friction``) is read back into ``meta["engine_defaults"]``.
 """
 
 from __future__ import annotations
@@ -125,6 +129,7 @@ from dataclasses import dataclass, field
 from typing import Any, ClassVar, Protocol
 
 import numpy as np
+from impactbench.engines import oblique_tuned
 from impactbench.engines.base import Adapter, Builder, EngineUnavailable, RunSettings
 from impactbench.engines.common import (
     NATIVE_REFERENCE_VELOCITY_M_S,
@@ -142,7 +147,6 @@ from impactbench.engines.oblique_common import (
     record,
     reject_keys,
     start,
-    unsupported_tuned,
 )
 from impactbench.reference import validation as check
 from impactbench.reference.laws import no_further_contact
@@ -850,6 +854,10 @@ def oblique_contact(s: Any, mode: str, settings: RunSettings, user: dict[str, An
             else tuple(user["solreffriction"]),
             cone=user.get("cone"), impratio=user.get("impratio"),
             noslip_iterations=user.get("noslip_iterations"))
+    if mode == "tuned":  # native's contact with the fitted friction knobs (``user``)
+        return ObliqueContact(condim=3, friction=(float(user["friction"]), 0.0, 0.0),
+                              solref=(-1.0, 0.0), solimp=SOLIMP, cone=user["cone"],
+                              impratio=float(user["impratio"]))
     if mode == "injected":
         # the solref is scheduled each step; the friction rows' reference (−1, −D) gives
         # aref = −(D/d)·v_slip = −B·v_slip (direct solref, impedance d)
@@ -970,23 +978,26 @@ def oblique_forces(f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return f[:, 0].copy(), tangential
 
 
-def prepare_oblique(s: Any, mode: str, settings: RunSettings) -> tuple[Any, Any, dict[str, Any],
-                                                                        ObliqueContact]:
-    """Build the oblique model for ``mode`` (MuJoCo's and MJX's): compiled, its native solref
-    or the calibration the injected schedule needs, and the metadata."""
+def prepare_oblique(s: Any, mode: str, settings: RunSettings, engine: str = "mujoco"
+                    ) -> tuple[Any, Any, dict[str, Any], ObliqueContact]:
+    """Build the oblique model for ``mode`` (MuJoCo's and MJX's, ``engine``): compiled, its
+    native solref (native, tuned) or the calibration the injected schedule needs, and the
+    metadata."""
     dt = float(settings.timestep_s or OBLIQUE_TIMESTEP_S)
     user = oblique_parameters(settings.params or {}) if mode == "custom" else {}
+    if mode == "tuned":
+        user = oblique_tuned.friction(engine, settings, s, dt)
     integrator = str(user.get("integrator", settings.options.get("integrator", INTEGRATOR)))
     c = oblique_contact(s, mode, settings, user)
     model, data = _new_model(oblique_mjcf(s, dt, integrator, c))
-    calibrate = mode in ("native", "injected")
+    calibrate = mode in ("native", "injected", "tuned")
     back = oblique_readback(model, data, c.pair, calibrate)
     meta: dict[str, Any] = {"integrator": integrator, "efc_diagA": back["efc_diagA"],
                             "scenario": s.name}
     mu = c.friction[0] if c.friction else DEFAULT_FRICTION[0]  # set on both geoms
     if mode in ("default", "custom"):
         meta["params"] = user
-    elif mode == "native":
+    elif mode in ("native", "tuned"):
         v_ref = reference_velocity(settings.options)
         sd = native_normal(s, v_ref)
         a = back["normal_compliance"]
@@ -995,6 +1006,8 @@ def prepare_oblique(s: Any, mode: str, settings: RunSettings) -> tuple[Any, Any,
         meta.update(stiffness_n_per_m=sd.stiffness_n_per_m, damping_ns_per_m=sd.damping_ns_per_m,
                     reference_velocity_m_s=v_ref, normal_compliance=a, solref=list(solref),
                     solimp=list(SOLIMP), cone=c.cone)
+        if mode == "tuned":
+            meta.update(oblique_tuned.meta(user, settings))
     else:
         meta.update(law=s.model, normal_compliance=back["normal_compliance"],
                     solimp=list(SOLIMP), cone=c.cone,
@@ -1006,7 +1019,7 @@ def prepare_oblique(s: Any, mode: str, settings: RunSettings) -> tuple[Any, Any,
 def oblique_time_scale_s(s: Any, mode: str, meta: dict[str, Any], dt: float) -> float:
     """A contact duration estimate (s) for chunks and the time cap."""
     t_est = elastic_duration_s(s)
-    if mode == "native":
+    if mode in ("native", "tuned"):
         return SpringDamper(meta["stiffness_n_per_m"], meta["damping_ns_per_m"]).duration_s(
             s.mass_kg)
     if mode in ("default", "custom"):
@@ -1098,7 +1111,9 @@ class MujocoAdapter(Adapter):
 
     def run_oblique(self, scenario: Any, mode: str, settings: RunSettings) -> ImpactRecord:
         if mode == "tuned":
-            return unsupported_tuned()
+            refused = oblique_tuned.refused(self.name, settings)
+            if refused is not None:
+                return refused
         return run_oblique(scenario, mode, settings)
 
     def run_rigid_flexible(self, scenario: RigidFlexible, mode: str, settings: RunSettings

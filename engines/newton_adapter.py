@@ -60,8 +60,10 @@ averaged (both get the same). ``native``: the ball's native ke, kd, mu = μ and 
 (:func:`deadbeat_kf`: the regularisation stops a slip within one step, ideal Coulomb for the
 step); ``injected``: the law's secant ke and the same friction — the law and Coulomb both
 through Newton's own contact; ``default``: ShapeConfig defaults (kf 1e3) with mu = μ;
-``custom``: that plus ``settings.params``; ``tuned``: ``unsupported``. Forces: m·Δv/dt, normal
-and tangential.
+``custom``: that plus ``settings.params``; ``tuned``: ``native`` with a tuned file's ``mu`` and
+``kf`` (both shapes; :data:`impactbench.engines.oblique_tuned.SPACES`), read back from the
+finalized model (``shape_material_mu``, ``shape_material_kf``); no file: ``unsupported`` with
+the reason. Forces: m·Δv/dt, normal and tangential.
 
 Stepping (:class:`NewtonSim`) stays on warp's CPU device: one step (a record kernel, then
 ``clear_forces``, ``collide``, ``SolverFeatherstone.step``) is captured once per direction of
@@ -89,7 +91,7 @@ from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 import numpy as np
-from impactbench.engines import oblique_common
+from impactbench.engines import oblique_common, oblique_tuned
 from impactbench.engines.base import Adapter, Builder, EngineUnavailable, RunSettings
 from impactbench.engines.common import (
     NATIVE_REFERENCE_VELOCITY_M_S,
@@ -608,14 +610,19 @@ def oblique_parameters(s: Oblique, mode: str, settings: RunSettings, dt: float
     ``default`` Newton's ShapeConfig defaults with mu = μ; ``custom`` that plus
     ``settings.params``."""
     mu = s.friction
-    if mode == "native":
+    if mode in ("native", "tuned"):
         v_ref = float(settings.options.get("reference_velocity_m_s",
                                            NATIVE_REFERENCE_VELOCITY_M_S))
         sd = native_ball(s.normal_scenario(v_ref))
         values = {"ke": sd.stiffness_n_per_m, "kd": sd.damping_ns_per_m,
                   "kf": deadbeat_kf(s, dt), "mu": mu}
-        return values, {**values, "reference_velocity_m_s": v_ref,
-                        "kf_rule": "m_s/dt (deadbeat: the slip stops within one step)"}
+        meta = {"reference_velocity_m_s": v_ref,
+                "kf_rule": "m_s/dt (deadbeat: the slip stops within one step)"}
+        if mode == "tuned":  # native plus the fitted friction knobs
+            applied = oblique_tuned.friction("newton", settings, s, dt)
+            values.update(mu=float(applied["mu"]), kf=float(applied["kf"]))
+            meta = {"reference_velocity_m_s": v_ref, **oblique_tuned.meta(applied, settings)}
+        return values, {**values, **meta}
     defaults = newton_contact_defaults()
     given = (settings.params or {}) if mode == "custom" else {}
     values = {**defaults, "mu": mu}
@@ -670,7 +677,12 @@ def run_oblique(s: Oblique, mode: str, settings: RunSettings, *,
         return np.where(q[:, 0] < 0.0, m * (qd_next[:, 0] - qd[:, 0]) / dt, 0.0)
 
     gap = GAP_STEPS * v0 * dt
-    sim = NewtonSim(oblique_model(s, values), dt, (gap, 0.0, 0.0), (-v0, v_t, s.spin_rad_s),
+    built = oblique_model(s, values)
+    if mode == "tuned":  # what the finalized model holds (both shapes)
+        meta["engine_defaults"].update(
+            shape_material_mu=[float(v) for v in built.shape_material_mu.numpy()],
+            shape_material_kf=[float(v) for v in built.shape_material_kf.numpy()])
+    sim = NewtonSim(built, dt, (gap, 0.0, 0.0), (-v0, v_t, s.spin_rad_s),
                     force, secant=secant, graphs=graphs)
     max_time = settings.max_time_s or gap / v0 + 20.0 * t_est
     n_max = max(math.ceil(max_time / dt), math.ceil(GAP_STEPS) + 16)
@@ -729,7 +741,9 @@ class NewtonAdapter(Adapter):
     def run_oblique(self, scenario: Oblique, mode: str, settings: RunSettings
                     ) -> ImpactRecord:
         if mode == "tuned":
-            return oblique_common.unsupported_tuned()
+            refused = oblique_tuned.refused(self.name, settings)
+            if refused is not None:
+                return refused
         return run_oblique(scenario, mode, settings)
 
 

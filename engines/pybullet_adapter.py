@@ -124,7 +124,10 @@ directions (impulse/dt; Bullet reports it on the plate, so it is negated for the
   ``rollingFriction``, ``spinningFriction``, ``frictionAnchor``, ``angularDamping``,
   ``maxJointVelocity``), set on the ball, read back with ``getDynamicsInfo`` into
   ``meta["engine_defaults"]``.
-* ``tuned``: ``unsupported`` (no friction parameters are fitted yet).
+* ``tuned``: ``native`` with a tuned file's friction knobs on the ball
+  (:data:`impactbench.engines.oblique_tuned.SPACES`: ``lateralFriction``, ``frictionAnchor``;
+  the plate keeps 1), read back with ``getDynamicsInfo`` into ``meta["engine_defaults"]``; no
+  file: ``unsupported`` with the reason.
 """
 
 from __future__ import annotations
@@ -135,6 +138,7 @@ import time
 from collections.abc import Callable
 from typing import Any, ClassVar
 
+from impactbench.engines import oblique_tuned
 from impactbench.engines.base import Adapter, Builder, EngineUnavailable, RunSettings, Scenario
 from impactbench.engines.common import (
     NATIVE_REFERENCE_VELOCITY_M_S,
@@ -153,7 +157,6 @@ from impactbench.engines.oblique_common import (
     record,
     reject_keys,
     start,
-    unsupported_tuned,
 )
 from impactbench.reference import validation as check
 from impactbench.reference.models import spring_damper
@@ -451,7 +454,9 @@ class PybulletAdapter(Adapter):
     def run_oblique(self, scenario: Scenario, mode: str, settings: RunSettings
                     ) -> ImpactRecord:
         if mode == "tuned":
-            return unsupported_tuned()
+            refused = oblique_tuned.refused(self.name, settings)
+            if refused is not None:
+                return refused
         return self._run_with(_run_oblique, scenario, mode, settings)
 
     def run_rigid_flexible(self, scenario: RigidFlexible, mode: str, settings: RunSettings
@@ -680,9 +685,14 @@ def _run_oblique(p: Any, s: Any, mode: str, settings: RunSettings, dt: float,
     n_max = _step_cap(s, settings, dt, elastic_duration_s(s), injected, out_of_box, k0)
     m, radius = s.mass_kg, s.radius_m
     law = s.normal_scenario().law()
+    # tuned: native's contact, the fitted friction on the ball (the plate keeps 1)
+    applied = oblique_tuned.friction("pybullet", settings, s, dt) if mode == "tuned" else {}
     world = ObliqueWorld(p, s, dt, k0, d0, out_of_box)
     beyond = radius if injected else radius + world.plate_half_m
-    anchor = int((out_of_box or {}).get("frictionAnchor", 0))
+    anchor = int((out_of_box or applied).get("frictionAnchor", 0))
+    if applied:
+        world._apply_friction(applied)
+        meta.update(oblique_tuned.meta(applied, settings))
     meta["engine_defaults"] = {**(world.defaults if out_of_box is not None else {}),
                                **world.friction_facts(anchor)}
     rows: list[tuple[float, ...]] = []

@@ -70,7 +70,10 @@ m·Δv_t/dt. PhysX damps spin (``angular_damping`` 0.05 /s) and clamps it
 - ``injected``: no shape; the normal law and ideal Coulomb friction (−s·m_s/dt clipped to
   ±μ·F_n, :func:`impactbench.engines.stepping.coulomb_force`) as a force and torque.
 - ``default``: PhysX's defaults (rigid, restitution 0.1 above the 2 m/s bounce threshold) with
-  the scenario's μ; ``custom``: that plus ``settings.params``; ``tuned``: ``unsupported``.
+  the scenario's μ; ``custom``: that plus ``settings.params``; ``tuned``: ``native`` with a
+  tuned file's friction knobs (:data:`impactbench.engines.oblique_tuned.SPACES`:
+  ``static_friction``, ``dynamic_friction`` of both materials); no file: ``unsupported`` with
+  the reason.
 
 The run loop and stopping rules are :mod:`impactbench.engines.stepping`'s. Default timesteps:
 ball and oblique 1e-6 s, rigid–flexible 1e-5 s.
@@ -82,7 +85,7 @@ import warnings
 from contextlib import contextmanager
 from typing import Any
 
-from impactbench.engines import stepping
+from impactbench.engines import oblique_tuned, stepping
 from impactbench.engines.base import EngineUnavailable, RunSettings, Scenario
 from impactbench.engines.common import (
     native_ball_restitution,
@@ -91,6 +94,7 @@ from impactbench.engines.common import (
 )
 from impactbench.reference import validation as check
 from impactbench.reference.oblique_scenario import Oblique
+from impactbench.reference.record import ImpactRecord
 from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
 
 PARAMETERS: dict[str, Any] = {
@@ -440,6 +444,12 @@ class SapienAdapter(stepping.SteppedAdapter):
                            ) -> tuple[dict[str, Any], dict[str, Any]]:
         return oblique_parameters(scenario, mode, settings)
 
+    def run_oblique(self, scenario: Oblique, mode: str, settings: RunSettings
+                    ) -> ImpactRecord:
+        if mode == "tuned":  # native plus the tuned file's friction knobs
+            return oblique_tuned.run_stepped(self, scenario, settings)
+        return super().run_oblique(scenario, mode, settings)
+
 
 def _physx_version() -> str:
     _, px = _import_sapien()
@@ -551,6 +561,11 @@ def oblique_parameters(scenario: Oblique, mode: str, settings: RunSettings
     contact = check.one_of("options.contact", settings.options.get("contact", "compliant"),
                            CONTACTS)
     meta: dict[str, Any] = {"reference_velocity_m_s": v_ref}
+    if mode == "tuned":  # native plus the fitted friction knobs
+        applied = oblique_tuned.friction("sapien", settings, scenario, settings.timestep_s)
+        native.update(applied)
+        meta.update(oblique_tuned.meta(applied, settings))
+        mu = applied["dynamic_friction"]
     if contact == "compliant":
         native["restitution"] = -native_ball_spring(scenario.normal_scenario(), v_ref)
         meta["not_expressible"] = "contact damping (PhysX compliant contacts are undamped)"

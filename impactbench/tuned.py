@@ -9,7 +9,12 @@ timestep; no date or wall time, so the same tuning writes the same bytes) and ``
 
 The keys of ``[parameters]`` are checked against the engine's tuned keys (:func:`tuned_keys`):
 an unknown one (MuJoCo's ``solimpp``) is a one-line error with the valid keys and a "did you
-mean", never silently ignored.
+mean", never silently ignored. A scenario whose tuned mode fits keys of its own (the oblique
+impact's friction knobs) has a module ``impactbench.engines.<scenario>_tuned`` with
+``tuned_keys(engine)`` (:func:`own_keys_module`; :mod:`impactbench.engines.oblique_tuned`); its
+files are written by its own fit (:mod:`impactbench.tuning.oblique`) in the same form
+(``[parameters]``, ``[provenance]`` with engine, scenario, timestep and the scenario's fields
+but its axes).
 """
 
 from __future__ import annotations
@@ -27,6 +32,17 @@ from impactbench.scenarios import spec_of
 
 TUNED_DIR = Path(__file__).parent / "data" / "tuned"
 _BARE_KEY = re.compile(r"^[A-Za-z0-9_-]+$")
+
+
+def own_keys_module(scenario: str | None) -> str | None:
+    """``impactbench.engines.<scenario>_tuned`` when it exists: the scenario's tuned files hold
+    keys of its own (its ``tuned_keys(engine)``), not the ball's tuning spaces'; else None."""
+    if not scenario:
+        return None
+    from importlib.util import find_spec
+
+    name = f"impactbench.engines.{scenario.replace('-', '_')}_tuned"
+    return name if find_spec(name) is not None else None
 
 
 def tuned_path(engine: str, scenario: str) -> Path:
@@ -56,15 +72,20 @@ def load_tuned_file(path: Path | str) -> dict[str, Any] | None:
 
 
 @cache
-def tuned_keys(engine: str) -> tuple[str, ...] | None:
+def tuned_keys(engine: str, scenario: str | None = None) -> tuple[str, ...] | None:
     """The keys a tuned file's ``[parameters]`` may hold for ``engine`` (what its ``tuned`` mode
     reads): what each of its tuning spaces writes (``Space.to_tuned``, every parameter set),
     plus the adapter's ``tuned_keys`` where it declares settings a fit holds fixed (Drake's
     ``discrete_contact_approximation``). None for an engine without a tuning space (a
-    plug-in's), whose files are not checked."""
+    plug-in's), whose files are not checked. A ``scenario`` with keys of its own
+    (:func:`own_keys_module`): those."""
     import importlib
 
     import numpy as np
+
+    own = own_keys_module(scenario)
+    if own is not None:
+        return importlib.import_module(own).tuned_keys(engine)
 
     from impactbench.engines.base import EngineUnavailable
     from impactbench.engines.registry import spec
@@ -89,10 +110,11 @@ def tuned_keys(engine: str) -> tuple[str, ...] | None:
     return tuple(keys) if keys else None
 
 
-def check_tuned_keys(engine: str, parameters: Mapping[str, Any], where: str = "") -> None:
+def check_tuned_keys(engine: str, parameters: Mapping[str, Any], where: str = "",
+                     scenario: str | None = None) -> None:
     """A one-line ValueError for a key of ``parameters`` that ``engine``'s tuned mode does not
-    read (``where``: the file, for the message)."""
-    valid = tuned_keys(engine)
+    read (``where``: the file, for the message; ``scenario``: :func:`tuned_keys`')."""
+    valid = tuned_keys(engine, scenario)
     if valid is None:
         return
     for key in parameters:
@@ -151,18 +173,24 @@ def load_tuned_settings(engine: str, scenario: str, timestep_s: float | None = N
         return None, None
     prov = data.get("provenance")
     shown = path.name if path.parent == TUNED_DIR else str(path)
-    if not (isinstance(prov, dict) and prov.get("engine", engine) != engine):
-        # (a file of another engine is reported by the binding check, naming the engine)
-        check_tuned_keys(engine, data["parameters"], shown)
+    if not (isinstance(prov, dict) and (prov.get("engine", engine) != engine
+                                        or prov.get("scenario", scenario) != scenario)):
+        # (a file of another engine or scenario is reported by the binding check, naming it)
+        check_tuned_keys(engine, data["parameters"], shown, scenario)
     return data["parameters"], (dict(prov, file=shown) if isinstance(prov, dict) else None)
 
 
 def tune_command(engine: str, scenario: Any, timestep_s: float) -> str:
-    """The ``impactbench tune`` command line that fits ``engine`` to ``scenario`` at this step."""
+    """The ``impactbench tune`` command line that fits ``engine`` to ``scenario`` at this step
+    (``--scenario`` unless it is the ball's; the scenario's axes, which a fit sweeps, left
+    out)."""
     default = type(scenario)()
-    flags = [f"--{f.flag} {getattr(scenario, f.field):g}" for f in spec_of(scenario).flags
-             if getattr(scenario, f.field) != getattr(default, f.field)]
-    return " ".join(["impactbench tune", f"--engine {engine}", *flags,
+    spec = spec_of(scenario)
+    axes = {a.name for a in spec.axes}
+    flags = [f"--{f.flag} {getattr(scenario, f.field):g}" for f in spec.flags
+             if f.field not in axes and getattr(scenario, f.field) != getattr(default, f.field)]
+    which = [] if "tuning" in spec.studies else [f"--scenario {spec.name}"]
+    return " ".join(["impactbench tune", *which, f"--engine {engine}", *flags,
                      f"--timestep {timestep_s:g}", "--out tuned.toml"])
 
 

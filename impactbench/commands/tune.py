@@ -42,6 +42,15 @@ cores a cluster start costs ~1 s and a round trip ~10–30 ms (``python -m bench
 REPO_FIGURES = Path(__file__).resolve().parents[2] / "reports" / "figures"
 
 
+def own_fit(scenario: str) -> str | None:
+    """``impactbench.commands.tune_<scenario>`` when it exists: the scenario is fitted by a
+    module of its own (``main(args)``; the oblique friction knobs); else None."""
+    from importlib.util import find_spec
+
+    name = f"impactbench.commands.tune_{scenario.replace('-', '_')}"
+    return name if find_spec(name) is not None else None
+
+
 def name_list(text: str) -> list[str]:
     """argparse type: a comma-separated list of names (empty entries dropped)."""
     return [p.strip() for p in text.split(",") if p.strip()]
@@ -60,12 +69,18 @@ def register(top: argparse._SubParsersAction, groups: dict) -> None:
     p.add_argument("--engine", required=True, metavar="E", help=f"one of {', '.join(ENGINES)}")
     tunable = [s.name for s in scenarios.specs() if "tuning" in s.studies]
     data_driven = [s.name for s in scenarios.specs() if s.replay]
+    own = [s.name for s in scenarios.specs() if own_fit(s.name)]
     p.add_argument("--scenario", default=tunable[0], metavar="S",
-                   help=f"{' | '.join(tunable + data_driven)} (the scenarios that serve "
-                   "tuning; a data-driven one is fitted to its training measurements)")
-    p.add_argument("--velocities", type=number_list, default=list(PAPER_VELOCITIES_M_S),
+                   help=f"{' | '.join(tunable + data_driven + own)} (the scenarios that serve "
+                   "tuning; a data-driven one is fitted to its training measurements, oblique's "
+                   "friction knobs to its reference over --angles)")
+    p.add_argument("--velocities", type=number_list, default=None,
                    dest="velocities_m_s", metavar="V,…",
-                   help="impact velocities (m/s); default the paper's 0.5,1,2,3,4,5")
+                   help="impact velocities (m/s); default the paper's 0.5,1,2,3,4,5 (oblique: "
+                   "2)")
+    p.add_argument("--angles", type=number_list, default=None, dest="angles_deg",
+                   metavar="A,…", help="oblique: the incidence angles of the fit (degrees, in "
+                   "(0, 90)); default 20,45,60,80")
     p.add_argument("--targets", type=name_list, default=list(DEFAULT_TARGETS), metavar="T,…",
                    help=f"metrics to fit, from {', '.join(TARGETS)}; default "
                    f"{','.join(DEFAULT_TARGETS)}")
@@ -107,7 +122,7 @@ def register(top: argparse._SubParsersAction, groups: dict) -> None:
     p.add_argument("--json", action="store_true", help="print one JSON object")
     add_execution_flags(p, in_process=True)
     added: set[str] = set()
-    for name in tunable + data_driven:
+    for name in tunable + data_driven + own:
         add_parameter_flags(p, name, added=added)
     p.set_defaults(func=main)
 
@@ -138,6 +153,15 @@ def main(args: argparse.Namespace) -> int:
         args.seed = 20240607 if args.seed is None else args.seed
         args.optimizer = args.optimizer or "CMA"
         return tune_tosses.main(args)
+    fitted_by = own_fit(args.scenario)
+    if fitted_by is not None:
+        import importlib
+
+        return importlib.import_module(fitted_by).main(args)
+    if args.angles_deg is not None:
+        raise ValueError(f"angles = {args.angles_deg}: only the oblique fit sweeps angles")
+    if args.velocities_m_s is None:
+        args.velocities_m_s = list(PAPER_VELOCITIES_M_S)
     for flag in ("seed", "optimizer"):
         if getattr(args, flag) is not None:
             raise ValueError(f"{flag} = {getattr(args, flag)!r}: only the cube-toss fit "

@@ -123,7 +123,10 @@ def test_bad_custom_values_are_one_line_errors():
     assert "\n" not in str(info.value)
 
 
-def test_tuned_is_unsupported_with_a_reason():
+def test_tuned_with_the_balls_parameters_is_unsupported_with_a_reason():
+    # oblique tuned reads friction knobs (impactbench.engines.oblique_tuned); a ball's
+    # parameters are refused, and none at all too (tests/impactbench/test_oblique_tuned.py)
     out, _ = compare("drake", Oblique(), "tuned",
                      RunSettings(tuned={"point_stiffness_n_per_m": 1e8}))
-    assert out["status"] == "unsupported" and "friction" in out["message"]
+    assert out["status"] == "unsupported"
+    assert "not drake's oblique friction" in out["message"]

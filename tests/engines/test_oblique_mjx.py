@@ -78,6 +78,9 @@ def test_custom_keys_reach_mjxs_model():
                                RunSettings(params={"noslip_iterations": 5}))
 
 
-def test_tuned_is_unsupported_with_a_reason():
+def test_tuned_with_the_balls_parameters_is_unsupported_with_a_reason():
+    # oblique tuned reads friction knobs (impactbench.engines.oblique_tuned); a ball's
+    # parameters are refused, and none at all too (tests/impactbench/test_oblique_tuned.py)
     out, _ = compare("mjx", Oblique(), "tuned", RunSettings(tuned={"solref": [-1, -1]}))
-    assert out["status"] == "unsupported" and "friction" in out["message"]
+    assert out["status"] == "unsupported"
+    assert "not mjx's oblique friction" in out["message"]

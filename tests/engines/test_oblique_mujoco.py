@@ -135,6 +135,9 @@ def test_oblique_keys_are_refused_on_the_ball():
         get_adapter("mujoco").run(BallOnPlate(), "custom", RunSettings(params={"cone": "elliptic"}))
 
 
-def test_tuned_is_unsupported_with_a_reason():
+def test_tuned_with_the_balls_parameters_is_unsupported_with_a_reason():
+    # oblique tuned reads friction knobs (impactbench.engines.oblique_tuned); a ball's
+    # parameters are refused, and none at all too (tests/impactbench/test_oblique_tuned.py)
     out, _ = compare("mujoco", Oblique(), "tuned", RunSettings(tuned={"solref": [-1, -1]}))
-    assert out["status"] == "unsupported" and "friction" in out["message"]
+    assert out["status"] == "unsupported"
+    assert "not mujoco's oblique friction" in out["message"]

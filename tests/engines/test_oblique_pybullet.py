@@ -156,7 +156,10 @@ def test_oblique_keys_are_refused_on_the_ball():
                                     RunSettings(params={"lateralFriction": 0.5}))
 
 
-def test_tuned_is_unsupported_with_a_reason():
+def test_tuned_with_the_balls_parameters_is_unsupported_with_a_reason():
+    # oblique tuned reads friction knobs (impactbench.engines.oblique_tuned); a ball's
+    # parameters are refused, and none at all too (tests/impactbench/test_oblique_tuned.py)
     out, _ = compare("pybullet", Oblique(), "tuned",
                      RunSettings(tuned={"contact_stiffness": 1e8}))
-    assert out["status"] == "unsupported" and "friction" in out["message"]
+    assert out["status"] == "unsupported"
+    assert "not pybullet's oblique friction" in out["message"]

@@ -110,6 +110,9 @@ def test_custom_applies_sapiens_own_keys():
                     RunSettings(params={"enable_friction_every_iteration": 1}))
 
 
-def test_tuned_is_unsupported_with_a_reason():
+def test_tuned_with_the_balls_parameters_is_unsupported_with_a_reason():
+    # oblique tuned reads friction knobs (impactbench.engines.oblique_tuned); a ball's
+    # parameters are refused, and none at all too (tests/impactbench/test_oblique_tuned.py)
     rec = get_adapter(ENGINE).run(Oblique(), "tuned", RunSettings(tuned={"restitution": -1e8}))
-    assert rec.status is Status.UNSUPPORTED and "oblique" in rec.message
+    assert rec.status is Status.UNSUPPORTED
+    assert "not sapien's oblique friction" in rec.message

@@ -34,7 +34,8 @@ def test_every_packaged_tuned_file_has_only_known_keys() -> None:
     for path in sorted(TUNED_DIR.glob("*.toml")):
         data = load_tuned_file(path)
         engine = data.get("provenance", {}).get("engine") or path.name.split("_")[0]
-        assert set(data["parameters"]) <= set(tuned_keys(engine)), path.name
+        scenario = data.get("provenance", {}).get("scenario")  # oblique: its friction knobs
+        assert set(data["parameters"]) <= set(tuned_keys(engine, scenario)), path.name
 
 
 def test_a_misspelt_tuned_key_is_refused_not_ignored(capsys, tmp_path: Path) -> None:

@@ -1,0 +1,258 @@
+"""``tuned`` mode of the oblique scenario: the engine's ``native`` oblique run (its native
+normal contact, μ from the scenario) with its FRICTION-RELATED parameters replaced by values
+fitted against the rigid reference over an angle sweep at one timestep
+(``impactbench tune --scenario oblique``, :mod:`impactbench.tuning.oblique`).
+
+:data:`SPACES` is the one statement of what a fit moves, per engine, in the engine's own
+keys (what its ``custom`` mode spells them, or its API's name where ``custom`` has none): the
+scale (``log``, ``linear`` or a ``choice``), the bounds (absolute, or multiples of the
+scenario's μ or of the start value) and the start, which is the native run's own value — so a
+tuned run at the start values is the native run, and a fit that keeps its best evaluation is
+never worse than native on its objective.
+
+The adapters read a tuned file's ``[parameters]`` through :func:`refused` (no parameters, or
+keys of another scenario's file: ``unsupported`` with the reason) and :func:`friction` (the
+validated values, the native ones for keys the file leaves out), and put :func:`meta` into the
+record. The 2D engines' spaces (pymunk, Box2D) are here too; their ``run_oblique`` is not wired
+to them yet (it still returns ``unsupported`` for ``tuned``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+from impactbench.reference import validation as check
+from impactbench.reference.record import ImpactRecord, Status
+
+SCALES = ("log", "linear", "choice")
+
+
+@dataclass(frozen=True)
+class Knob:
+    """One fitted parameter of an engine's oblique friction.
+
+    Attributes:
+        key: the engine's own name (the tuned file's ``[parameters]`` key).
+        scale: ``log`` (searched in ln), ``linear`` or ``choice`` (categorical).
+        lower, upper: the search box, in units of ``per``.
+        per: ``""`` (absolute), ``"friction"`` (multiples of the scenario's μ) or
+            ``"start"`` (multiples of the start value).
+        start: the native run's value: a constant, ``"friction"`` (the scenario's μ) or a
+            function ``(scenario, dt) -> value``.
+        choices: the values of a ``choice``.
+        meaning: what the key does in the engine, in a line.
+    """
+
+    key: str
+    scale: str
+    lower: float = math.nan
+    upper: float = math.nan
+    per: str = ""
+    start: Any = None
+    choices: tuple[Any, ...] = ()
+    meaning: str = ""
+
+    def start_value(self, scenario: Any, dt: float | None) -> Any:
+        """The native run's value of this key."""
+        if self.start == "friction":
+            return float(scenario.friction)
+        if callable(self.start):
+            return self.start(scenario, dt)
+        return self.start
+
+    def bounds(self, scenario: Any, dt: float | None) -> tuple[float, float]:
+        """The absolute search box (NaN, NaN for a ``choice``)."""
+        if self.scale == "choice":
+            return math.nan, math.nan
+        unit = {"": 1.0, "friction": float(scenario.friction),
+                "start": float(self.start_value(scenario, dt))}[self.per]
+        return self.lower * unit, self.upper * unit
+
+    def describe(self, scenario: Any, dt: float | None) -> str:
+        """The knob in one line (the tuned file's ``[space]``)."""
+        start = self.start_value(scenario, dt)
+        if self.scale == "choice":
+            return (f"choice of {', '.join(repr(c) for c in self.choices)}; start {start!r}; "
+                    f"{self.meaning}")
+        lo, hi = self.bounds(scenario, dt)
+        per = {"": "", "friction": f" ({self.lower:g}–{self.upper:g} × μ)",
+               "start": f" ({self.lower:g}–{self.upper:g} × start)"}[self.per]
+        return f"{self.scale} in [{lo:.6g}, {hi:.6g}]{per}; start {start:.6g}; {self.meaning}"
+
+    def check(self, value: Any, engine: str) -> Any:
+        """The value validated (one-line ValueError naming the key)."""
+        name = f"tuned.{self.key}"
+        if self.scale == "choice":
+            for c in self.choices:  # 1 == True in Python: match the type too
+                if value == c and type(value) is type(c):
+                    return c
+                if isinstance(c, int) and not isinstance(c, bool) and isinstance(value, float) \
+                        and value == c:
+                    return c
+            raise ValueError(f"{name} = {value!r}: must be one of "
+                             f"{', '.join(repr(c) for c in self.choices)} ({engine})")
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise ValueError(f"{name} = {value!r}: must be a number ({engine})")
+        if self.scale == "log":
+            return check.positive(name, float(value))
+        return check.non_negative(name, float(value))
+
+
+def _mu(meaning: str, key: str) -> Knob:
+    return Knob(key, "linear", 0.5, 2.0, per="friction", start="friction", meaning=meaning)
+
+
+def _newton_kf(scenario: Any, dt: float | None) -> float:
+    """Newton's native kf, the deadbeat m_s/dt (``newton_adapter.deadbeat_kf``)."""
+    from impactbench.engines.stepping import slip_mass_kg
+
+    if dt is None:
+        raise ValueError("timestep_s = None: Newton's kf start (m_s/dt) needs the step")
+    return slip_mass_kg(scenario) / dt
+
+
+_MUJOCO = (
+    Knob("cone", "choice", start="pyramidal", choices=("pyramidal", "elliptic"),
+         meaning="MuJoCo's friction cone (option cone; native: its default pyramidal)"),
+    Knob("impratio", "log", 1.0, 1e4, start=1.0,
+         meaning="friction-to-normal impedance ratio (option impratio): the friction rows' "
+                 "regulariser is the normal's / impratio (native: MuJoCo's default 1)"),
+    _mu("the geoms' sliding friction (both geoms; MuJoCo takes the larger: the pair's μ)",
+        "friction"),
+)
+
+SPACES: dict[str, tuple[Knob, ...]] = {
+    "mujoco": _MUJOCO,
+    "mjx": _MUJOCO,
+    "pybullet": (
+        Knob("frictionAnchor", "choice", start=0, choices=(0, 1),
+             meaning="changeDynamics frictionAnchor on the ball: keep the contact point where "
+                     "it was created (native: Bullet's default, off)"),
+        _mu("changeDynamics lateralFriction on the ball (the plate's is 1; Bullet multiplies: "
+            "the pair's μ)", "lateralFriction"),
+    ),
+    "drake": (
+        _mu("CoulombFriction(μ, μ) of both geometries (proximity property material/"
+            "coulomb_friction, static = dynamic; Drake's pair rule 2ab/(a + b) gives μ)",
+            "coulomb_friction"),
+        Knob("stiction_tolerance", "log", 1e-6, 1e-2, start=1e-4,
+             meaning="MultibodyPlant.set_stiction_tolerance (m/s): the regularised Stribeck "
+                     "friction rises to μ·F_n over this slip speed (native: Drake's 1e-4)"),
+    ),
+    "sapien": (
+        _mu("PhysX material static friction (both materials; the pair averages)",
+            "static_friction"),
+        _mu("PhysX material dynamic friction (both materials; the pair averages)",
+            "dynamic_friction"),
+    ),
+    "dart": (
+        _mu("DynamicsAspect friction_coeff of both shapes (DART takes the smaller)",
+            "friction_coeff"),
+    ),
+    "newton": (
+        _mu("ShapeConfig mu of both shapes (Newton averages)", "mu"),
+        Knob("kf", "log", 1e-3, 1.0, per="start", start=_newton_kf,
+             meaning="ShapeConfig kf (N·s/m): F_t = −kf·v_slip capped at μ·F_n; start the "
+                     "deadbeat m_s/dt, the stiffest that does not overshoot the stick (above "
+                     "it the slip alternates in sign each step, beyond 2·m_s/dt it diverges)"),
+    ),
+    "pymunk": (
+        _mu("the ball shape's friction (the plate's is 1; Chipmunk multiplies: the pair's μ)",
+            "friction"),
+    ),
+    "box2d": (
+        _mu("both fixtures' friction (b2MixFriction √(μ·μ) = μ)", "friction"),
+    ),
+}
+"""Engine → the knobs of its oblique ``tuned`` mode (module doc). The 2D engines' (pymunk,
+Box2D) are stated for the fitting code; their adapters do not read them yet. Left out:
+SAPIEN's ``enable_friction_every_iteration`` (measured: the same objective to 1e-9 either
+way on the paper's ball), MuJoCo's ``solreffriction`` (it needs an explicit ``<pair>``; the
+elliptic cone with a large ``impratio`` already sticks to 1e-4)."""
+
+
+def knobs(engine: str) -> tuple[Knob, ...]:
+    """The knobs of ``engine`` (ValueError naming the engines that have a space)."""
+    if engine not in SPACES:
+        raise ValueError(f"engine = {engine!r}: no oblique tuning space (engines: "
+                         f"{', '.join(SPACES)})")
+    return SPACES[engine]
+
+
+def tuned_keys(engine: str) -> tuple[str, ...] | None:
+    """The keys an oblique tuned file's ``[parameters]`` may hold for ``engine`` (None: an
+    engine without an oblique space, whose files are not checked)."""
+    return tuple(k.key for k in SPACES[engine]) if engine in SPACES else None
+
+
+def start_values(engine: str, scenario: Any, dt: float | None) -> dict[str, Any]:
+    """The native run's value of every knob (the fit's start)."""
+    return {k.key: k.start_value(scenario, dt) for k in knobs(engine)}
+
+
+def refused(engine: str, settings: Any) -> ImpactRecord | None:
+    """``unsupported`` with the reason when a ``tuned`` oblique run has nothing to apply: no
+    tuned parameters (no file), or keys that are not this engine's oblique friction keys (a
+    ball-on-plate file); None when the run can go ahead."""
+    valid = tuned_keys(engine) or ()
+    how = (f"fit them with `impactbench tune --scenario oblique --engine {engine} "
+           "--timestep S --out FILE`, then run --mode tuned --tuned FILE")
+    tuned = settings.tuned or {}
+    if not tuned:
+        return ImpactRecord.failed(
+            Status.UNSUPPORTED, f"tuned oblique: needs a tuned file of {engine}'s friction "
+            f"parameters ({', '.join(valid)}), none given; {how}")
+    foreign = [k for k in tuned if k not in valid]
+    if foreign:
+        return ImpactRecord.failed(
+            Status.UNSUPPORTED, f"tuned oblique: {', '.join(foreign)} "
+            f"{'is' if len(foreign) == 1 else 'are'} not {engine}'s oblique friction "
+            f"parameter{'' if len(foreign) == 1 else 's'} ({', '.join(valid)}): the tuned "
+            f"parameters are another scenario's (ball-on-plate?); {how}")
+    return None
+
+
+def friction(engine: str, settings: Any, scenario: Any, dt: float | None = None
+             ) -> dict[str, Any]:
+    """Every knob's value for a ``tuned`` run: the tuned parameters' (validated, one-line
+    ValueError) and the native value for a key they leave out."""
+    given = settings.tuned or {}
+    out = {}
+    for k in knobs(engine):
+        out[k.key] = (k.check(given[k.key], engine) if k.key in given
+                      else k.start_value(scenario, dt))
+    return out
+
+
+def meta(applied: dict[str, Any], settings: Any) -> dict[str, Any]:
+    """What a tuned oblique record carries: the parameters applied (``params``, which
+    ``run --json`` shows, and ``tuned``) and the tuned file they came from."""
+    out: dict[str, Any] = {"params": dict(applied), "tuned": dict(applied)}
+    prov = settings.tuned_for or {}
+    if prov.get("file"):
+        out["tuned_file"] = prov["file"]
+    return out
+
+
+def run_stepped(adapter: Any, scenario: Any, settings: Any,
+                run: Callable[..., ImpactRecord] | None = None) -> ImpactRecord:
+    """``tuned`` oblique for an adapter on :class:`impactbench.engines.stepping.SteppedAdapter`
+    (SAPIEN, DART; Box2D once wired): :func:`refused`, then the adapter's
+    ``oblique_parameters(scenario, "tuned", settings)`` (native plus :func:`friction`) run by
+    its oblique model through ``stepping.run_oblique``."""
+    from impactbench.engines import stepping
+
+    no = refused(adapter.name, settings)
+    if no is not None:
+        return no
+    dt = float(settings.timestep_s)
+    params, info = adapter.oblique_parameters(scenario, "tuned", settings)
+    model = adapter.oblique_model(scenario, params, dt, None)
+    return (run or stepping.run_oblique)(model, scenario, dt, settings.max_time_s, info)
+
+
+__all__ = ["SCALES", "SPACES", "Knob", "friction", "knobs", "meta", "refused", "run_stepped",
+           "start_values", "tuned_keys"]
