@@ -85,6 +85,10 @@ class ScenarioMatrix:
                 for combo in itertools.product(*(v for _, v in self.axes))]
 
 
+REPLAY_MODES = ("default", "custom", "tuned", "native", "injected")
+"""The modes a data-driven scenario's table runs unless it names its own (``modes``)."""
+
+
 @dataclass(frozen=True)
 class WorkPrecision:
     """A work–precision study: error against wall time over ``timesteps_s``, per mode. The
@@ -204,8 +208,8 @@ def _scenario(spec: scenarios.ScenarioSpec, table: dict[str, Any],
     if spec.replay:
         # A data-driven scenario (its spec's ``replay``): its fields, and the runs of the
         # report's "Against real tosses" section: ``engines`` (default the report's),
-        # ``modes`` (default ["default", "custom", "tuned"]), ``model`` (the reference
-        # model's row, default true) and ``param_sets`` (custom mode's
+        # ``modes`` (default :data:`REPLAY_MODES`), ``model`` (the reference model's row,
+        # default true) and ``param_sets`` (custom mode's
         # published parameter sets, default none; each must belong to one of the engines).
         # Paths (``data``) are relative to the working directory. The matrix gets no points of
         # it (one empty axis): its runs are the section's, not the builders'.
@@ -223,7 +227,7 @@ def _scenario(spec: scenarios.ScenarioSpec, table: dict[str, Any],
         own = _names(f"{name}.engines", table.get("engines", list(engines)), engine_names())
         if "engines" in table and not own:
             return None  # ``engines = []``: the section dropped (the model's row with it)
-        _names(f"{name}.modes", table.get("modes", ["default", "custom", "tuned"]), MODES)
+        _names(f"{name}.modes", table.get("modes", list(REPLAY_MODES)), MODES)
         hook = scenarios.load(spec.replay)
         for set_name in _names(f"{name}.param_sets", table.get("param_sets", []),
                                tuple(map(str, table.get("param_sets", [])))):

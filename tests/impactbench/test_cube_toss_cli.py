@@ -309,8 +309,10 @@ def test_report_section_renders_with_a_tiny_config(tmp_path) -> None:
     assert names == ["report_cube_toss_error_cdf.png",
                      "report_cube_toss_pybullet_custom_dair2022_trajectories.png",
                      "report_cube_toss_pybullet_default_trajectories.png",
+                     "report_cube_toss_pybullet_injected_trajectories.png",
+                     "report_cube_toss_pybullet_native_trajectories.png",
                      "report_cube_toss_pybullet_tuned_trajectories.png"]
-    assert md.count("![") == 4 and "<img" in docs["html"]
+    assert md.count("![") == 6 and "<img" in docs["html"]
     # the reference model's row first (the model floor), its numbers the model's replay
     from impactbench.cube_tosses.reference_model import replay_reference
 
