@@ -74,11 +74,12 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from impactbench.engines import oblique_common, stepping
+from impactbench.engines import oblique_common, oblique_tuned, stepping
 from impactbench.engines.base import EngineUnavailable, RunSettings, Scenario
 from impactbench.engines.common import native_ball_restitution, reference_velocity
 from impactbench.reference import validation as check
 from impactbench.reference.oblique_scenario import Oblique
+from impactbench.reference.record import ImpactRecord
 from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
 
 PARAMETERS: dict[str, Any] = {
@@ -382,6 +383,12 @@ class Box2dAdapter(stepping.SteppedAdapter):
         meta["build_constants"] = build_constants()
         return params, meta
 
+    def run_oblique(self, scenario: Oblique, mode: str, settings: RunSettings
+                    ) -> ImpactRecord:
+        if mode == "tuned":  # native plus the tuned file's friction knobs
+            return oblique_tuned.run_stepped(self, scenario, settings)
+        return super().run_oblique(scenario, mode, settings)
+
     def oblique_parameters(self, scenario: Oblique, mode: str, settings: RunSettings
                            ) -> tuple[dict[str, Any], dict[str, Any]]:
         params, meta = oblique_parameters(scenario, mode, settings)
@@ -467,9 +474,15 @@ def oblique_parameters(scenario: Oblique, mode: str, settings: RunSettings
                         "injected_law": scenario.model, "engine_defaults": facts}
     v_ref = reference_velocity(settings.options)
     native["restitution"] = native_ball_restitution(scenario.normal_scenario(), v_ref)
+    tuned: dict[str, Any] = {}
+    if mode == "tuned":  # native with the tuned file's friction knobs
+        applied = oblique_tuned.friction("box2d", settings, scenario, settings.timestep_s)
+        native.update(applied)
+        mu = applied["friction"]
+        tuned = oblique_tuned.meta(applied, settings)
     facts = stepping.friction_facts(FRICTION_MODEL, FRICTION_COMBINATION, mu, mu, mu,
                                     moment_of_inertia_kg_m2=inertia, **ITERATIONS)
-    return native, {**rigid, "reference_velocity_m_s": v_ref,
+    return native, {**rigid, **tuned, "reference_velocity_m_s": v_ref,
                     "restitution": native["restitution"], "engine_defaults": facts,
                     "not_expressible": ("contact stiffness and damping (Box2D contacts are "
                                         f"rigid); any bounce at a normal velocity at or below "

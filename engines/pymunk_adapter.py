@@ -141,7 +141,7 @@ from functools import lru_cache
 from typing import Any, ClassVar
 
 import numpy as np
-from impactbench.engines import oblique_common, stepping
+from impactbench.engines import oblique_common, oblique_tuned, stepping
 from impactbench.engines.base import Adapter, Builder, EngineUnavailable, RunSettings, Scenario
 from impactbench.engines.common import NATIVE_REFERENCE_VELOCITY_M_S, classify
 from impactbench.reference import validation as check
@@ -484,7 +484,9 @@ class PymunkAdapter(Adapter):
     def run_oblique(self, scenario: Oblique, mode: str, settings: RunSettings
                     ) -> ImpactRecord:
         if mode == "tuned":
-            return oblique_common.unsupported_tuned()
+            refused = oblique_tuned.refused(self.name, settings)
+            if refused is not None:
+                return refused
         return self._run_with(oblique_model, run_oblique, scenario, mode, settings)
 
     def _run_with(self, build: Callable[..., tuple[Any, dict[str, Any]]],
@@ -815,6 +817,10 @@ def oblique_model(scenario: Oblique, mode: str, settings: RunSettings, dt: float
         "options.reference_velocity_m_s",
         settings.options.get("reference_velocity_m_s", NATIVE_REFERENCE_VELOCITY_M_S))
     e = _reference_restitution(scenario.normal_scenario(v_ref))
+    if mode == "tuned":  # native with the tuned file's friction knobs
+        applied = oblique_tuned.friction("pymunk", settings, scenario, dt)
+        mu = applied["friction"]
+        meta.update(oblique_tuned.meta(applied, settings))
     meta.update(contact="rigid", elasticity=e, reference_velocity_m_s=v_ref,
                 not_comparable=stepping.RIGID_OBLIQUE_ARTEFACTS,
                 engine_defaults=_facts(FRICTION_MODEL, FRICTION_COMBINATION, mu,

@@ -35,7 +35,8 @@ from impactbench.tuning import oblique as fit
 from tests.conftest import require_engine
 
 DT = 1e-6
-ENGINES = ("mujoco", "mjx", "pybullet", "drake", "sapien", "dart", "newton")
+ENGINES = ("mujoco", "mjx", "pybullet", "drake", "sapien", "dart", "newton", "pymunk",
+           "box2d")
 
 
 def objective(engine: str, mode: str, params: dict | None = None) -> float:
