@@ -355,7 +355,7 @@ def _tuned_file(value: Any, engines: list[str], modes: list[str], base: Path
         raise ValueError(f"tuned_file = {value!r}: fitted for "
                          f"{repr(fitted) if fitted else 'one engine'}; the gate names "
                          f"{', '.join(engines)} (one engine per tuned file)")
-    check_tuned_keys(engines[0], data["parameters"], value)
+    check_tuned_keys(engines[0], data["parameters"], value, prov.get("scenario"))
     dt = prov.get("timestep_s")
     return str(path.resolve()), (float(dt) if isinstance(dt, int | float) else None)
 
