@@ -132,7 +132,7 @@ def test_the_users_box_reaches_the_engine_and_the_errors(capsys, engine: str) ->
 @pytest.mark.parametrize("engine, flags, words", [
     ("pymunk", ("--mode", "default"), "2D engine"),
     ("box2d", ("--mode", "default"), "2D engine"),
-    ("mjx", ("--mode", "tuned"), "no packaged tuned file for mjx"),
+    ("newton", ("--mode", "injected"), "no Python between steps"),
     ("mjx", ("--mode", "injected"), "mode injected in mjx"),
     ("newton", ("--mode", "injected"), "captured warp CPU graphs"),
 ])
