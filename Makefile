@@ -17,9 +17,11 @@ report: $(STAMP)
 	$(BIN)/impactbench figures
 	$(BIN)/impactbench report --keep-unchanged
 
+# The tests run on one process per core (pytest-xdist), a test file's tests together (its
+# module fixtures are built once); each process has its own results store and tuning cache.
 test: $(STAMP)
 	$(BIN)/ruff check .
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest -n auto --dist loadfile
 
 lint: $(STAMP)
 	$(BIN)/ruff check .

@@ -60,10 +60,13 @@ def assert_escaped_after_whole_contact(rec, scenario) -> None:
 
 @pytest.fixture(autouse=True, scope="session")
 def _private_results_store(tmp_path_factory: pytest.TempPathFactory) -> None:
-    """Commands run by the tests use a results store of their own, never the user's cache."""
+    """Commands run by the tests use a results store and a tuning cache of their own (one per
+    test process), never the user's."""
     import os
 
     os.environ["IMPACTBENCH_STORE"] = str(tmp_path_factory.mktemp("store") / "results.duckdb")
+    os.environ["IMPACTBENCH_TUNE_CACHE"] = str(tmp_path_factory.mktemp("tune")
+                                               / "cube_toss_tune.sqlite")
 
 
 def rel(value: float, reference: float) -> float:
