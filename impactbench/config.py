@@ -209,11 +209,16 @@ def _scenario(spec: scenarios.ScenarioSpec, table: dict[str, Any],
         # A data-driven scenario (its spec's ``replay``): its fields, and the runs of the
         # report's "Against real tosses" section: ``engines`` (default the report's),
         # ``modes`` (default :data:`REPLAY_MODES`), ``model`` (the reference model's row,
-        # default true) and ``param_sets`` (custom mode's
+        # default true), ``trajectories`` (best: the measured-vs-simulated figure of each
+        # engine's lowest-median run; all: of every run) and ``param_sets`` (custom mode's
         # published parameter sets, default none; each must belong to one of the engines).
         # Paths (``data``) are relative to the working directory. The matrix gets no points of
         # it (one empty axis): its runs are the section's, not the builders'.
-        _check_keys(table, fields | {"engines", "modes", "param_sets", "model"}, f"{name}.")
+        _check_keys(table, fields | {"engines", "modes", "param_sets", "model", "trajectories"},
+                    f"{name}.")
+        if table.get("trajectories", "best") not in ("best", "all"):
+            raise _fail(f"{name}.trajectories", table["trajectories"], "must be best (each "
+                        "engine's lowest median) or all (every engine and mode)")
         if not isinstance(table.get("model", True), bool):
             raise _fail(f"{name}.model", table["model"], "must be true or false (the "
                         "reference model's row)")

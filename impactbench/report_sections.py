@@ -704,6 +704,13 @@ def _real_tosses_part(ctx: ReportContext, spec: scenarios.ScenarioSpec, sm: Any
         figures.append(ctx.add_figure(path, f"Cumulative distribution of the errors across "
                                       f"tosses, {spec.title.lower()}; {how}",
                                       f"real_tosses:{spec.name}"))
+    if table.get("trajectories", "best") == "best":  # each engine's best setting only
+        best: dict[str, tuple] = {}
+        for run in done:
+            median = float(run[4]["position_error_median"])
+            if run[1] not in best or median < float(best[run[1]][4]["position_error_median"]):
+                best[run[1]] = run
+        done = [run for run in done if best.get(run[1]) is run]
     for label, engine, mode, param_set, out in done:
         picks = _picks(out["per_toss"])
         with stdout_to_stderr():

@@ -286,6 +286,29 @@ def _box_of(scenario: Any) -> dict[str, float]:
             "inertia_kg_m2": scenario.inertia_kg_m2}
 
 
+def _stored(store: Any, key: str, fresh: bool) -> dict[str, Any] | None:
+    """A replay kept in ``store`` under ``key`` (None when absent or ``fresh``)."""
+    if store is None or fresh:
+        return None
+    got = store.get([key])
+    if key not in got:
+        return None
+    stored = dict(got[key][0])
+    stored.pop("rel_error", None)
+    return stored
+
+
+def _keep(store: Any, key: str, inputs: Mapping[str, Any], engine: str, mode: str,
+          scenario: Any, result: Mapping[str, Any]) -> None:
+    """Keep a replay's result in ``store`` (a replay has no relative errors: NaN)."""
+    if store is None:
+        return
+    job = {"engine": engine, "mode": mode, "scenario": type(scenario).name, "point": (),
+           "study": "replay"}
+    store.put([(key, inputs, job, {**result, "rel_error": dict.fromkeys(METRIC_KEYS, math.nan)},
+                {})])
+
+
 def result_ids(out: Mapping[str, Any]) -> list[int]:
     """The toss ids a replay's result covers."""
     return [int(r["toss"]) for r in out.get("per_toss", [])]
@@ -350,12 +373,8 @@ def run(engine: str, scenario: Any, mode: str = "default", *, param_set: str | N
         settings = ReplaySettings(param_set, key_params, data_sha256(path), tuned[1])
         inputs = run_inputs(engine, type(scenario).name, scenario, mode, settings)
         key = run_key(inputs)
-        if not fresh:
-            got = store.get([key])
-            if key in got:
-                stored = dict(got[key][0])
-                stored.pop("rel_error", None)
-                return stored
+        if (stored := _stored(store, key, fresh)) is not None:
+            return stored
     t0 = time.perf_counter()
     try:
         out = replay(engine, mode, tosses=scenario.selection, param_set=param_set,
@@ -393,11 +412,7 @@ def run(engine: str, scenario: Any, mode: str = "default", *, param_set: str | N
             result["message"] = "; ".join(x for x in (
                 result["message"], f"{seen} of the {out['tosses']} tosses are training "
                 f"tosses {what} (not held out)") if x)
-    if store is not None:
-        job = {"engine": engine, "mode": mode, "scenario": type(scenario).name, "point": (),
-               "study": "replay"}
-        store.put([(key, inputs, job,
-                    {**result, "rel_error": dict.fromkeys(METRIC_KEYS, math.nan)}, {})])
+    _keep(store, key, inputs, engine, mode, scenario, result)
     return result
 
 
@@ -446,23 +461,15 @@ def model_run(scenario: Any, *, store: Any = None, fresh: bool = False) -> dict[
                              "fitted_sha256": hashlib.sha256(
                                  model.FITTED_PATH.read_bytes()).hexdigest()})
         key = run_key(inputs)
-        if not fresh:
-            got = store.get([key])
-            if key in got:
-                stored = dict(got[key][0])
-                stored.pop("rel_error", None)
-                return stored
+        if (stored := _stored(store, key, fresh)) is not None:
+            return stored
     t0 = time.perf_counter()
     out = model.replay_reference(scenario.selection, None, str(path) if scenario.data else None,
                                  protocol_of(scenario), box=box_of(scenario))
     result = {**out, "message": _message(out), "engine_version": version,
               "timestep_s": None, "timestep_source": "adaptive (scipy LSODA)",
               "substeps": None, "box": _box_of(scenario), "wall_s": time.perf_counter() - t0}
-    if store is not None:
-        job = {"engine": model.ENGINE, "mode": "fitted", "scenario": type(scenario).name,
-               "point": (), "study": "replay"}
-        store.put([(key, inputs, job,
-                    {**result, "rel_error": dict.fromkeys(METRIC_KEYS, math.nan)}, {})])
+    _keep(store, key, inputs, model.ENGINE, "fitted", scenario, result)
     return result
 
 

@@ -20,6 +20,7 @@ from impactbench.cli import main
 from impactbench.cube_tosses import scenario as toss_scenario
 from impactbench.cube_tosses.protocol import HALF_WIDTH_M, INERTIA_KG_M2, MASS_KG, SAMPLE_DT_S
 from impactbench.cube_tosses.replay import RESULT_KEYS, replay
+from impactbench.cube_tosses.tune import load_tuned
 
 NAME = "cube-toss"
 IDS = [0, 1, 57]
@@ -308,7 +309,7 @@ def test_report_section_renders_with_a_tiny_config(tmp_path) -> None:
     from impactbench.report_render import ReportContext, render_documents
     from impactbench.report_sections import real_tosses, sections
 
-    cfg = tiny_config(tmp_path)
+    cfg = tiny_config(tmp_path, trajectories="all")
     (tmp_path / "rep" / "figures").mkdir(parents=True)
     ctx = ReportContext(cfg, pd.DataFrame(), {}, tmp_path / "rep")
     docs = render_documents(ctx, [s for s in sections() if s.template == "real_tosses"],
@@ -319,6 +320,7 @@ def test_report_section_renders_with_a_tiny_config(tmp_path) -> None:
     assert f"| {want['position_error_median']:.3f} [" in md
     assert "| pymunk | all | — | unsupported |" in md and "2D engine" in md
     names = sorted(p.name for p in (tmp_path / "rep" / "figures").glob("*.png"))
+    # trajectories: every run's here ("all"); by default only each engine's best run's
     assert names == ["report_cube_toss_error_cdf.png",
                      "report_cube_toss_pybullet_custom_dair2022_trajectories.png",
                      "report_cube_toss_pybullet_default_trajectories.png",
@@ -338,6 +340,25 @@ def test_report_section_renders_with_a_tiny_config(tmp_path) -> None:
     empty = ReportContext(config.parse({"report": {"engines": ["pybullet"]}}), pd.DataFrame(),
                           {}, tmp_path / "rep")
     assert real_tosses(empty) is None  # no [cube_toss] table, no section
+
+
+def test_by_default_only_each_engines_best_run_gets_trajectories(tmp_path) -> None:
+    require_engine("pybullet")
+    from impactbench.report_render import ReportContext
+    from impactbench.report_sections import real_tosses
+
+    (tmp_path / "rep" / "figures").mkdir(parents=True)
+    ctx = ReportContext(tiny_config(tmp_path, modes=["default", "tuned"]), pd.DataFrame(), {},
+                        tmp_path / "rep")
+    (part,) = real_tosses(ctx)["parts"]
+    assert len(part["trajectories"]) == 1
+    names = sorted(p.name for p in (tmp_path / "rep" / "figures").glob("*trajectories.png"))
+    default = replay("pybullet", "default", tosses=IDS)["position_error_median"]
+    tuned = replay("pybullet", "custom", tosses=IDS, params=load_tuned("pybullet"))
+    best = "default" if default < tuned["position_error_median"] else "tuned"
+    assert names == [f"report_cube_toss_pybullet_{best}_trajectories.png"]
+    with pytest.raises(ValueError, match=r"cube_toss\.trajectories = 'some': must be best"):
+        tiny_config(tmp_path, trajectories="some")
 
 
 def test_the_model_row_can_be_left_out_and_its_key_is_checked(tmp_path) -> None:
