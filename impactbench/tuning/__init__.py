@@ -5,7 +5,11 @@
 - :mod:`~impactbench.tuning.objective`: weighted squared relative errors over a velocity set;
 - :mod:`~impactbench.tuning.optimize`: deterministic bounded search with budgets (:func:`tune`);
 - :mod:`~impactbench.tuning.output`: residual table, plot, tuned file and honesty notes;
-- :mod:`~impactbench.tuning.names`: target names, parameter sets and defaults (no imports).
+- :mod:`~impactbench.tuning.names`: target names, parameter sets and defaults (no imports);
+- :mod:`~impactbench.tuning.oblique`: the oblique impact's friction fit over an angle sweep
+  (``impactbench tune --scenario oblique``; the knobs are in ``engines/oblique_tuned.py``).
+
+The cube tosses are fitted to measurements instead: :mod:`impactbench.cube_tosses.tune`.
 """
 
 from importlib import import_module
