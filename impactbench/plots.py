@@ -23,7 +23,10 @@ import pandas as pd
 from matplotlib.colors import LogNorm
 
 ENGINE_COLORS = {"reference": "black", "mujoco": "tab:blue", "pybullet": "tab:orange",
-                 "pymunk": "tab:green", "drake": "tab:red"}
+                 "pymunk": "tab:green", "drake": "tab:red", "sapien": "tab:purple",
+                 "dart": "tab:brown", "box2d": "tab:pink", "mjx": "tab:cyan",
+                 "newton": "tab:olive"}
+"""One colour per engine in every figure (a plug-in engine gets matplotlib's next one)."""
 MODE_STYLES = {"native": "--", "injected": "-", "tuned": ":", "default": "-.",
                "custom": (0, (5, 1, 1, 1))}
 MODE_MARKERS = {"native": "s", "injected": "o", "tuned": "^", "default": "D", "custom": "v"}

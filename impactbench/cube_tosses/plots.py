@@ -17,8 +17,9 @@ from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
 from impactbench.plots import ENGINE_COLORS, plt
 
-STYLES = {"default": "-", "custom": "--"}
-"""Line style per mode (others dotted)."""
+STYLES = {"fitted": "-", "default": "-", "custom": "--", "tuned": ":", "native": "-.",
+          "injected": (0, (3, 1, 1, 1, 1, 1))}
+"""Line style per mode (colour: per engine, :data:`impactbench.plots.ENGINE_COLORS`)."""
 
 
 def _save(fig: Any, path: Path) -> Path:
@@ -44,7 +45,7 @@ def _ok(rows: Sequence[Mapping[str, Any]], key: str) -> np.ndarray:
 def error_cdf(runs: Sequence[CdfRun], how: str, path: Path) -> Path:
     """Two panels, position error (fraction of the width) and rotation error (degrees): per
     run the fraction of tosses at or below each error, the median marked."""
-    fig, axes = plt.subplots(1, 2, figsize=(10, 4.2))
+    fig, axes = plt.subplots(1, 2, figsize=(10, 5.0))
     for ax, key, label in ((axes[0], "position_error", "time-mean position error / width"),
                            (axes[1], "rotation_error_deg", "time-mean rotation error (deg)")):
         for name, engine, mode, rows in runs:
@@ -52,9 +53,9 @@ def error_cdf(runs: Sequence[CdfRun], how: str, path: Path) -> Path:
             if not x.size:
                 continue
             y = np.arange(1, x.size + 1) / x.size
-            color = "black" if engine == "reference" else ENGINE_COLORS.get(engine)
-            line, = ax.step(np.r_[x[0], x], np.r_[0.0, y], where="post", color=color,
-                            linestyle=STYLES.get(mode, ":"), label=name)
+            line, = ax.step(np.r_[x[0], x], np.r_[0.0, y], where="post",
+                            color=ENGINE_COLORS.get(engine), linestyle=STYLES.get(mode, ":"),
+                            lw=2.0 if engine == "reference" else 1.2, label=name)
             ax.plot([np.median(x)], [0.5], "o", color=line.get_color(), ms=4)
         ax.set_xscale("log")
         ax.xaxis.set_major_locator(LogLocator(base=10, subs=(1.0, 2.0, 5.0)))
@@ -65,9 +66,24 @@ def error_cdf(runs: Sequence[CdfRun], how: str, path: Path) -> Path:
         ax.set_ylim(0, 1.02)
         ax.axhline(0.5, color="0.8", lw=0.8, zorder=0)
         ax.grid(alpha=0.3, which="both")
-    axes[1].legend(fontsize=7, loc="lower right")
+    # two compact legends below the panels: the colour is the engine, the style the mode
+    from matplotlib.lines import Line2D
+
+    engines = list(dict.fromkeys(r[1] for r in runs))
+    modes = list(dict.fromkeys(r[2] for r in runs))
+    handles = [Line2D([], [], color=ENGINE_COLORS.get(e), lw=2,
+                      label="reference model" if e == "reference" else e) for e in engines]
+    styles = [Line2D([], [], color="0.3", linestyle=STYLES.get(m, ":"), label=m)
+              for m in modes if m != "fitted"]
+    fig.legend(handles=handles, loc="lower center", ncol=min(len(handles), 6), fontsize=8,
+               frameon=False, bbox_to_anchor=(0.5, 0.06))
+    fig.legend(handles=styles, loc="lower center", ncol=max(len(styles), 1), fontsize=8,
+               frameon=False, bbox_to_anchor=(0.5, 0.0))
     fig.suptitle(_heading("Errors across tosses (dots: medians)", how), fontsize=9)
-    return _save(fig, path)
+    fig.tight_layout(rect=(0, 0.14, 1, 1))
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
 
 
 def trajectories(trajs: Sequence[Mapping[str, Any]], labels: Sequence[str], engine: str,
