@@ -97,6 +97,8 @@ class ReportContext:
     out_dir: Path
     results: Sequence[Any] = ()
     figures: list[FigureRef] = field(default_factory=list)
+    show_progress: bool = False
+    """Whether a section that runs work of its own reports its progress on stderr."""
 
     @property
     def fig_dir(self) -> Path:

@@ -654,10 +654,17 @@ def _real_tosses_part(ctx: ReportContext, spec: scenarios.ScenarioSpec, sm: Any
     store = _section_store(ctx.cfg)
     which = _selection_text(scenario.tosses)
     rows, cdf, done = [], [], []
+    from impactbench.cliutil import progress_bar
+
+    per_engine = sum(len(sets) if mode == "custom" else 1 for mode in modes)
+    total = int(bool(table.get("model", True))) + len(engines) * per_engine
+    tick, close = (progress_bar(total, f"{spec.name} replay") if ctx.show_progress
+                   else ((lambda n: None), (lambda: None)))
     if table.get("model", True):  # the reference model first: the floor the engines approach
         from impactbench.cube_tosses.scenario import MODEL_LABEL, model_run
 
         out = model_run(scenario, store=store)
+        tick(1)
         numbers = out["status"] in ("ok", "partial")
         rows.append(_replay_row(f"{MODEL_LABEL} ({out['engine_version']})", "fitted",
                                 "reference.toml", out))
@@ -669,6 +676,7 @@ def _real_tosses_part(ctx: ReportContext, spec: scenarios.ScenarioSpec, sm: Any
             rows.append([Cell(engine), Cell("all"), Cell("—"), Cell("unsupported", "fail"),
                          Cell("—", "na"), Cell("—", "na"), Cell("—", "na"),
                          Cell(why, wrap=True)])
+            tick(per_engine)
             continue
         for mode in modes:
             choices: list[str | None] = [None]
@@ -680,9 +688,11 @@ def _real_tosses_part(ctx: ReportContext, spec: scenarios.ScenarioSpec, sm: Any
                             choices.append(name)
                     except ValueError:
                         pass  # this engine has no such set
+                tick(len(sets) - len(choices))  # the sets it cannot run
             for param_set in choices:
                 with stdout_to_stderr():
                     out = hook(engine, scenario, mode, param_set=param_set, store=store)
+                tick(1)
                 numbers = str(out["status"]) in ("ok", "partial")
                 label = f"{engine} {mode}" + (f" {param_set}" if param_set else "")
                 rows.append(_replay_row(f"{engine} {out.get('engine_version') or ''}".strip(),
@@ -690,6 +700,7 @@ def _real_tosses_part(ctx: ReportContext, spec: scenarios.ScenarioSpec, sm: Any
                 if numbers:
                     cdf.append((label, engine, mode, out["per_toss"]))
                     done.append((label, engine, mode, param_set, out))
+    close()
     step = next((o for *_, o in done), {})
     dt = float(step.get("timestep_s") or math.nan)
     dt_text = (f"1/{round(1 / dt)} s" if abs(1 / dt - round(1 / dt)) < 1e-6 / dt

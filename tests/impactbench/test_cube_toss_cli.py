@@ -361,6 +361,23 @@ def test_by_default_only_each_engines_best_run_gets_trajectories(tmp_path) -> No
         tiny_config(tmp_path, trajectories="some")
 
 
+def test_the_section_counts_its_replays_on_stderr(tmp_path, capsys) -> None:
+    """The replays run after the matrix: never silent (the model, then 5 modes in pybullet,
+    and pymunk's 5 counted as it is refused)."""
+    require_engine("pybullet")
+    from impactbench.report_render import ReportContext
+    from impactbench.report_sections import real_tosses
+
+    (tmp_path / "rep" / "figures").mkdir(parents=True)
+    ctx = ReportContext(tiny_config(tmp_path), pd.DataFrame(), {}, tmp_path / "rep",
+                        show_progress=True)
+    real_tosses(ctx)
+    err = capsys.readouterr().err
+    lines = [x for x in err.splitlines() if "replays done" in x]
+    assert lines[0].startswith("impactbench: 1 of 11 cube-toss replays done")
+    assert lines[-1] == "impactbench: 11 of 11 cube-toss replays done"
+
+
 def test_the_model_row_can_be_left_out_and_its_key_is_checked(tmp_path) -> None:
     assert config.parse({"cube_toss": {"model": False}}).raw["cube_toss"]["model"] is False
     with pytest.raises(ValueError, match=r"cube_toss\.model = 'yes': must be true or false"):
