@@ -55,7 +55,7 @@ import pandas as pd
 
 import impactbench.cube_tosses.data as data_mod
 from impactbench.cube_tosses.protocol import Protocol, Start, prepare, summarize, toss_errors
-from impactbench.cube_tosses.replay import RESULT_KEYS, select
+from impactbench.cube_tosses.replay import RESULT_KEYS, frame_of, outcome, prepared
 from impactbench.cube_tosses.tune import (
     FAILED_TOSS_ERROR,
     TUNED_DIR,
@@ -189,14 +189,6 @@ def _pool(workers: int) -> ProcessPoolExecutor | None:
     return ProcessPoolExecutor(workers) if workers > 1 else None
 
 
-def _frame(df: pd.DataFrame | str | Path | None) -> tuple[pd.DataFrame, str]:
-    if isinstance(df, pd.DataFrame):
-        return data_mod.validate(df), "DataFrame"
-    frame = data_mod.load(df)
-    return frame, (str(df) if df is not None else "packaged: " + str(
-        data_mod.DEFAULT_PATH.relative_to(data_mod.DATA_DIR.parents[1])))
-
-
 def integrator_setup(options: Mapping[str, Any] | None = None) -> dict[str, Any]:
     """The integrator's settings (method, tolerances, max step) and scipy's version."""
     o = dict(options or {})
@@ -231,15 +223,8 @@ def replay_reference(tosses: str | int | Iterable[int] = "test",
     params = load_fitted() if params is None else params
     if not isinstance(params, BoxContactParams):
         raise ValueError(f"params = {params!r}: must be a BoxContactParams")
-    frame, source = _frame(df)
-    ids = select(frame, tosses)
-    split_name = tosses if isinstance(tosses, str) else "ids"
-    starts, per_toss = [], []
-    for toss in data_mod.tosses(frame, ids):
-        try:
-            starts.append(prepare(toss, protocol))
-        except ValueError as exc:
-            per_toss.append({"toss": toss.toss, "status": "failed", "error": str(exc)})
+    frame, source = frame_of(df)
+    ids, split_name, starts, per_toss = prepared(frame, tosses, protocol)
     t0 = time.perf_counter()
     pool = _pool(workers)
     try:
@@ -255,11 +240,7 @@ def replay_reference(tosses: str | int | Iterable[int] = "test",
             pool.shutdown()
     elapsed = time.perf_counter() - t0
     per_toss += rows
-    order = {i: k for k, i in enumerate(ids)}
-    per_toss.sort(key=lambda r: order[r["toss"]])
-    failed = [r["toss"] for r in per_toss if r["status"] != "ok"]
-    ran = len(per_toss) - len(failed)
-    status = "ok" if not failed else ("failed" if ran == 0 else "partial")
+    status, failed = outcome(per_toss, ids)
     setup = {"model": "rigid box, compliant corner contacts (impactbench.reference."
                       "box_contact)",
              "params": params.describe(),
@@ -368,7 +349,7 @@ def fit(budget: int = 200, tosses: str | Iterable[int] = "train", seed: int = SE
         raise ValueError(f"optimizer = {optimizer!r}: not a nevergrad optimiser (e.g. CMA, "
                          "NGOpt)")
     protocol = _box_protocol(box, protocol)
-    frame, _ = _frame(df)
+    frame, _ = frame_of(df)
     ids = fit_ids(frame, tosses, stride)
     starts = [prepare(t, protocol) for t in data_mod.tosses(frame, ids)]
     knobs = KNOBS[law]

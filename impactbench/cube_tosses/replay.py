@@ -111,6 +111,40 @@ def select(df: pd.DataFrame, tosses: str | int | Iterable[int] = "all") -> list[
     return wanted
 
 
+def frame_of(data: pd.DataFrame | str | Path | None) -> tuple[pd.DataFrame, str]:
+    """The tosses (validated) and where they came from: a DataFrame, a CSV path, or None for
+    the packaged file."""
+    if isinstance(data, pd.DataFrame):
+        return data_mod.validate(data), "DataFrame"
+    df = data_mod.load(data)
+    return df, (str(data) if data is not None else "packaged: " + str(
+        data_mod.DEFAULT_PATH.relative_to(data_mod.DATA_DIR.parents[1])))
+
+
+def prepared(df: pd.DataFrame, tosses: str | int | Iterable[int], protocol: Protocol
+             ) -> tuple[list[int], str, list[Any], list[dict[str, Any]]]:
+    """(ids, split name, the replay starts, a ``failed`` row per toss the protocol cannot
+    start) of the selected tosses."""
+    ids = select(df, tosses)
+    starts, per_toss = [], []
+    for toss in data_mod.tosses(df, ids):
+        try:
+            starts.append(prepare(toss, protocol))
+        except ValueError as exc:
+            per_toss.append({"toss": toss.toss, "status": "failed", "error": str(exc)})
+    return ids, (tosses if isinstance(tosses, str) else "ids"), starts, per_toss
+
+
+def outcome(per_toss: list[dict[str, Any]], ids: list[int]) -> tuple[str, list[int]]:
+    """Sort ``per_toss`` into the order of ``ids`` (in place); the replay's status (ok, partial,
+    failed) and the failed ids."""
+    order = {i: k for k, i in enumerate(ids)}
+    per_toss.sort(key=lambda r: order[r["toss"]])
+    failed = [r["toss"] for r in per_toss if r["status"] != "ok"]
+    ran = len(per_toss) - len(failed)
+    return ("ok" if not failed else ("failed" if ran == 0 else "partial")), failed
+
+
 def replay(engine: str, mode: str = "default", tosses: str | int | Iterable[int] = "all",
            param_set: str | None = None, data: pd.DataFrame | str | Path | None = None, *,
            params: Mapping[str, Any] | None = None, protocol: Protocol | None = None,
@@ -150,21 +184,8 @@ def replay(engine: str, mode: str = "default", tosses: str | int | Iterable[int]
 
         model = load_model() if model is None else model
         law = model if mode == "injected" else None
-    if isinstance(data, pd.DataFrame):
-        df, source = data_mod.validate(data), "DataFrame"
-    else:
-        df = data_mod.load(data)
-        source = str(data) if data is not None else "packaged: " + str(
-            data_mod.DEFAULT_PATH.relative_to(data_mod.DATA_DIR.parents[1]))
-    ids = select(df, tosses)
-    split_name = tosses if isinstance(tosses, str) else "ids"
-
-    starts, per_toss = [], []
-    for toss in data_mod.tosses(df, ids):
-        try:
-            starts.append(prepare(toss, protocol))
-        except ValueError as exc:
-            per_toss.append({"toss": toss.toss, "status": "failed", "error": str(exc)})
+    df, source = frame_of(data)
+    ids, split_name, starts, per_toss = prepared(df, tosses, protocol)
     steps = {round(s.step_s, 15) for s in starts}
     if len(steps) > 1:
         raise ValueError(f"data: the tosses' sample intervals differ ({sorted(steps)[:3]} s "
@@ -203,11 +224,7 @@ def replay(engine: str, mode: str = "default", tosses: str | int | Iterable[int]
     finally:
         sim.close()
 
-    order = {i: k for k, i in enumerate(ids)}
-    per_toss.sort(key=lambda r: order[r["toss"]])
-    failed = [r["toss"] for r in per_toss if r["status"] != "ok"]
-    ran = len(per_toss) - len(failed)
-    status = "ok" if not failed else ("failed" if ran == 0 else "partial")
+    status, failed = outcome(per_toss, ids)
     return {"status": status, "engine": engine, "mode": mode, "param_set": param_set,
             "split": split_name, "tosses": len(per_toss), "failed": failed,
             **summarize(per_toss), "per_toss": per_toss, "protocol": protocol.describe(),
