@@ -112,3 +112,24 @@ def test_a_timed_out_item_in_a_batch_costs_only_itself(monkeypatch: pytest.Monke
         assert runner.restarted == 1
     assert late == [(30.0, "timed out after 2 s (cancelled; its worker was restarted)")]
     assert got == [0.05] * 11
+
+
+def test_a_small_report_runs_in_this_process_by_default() -> None:
+    """Default placement (issue 24): runs estimated under matrix.DISPATCH_MIN_S in all run
+    here, no cluster started (a 20-run report cost 1.29x the in-process time on Dask; 1.00x
+    now, farm-bench, 5 alternated pairs); a given --workers N still sends them to workers."""
+    import subprocess
+    import sys
+
+    code = ("import sys, tempfile, impactbench\n"
+            "small = {'report': {'engines': ['pymunk'], 'modes': ['native']},\n"
+            "         'ball_on_plate': {'velocities_m_s': [1.0, 2.0]}}\n"
+            "impactbench.build_report(config=small, out=tempfile.mkdtemp(), store=False,\n"
+            "                         progress=False, workers=WORKERS)\n"
+            "print('distributed' in sys.modules)\n")
+    here = subprocess.run([sys.executable, "-c", code.replace("WORKERS", "None")],
+                          capture_output=True, text=True, timeout=120)
+    assert here.stdout.strip() == "False", here.stderr
+    there = subprocess.run([sys.executable, "-c", code.replace("WORKERS", "1")],
+                           capture_output=True, text=True, timeout=120)
+    assert there.stdout.strip() == "True", there.stderr
