@@ -389,3 +389,14 @@ def test_a_touch_exactly_on_a_sample_starts_the_contact_there() -> None:
     # the same contact touching a hair after the sample: the same start
     (near,) = edges(record(np.where(x == 0.0, [1e-300] * 9, x), f))
     assert near[0] == pytest.approx(2.0, abs=1e-12)
+
+
+def test_a_touch_on_two_samples_at_exactly_zero_starts_from_the_force() -> None:
+    """The surfaces meet and stay exactly touching for a sample (x = 0.0 at t = 1 and 2)
+    before the force rises: no crossing to interpolate, so the start is where the force line
+    through samples 2 and 3 (2, then 3) reaches zero, t = 0, clamped to the interval [1, 2]:
+    t = 1 (found by the mutation run: interpolating x between the two zeros gave NaN)."""
+    x = np.array([-1.0, 0.0, 0.0, 1.0, 0.5, -1.0, -2.0])
+    f = np.array([0.0, 0.0, 2.0, 3.0, 1.0, 0.0, 0.0])
+    (edge,) = edges(record(x, f))
+    assert edge[0] == 1.0 and math.isfinite(edge[1])
