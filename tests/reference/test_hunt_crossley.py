@@ -363,3 +363,13 @@ def test_sweep_columns_defaults_are_the_papers_case():
         want = hc.solve(BallOnPlate(velocity_m_s=v0))
         for key in BALL_METRICS:
             assert cols[key][i] == pytest.approx(want[key], rel=1e-12), (v0, key)
+
+
+@pytest.mark.parametrize("alpha", [0.0, 1e-6, 0.05, 0.5, 2.0, 30.0])
+def test_max_penetration_energy_is_the_phase_plane_closed_form(alpha: float) -> None:
+    """Π(x_max)/(m·V0²) = (α − ln(1 + α))/α² with α = b·V0: integrating m·v·dv/dx =
+    −c·xⁿ·(1 + b·v) from V0 to 0 (the Hunt–Crossley phase plane; Hunt & Crossley 1975, as in
+    Gilardi & Sharf 2002, eq. for the maximum indentation), → 1/2 as α → 0 (all of the
+    kinetic energy stored)."""
+    want = 0.5 if alpha == 0.0 else (alpha - math.log1p(alpha)) / alpha**2
+    assert float(hc.max_penetration_energy(alpha)) == pytest.approx(want, rel=1e-9)
