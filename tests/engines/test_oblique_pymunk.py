@@ -18,17 +18,14 @@ from conftest import require_engine
 
 require_engine("pymunk")
 
+import oblique_cases  # noqa: E402
 from impactbench.engines.base import RunSettings, get_adapter  # noqa: E402
 from impactbench.reference.oblique import Oblique  # noqa: E402
 from impactbench.reference.record import Status  # noqa: E402
 from impactbench.reference.scenarios import BallOnPlate  # noqa: E402
-
-from impactbench.evaluate import compare  # noqa: E402
+from oblique_cases import CASES, check_injected  # noqa: E402
 
 ENGINE = "pymunk"
-CASES = [(20.0, 0.0), (45.0, 0.0), (60.0, 0.0), (80.0, 0.0), (45.0, -60.0), (45.0, 60.0)]
-"""(angle θ in degrees, initial spin ω0 in rad/s): stick at 20–60°, slide at 80°, back- and
-topspin."""
 
 # |rel err| against the rigid reference, injected, default step 1e-6 s: about 3× the worst
 # measured over CASES on this machine (pymunk 7.3.1), the measurement in each comment.
@@ -46,18 +43,13 @@ NATIVE_TOL = 1e-9  # rigid Coulomb friction in pymunk's rigid contact: measured 
 
 
 def run(mode: str, angle: float = 45.0, spin: float = 0.0, **settings):
-    return compare(ENGINE, Oblique(angle_deg=angle, spin_rad_s=spin), mode,
-                   RunSettings(**settings))
+    return oblique_cases.run(ENGINE, mode, angle, spin, **settings)
 
 
 @pytest.mark.parametrize(("angle", "spin"), CASES)
 def test_injected_reproduces_the_rigid_reference(angle, spin):
     out, rec = run("injected", angle, spin)
-    assert out["status"] == "ok", out["message"]
-    for key, tol in INJECTED_TOL.items():
-        assert abs(out["rel_error"][key]) <= tol, (key, out["rel_error"][key])
-    assert abs(out["contact_point_ratio"] - out["reference"]["contact_point_ratio"]) <= BETA_TOL
-    assert out["regime"] == out["reference"]["regime"]
+    check_injected(out, INJECTED_TOL, BETA_TOL)
     assert rec.tangential_force_n is not None and rec.spin_rad_s is not None
     assert rec.meta["contact"] == "penalty"
 
@@ -151,21 +143,15 @@ def test_the_disc_is_a_circle_with_the_discs_moment_of_inertia():
 
 @pytest.mark.parametrize(("angle", "spin"), CASES)
 def test_disc_injected_reproduces_the_discs_rigid_reference(angle, spin):
-    out, rec = compare(ENGINE, Oblique(angle_deg=angle, spin_rad_s=spin, shape="disc"),
-                       "injected", RunSettings())
-    assert out["status"] == "ok", out["message"]
-    for key, tol in DISC_INJECTED_TOL.items():
-        assert abs(out["rel_error"][key]) <= tol, (key, out["rel_error"][key])
-    assert abs(out["contact_point_ratio"] - out["reference"]["contact_point_ratio"]) \
-        <= DISC_BETA_TOL
-    assert out["regime"] == out["reference"]["regime"]
+    out, rec = run("injected", angle, spin, shape="disc")
+    check_injected(out, DISC_INJECTED_TOL, DISC_BETA_TOL)
     assert rec.meta["planar"] is True
 
 
 def test_disc_native_rolls_at_two_thirds():
     """pymunk's rigid Coulomb contact on the disc: stick at 45° leaves it rolling with
     v_t' = (2/3)·v_t (the sphere's 5/7), whatever the restitution."""
-    out, _ = compare(ENGINE, Oblique(angle_deg=45.0, shape="disc"), "native", RunSettings())
+    out, _ = run("native", 45.0, shape="disc")
     assert out["status"] == "ok"
     assert out["tangential_restitution"] == pytest.approx(2.0 / 3.0, rel=NATIVE_TOL)
     assert out["rel_error"]["spin_out_rad_s"] == pytest.approx(0.0, abs=NATIVE_TOL)
