@@ -81,14 +81,14 @@ from impactbench.engines.mujoco_adapter import (
     native_or_tuned,
     oblique_end_finder,
     oblique_outcome_record,
-    oblique_time_scale_s,
+    oblique_start,
     prepare_oblique,
     rigid_flexible_end_finder,
     rigid_flexible_mjcf,
     rigid_flexible_record,
     set_contact,
 )
-from impactbench.engines.oblique_common import reject_keys, start
+from impactbench.engines.oblique_common import reject_keys
 from impactbench.reference.models import KelvinVoigt
 from impactbench.reference.record import ImpactRecord, Status
 from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
@@ -438,17 +438,7 @@ def run_oblique(s: Any, mode: str, settings: RunSettings) -> ImpactRecord:
                 "(an arbitrary elastic function cannot run inside the compiled step)")
         control, params = "pair_secant", np.append(injected, s.radius_m)
     meta["chunk_steps"] = OBLIQUE_CHUNK
-    t_est = oblique_time_scale_s(s, mode, meta, dt)
-    st = start(s, dt)
-    data.qpos[:7] = (0.0, 0.0, s.radius_m + st.gap_m, 1.0, 0.0, 0.0, 0.0)
-    data.qvel[:] = (st.tangential_velocity_m_s, 0.0, -st.normal_velocity_m_s, 0.0,
-                    st.spin_rad_s, 0.0)
-    out_of_box = mode in ("default", "custom")
-    cap = max(20.0 * t_est, DEFAULT_TIME_CAP_S) if out_of_box else 20.0 * t_est
-    max_time = settings.max_time_s or st.flight_s + cap
-    n_max = max(math.ceil(max_time / dt), math.ceil(GAP_STEPS) + 16)
-    first = math.ceil(GAP_STEPS) + math.ceil(t_est / dt) + 2
-    chunk = max(OBLIQUE_CHUNK, math.ceil(0.05 * t_est / dt))
+    n_max, first, chunk = oblique_start(s, mode, settings, meta, data, dt, OBLIQUE_CHUNK)
     sim = _MjxObliqueSim(model, data, control, params, OBLIQUE_CHUNK)
     out = drive(sim, n_max, first, chunk, oblique_end_finder(s.radius_m))
     meta.update(steps=sim.steps, stepping="lax.scan")

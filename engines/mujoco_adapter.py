@@ -1042,6 +1042,24 @@ def oblique_outcome_record(s: Any, out: _Outcome, dt: float, meta: dict[str, Any
                   timed_out=out.timed_out)
 
 
+def oblique_start(s: Any, mode: str, settings: RunSettings, meta: dict[str, Any], data: Any,
+                  dt: float, min_chunk: int) -> tuple[int, int, int]:
+    """Put the ball at its start (a gap of :data:`GAP_STEPS` steps, the scenario's velocity and
+    spin) into ``data`` and plan the drive (MuJoCo's and MJX's): (the step cap, the first
+    step the end is looked for at, the chunk), from the contact's time scale."""
+    t_est = oblique_time_scale_s(s, mode, meta, dt)
+    st = start(s, dt)
+    data.qpos[:7] = (0.0, 0.0, s.radius_m + st.gap_m, 1.0, 0.0, 0.0, 0.0)
+    data.qvel[:] = (st.tangential_velocity_m_s, 0.0, -st.normal_velocity_m_s, 0.0,
+                    st.spin_rad_s, 0.0)
+    out_of_box = mode in ("default", "custom")
+    cap = max(20.0 * t_est, DEFAULT_TIME_CAP_S) if out_of_box else 20.0 * t_est
+    max_time = settings.max_time_s or st.flight_s + cap
+    n_max = max(math.ceil(max_time / dt), math.ceil(GAP_STEPS) + 16)
+    first = math.ceil(GAP_STEPS) + math.ceil(t_est / dt) + 2
+    return n_max, first, max(min_chunk, math.ceil(0.05 * t_est / dt))
+
+
 def run_oblique(s: Any, mode: str, settings: RunSettings) -> ImpactRecord:
     """The oblique impact in MuJoCo; see the adapter's module doc (oblique section)."""
     dt = float(settings.timestep_s or OBLIQUE_TIMESTEP_S)
@@ -1060,17 +1078,7 @@ def run_oblique(s: Any, mode: str, settings: RunSettings) -> ImpactRecord:
                 ref[0] = -k * a
                 ref[1] = -d * a
 
-    t_est = oblique_time_scale_s(s, mode, meta, dt)
-    st = start(s, dt)
-    data.qpos[:7] = (0.0, 0.0, s.radius_m + st.gap_m, 1.0, 0.0, 0.0, 0.0)
-    data.qvel[:] = (st.tangential_velocity_m_s, 0.0, -st.normal_velocity_m_s, 0.0,
-                    st.spin_rad_s, 0.0)
-    out_of_box = mode in ("default", "custom")
-    cap = max(20.0 * t_est, DEFAULT_TIME_CAP_S) if out_of_box else 20.0 * t_est
-    max_time = settings.max_time_s or st.flight_s + cap
-    n_max = max(math.ceil(max_time / dt), math.ceil(GAP_STEPS) + 16)
-    first = math.ceil(GAP_STEPS) + math.ceil(t_est / dt) + 2
-    chunk = max(8, math.ceil(0.05 * t_est / dt))
+    n_max, first, chunk = oblique_start(s, mode, settings, meta, data, dt, 8)
     sim = _Sim(model, data, hook, sensor_width=OBLIQUE_SENSOR_WIDTH)
     out = drive(sim, n_max, first, chunk, oblique_end_finder(s.radius_m))
     meta.update(steps=sim.steps, stepping="python loop" if hook else "rollout")
