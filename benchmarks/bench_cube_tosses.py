@@ -20,9 +20,10 @@ import time
 from collections.abc import Callable
 from typing import Any
 
+from impactbench.engines.cube_toss import make
+
 from impactbench.cube_tosses import load, split
 from impactbench.cube_tosses.data import tosses
-from impactbench.cube_tosses.engines import make
 from impactbench.cube_tosses.protocol import Protocol, prepare
 
 ROUNDS = 3
@@ -81,7 +82,7 @@ def engines() -> None:
 
 
 def mjx_against_mujoco() -> None:
-    from impactbench.cube_tosses.engines_more import MjxCube, MujocoPlaneCube
+    from impactbench.engines.cube_toss_more import MjxCube, MujocoPlaneCube
 
     for which in ("test",):
         starts = _starts(which)

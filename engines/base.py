@@ -103,6 +103,36 @@ class Builder:
     run: str
     timestep_s: float
     modes: tuple[str, ...] | None = None
+    why_not: str = ""
+    """Why the modes outside ``modes`` do not run here (the ``unsupported`` message)."""
+    own_keys: bool = False
+    """The builder validates ``custom`` mode's keys itself (raising :class:`SettingsError`):
+    a scenario whose engine parameters are not the adapter's :attr:`~Adapter.parameter_keys`
+    (the cube tosses' ``board.``/``cube.`` keys)."""
+
+
+CUBE_TOSS_STEP_S = 1.0 / 1480.0
+"""The cube tosses' engine step (s): DAIR's, a tenth of the 1/148 s motion-capture interval
+(the scenario's ``substeps`` set the step a run actually takes)."""
+
+CUBE_TOSS_NOT_INJECTED = {
+    "mjx": "injected mode needs the model's corner forces computed between steps; MJX steps "
+           "the tosses inside one compiled, vmapped jax call (no Python between steps): the "
+           "law would have to be written in jax",
+    "newton": "injected mode needs the model's corner forces computed between steps; Newton "
+              "steps every toss together in captured warp CPU graphs (no Python between "
+              "steps): the law would have to be a warp kernel",
+}
+"""Batched engines, and why their cube-toss builders have no ``injected`` mode."""
+
+CUBE_TOSS_TWO_D = ("{} is a 2D engine (bodies move in a plane with one rotation angle): a cube "
+                   "tumbling in 3D with a 3-axis spin cannot be expressed")
+"""Why a 2D engine has no cube-toss builder (``.format(engine label)``)."""
+
+
+class SettingsError(ValueError):
+    """Bad settings found by a builder (a parameter the engine does not take, a value it
+    refuses): bad input, re-raised by :func:`run_safely` as a ValueError, never ``crashed``."""
 
 
 class EngineUnavailable(RuntimeError):
@@ -156,6 +186,9 @@ class Adapter(ABC):
     """The modes this adapter implements (a subset of :data:`MODES`)."""
     builders: ClassVar[dict[str, Builder]] = {}
     """Scenario name → :class:`Builder`: the scenarios this engine runs."""
+    missing_builders: ClassVar[dict[str, str]] = {}
+    """Scenario name → why this engine cannot express it (a 2D engine and a tumbling cube):
+    the ``unsupported`` message of such a run."""
     parameter_keys: ClassVar[tuple[str, ...]] = ()
     """The engine's own parameter names accepted in ``custom`` mode (``settings.params``)."""
     injection: ClassVar[str] = ""
@@ -169,6 +202,13 @@ class Adapter(ABC):
     @abstractmethod
     def version(self) -> str:
         """The engine package's version string."""
+
+    def cube_toss(self, scenario: Scenario, mode: str, settings: RunSettings) -> ImpactRecord:
+        """The cube-toss builder of the 3D engines (:func:`impactbench.engines.cube_toss.
+        replay`: the engine's cube on the board, every selected toss replayed)."""
+        from impactbench.engines.cube_toss import replay
+
+        return replay(self.name, scenario, mode, settings)
 
     def builder(self, scenario: Scenario) -> Builder | None:
         """The builder of ``scenario``: the adapter's own, else one the scenario's class
@@ -190,7 +230,8 @@ class Adapter(ABC):
         if mode not in MODES:
             raise ValueError(f"mode = {mode!r}: must be one of {', '.join(MODES)}")
         settings = settings or RunSettings()
-        if mode == "custom":
+        found = self.builder(scenario)
+        if mode == "custom" and not (found is not None and found.own_keys):
             unknown = sorted(set(settings.params or {}) - set(self.parameter_keys))
             if unknown:
                 valid = ", ".join(self.parameter_keys) or "(none)"
@@ -200,18 +241,19 @@ class Adapter(ABC):
             return ImpactRecord.failed(
                 Status.UNSUPPORTED, f"{self.name} does not implement mode {mode!r} "
                 f"(it implements {', '.join(self.modes)})", engine=self.name, mode=mode)
-        found = self.builder(scenario)
         name = getattr(scenario, "name", type(scenario).__name__)
         if found is None:
-            return ImpactRecord.failed(
-                Status.UNSUPPORTED, f"{self.name} has no builder for scenario {name!r} (it "
-                f"runs {', '.join(self.builders) or 'none'})", engine=self.name, mode=mode)
+            why = self.missing_builders.get(name) or (
+                f"{self.name} has no builder for scenario {name!r} (it runs "
+                f"{', '.join(self.builders) or 'none'})")
+            return ImpactRecord.failed(Status.UNSUPPORTED, why, engine=self.name, mode=mode)
         if found.modes is not None and mode not in found.modes:
+            why = found.why_not or (
+                f"{mode} mode is implemented for "
+                f"{' and '.join(s for s, b in self.builders.items() if b.modes is None)} only")
             return ImpactRecord.failed(
-                Status.UNSUPPORTED, f"{mode} mode is implemented for "
-                f"{' and '.join(s for s, b in self.builders.items() if b.modes is None)} only",
-                engine=self.name, engine_version=self.version(), mode=mode,
-                timestep_s=settings.timestep_s or found.timestep_s)
+                Status.UNSUPPORTED, why, engine=self.name, engine_version=self.version(),
+                mode=mode, timestep_s=settings.timestep_s or found.timestep_s)
         if mode == "injected" and getattr(scenario, "model", None) == "kelvin-voigt":
             return ImpactRecord.failed(
                 Status.UNSUPPORTED, "model 'kelvin-voigt' (unclipped) pulls the ball back "
@@ -233,7 +275,7 @@ class Adapter(ABC):
             engine=self.name,
             engine_version=self.version(),
             mode=mode,
-            timestep_s=dt,
+            timestep_s=rec.meta.get("timestep_s", dt),  # a builder whose scenario sets it
             wall_s=time.perf_counter() - t0,
             **{k: v for k, v in settings.options.items() if k not in rec.meta},
         )
@@ -312,6 +354,8 @@ def run_safely(engine: str, scenario: Scenario, mode: str = "native",
         return ImpactRecord.failed(Status.UNAVAILABLE, str(exc), **meta)
     try:
         return adapter.run(scenario, mode, settings)
+    except SettingsError as exc:  # bad input a builder found: the caller's one-line error
+        raise ValueError(str(exc)) from None
     except EngineUnavailable as exc:  # adapters import their engine lazily, inside run
         return ImpactRecord.failed(Status.UNAVAILABLE, str(exc), **meta)
     except Exception as exc:  # an engine failure must not lose the other results

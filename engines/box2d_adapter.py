@@ -72,10 +72,10 @@ ball and oblique 1e-6 s, rigid–flexible 1e-5 s.
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, ClassVar
 
 from impactbench.engines import oblique_common, oblique_tuned, stepping
-from impactbench.engines.base import EngineUnavailable, RunSettings, Scenario
+from impactbench.engines.base import CUBE_TOSS_TWO_D, EngineUnavailable, RunSettings, Scenario
 from impactbench.engines.common import native_ball_restitution, reference_velocity
 from impactbench.reference import validation as check
 from impactbench.reference.oblique_scenario import Oblique
@@ -369,6 +369,7 @@ class Box2dAdapter(stepping.SteppedAdapter):
     ball_model = BallModel
     pair_model = PairModel
     oblique_model = ObliqueModel
+    missing_builders: ClassVar[dict[str, str]] = {"cube-toss": CUBE_TOSS_TWO_D.format("Box2D")}
     injection = ("cannot: Box2D's contacts are rigid impulses with no compliance; the law is a "
                  "force on the body (no fixture) integrated by Box2D's semi-implicit Euler step"
                  "; oblique: Coulomb friction is a force too (the contact is off with the "

@@ -64,10 +64,16 @@ ball and oblique 1e-6 s, rigid–flexible 1e-5 s.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, ClassVar
 
 from impactbench.engines import oblique_tuned, stepping
-from impactbench.engines.base import EngineUnavailable, RunSettings, Scenario
+from impactbench.engines.base import (
+    CUBE_TOSS_STEP_S,
+    Builder,
+    EngineUnavailable,
+    RunSettings,
+    Scenario,
+)
 from impactbench.engines.common import native_ball_restitution, reference_velocity
 from impactbench.reference import validation as check
 from impactbench.reference.oblique_scenario import Oblique
@@ -334,6 +340,10 @@ class DartAdapter(stepping.SteppedAdapter):
     ball_model = BallModel
     pair_model = PairModel
     oblique_model = ObliqueModel
+    builders: ClassVar[dict[str, Builder]] = {
+        **stepping.SteppedAdapter.builders,
+        "cube-toss": Builder("cube_toss", CUBE_TOSS_STEP_S, own_keys=True),
+    }
     injection = ("cannot: DART's contacts are rigid LCP impulses with no compliance; the law is "
                  "a joint force (collision off) integrated by DART's semi-implicit Euler step; "
                  "oblique: Coulomb friction is a joint force and torque too (no contact with "

@@ -141,6 +141,7 @@ from typing import Any, ClassVar
 import numpy as np
 from impactbench.engines import oblique_tuned
 from impactbench.engines.base import (
+    CUBE_TOSS_STEP_S,
     PIP,
     Adapter,
     Builder,
@@ -854,6 +855,7 @@ class DrakeAdapter(Adapter):
         "rigid-flexible": Builder("run_rigid_flexible", RIGID_FLEXIBLE_TIMESTEP_S,
                                   modes=("native", "injected", "tuned")),
         "oblique": Builder("run_oblique", OBLIQUE_TIMESTEP_S),
+        "cube-toss": Builder("cube_toss", CUBE_TOSS_STEP_S, own_keys=True),
     }
     model_builders: ClassVar[dict[str, Callable[[Any, str, RunSettings], DrakeModel]]] = {
         "ball-on-plate": build_ball,

@@ -56,7 +56,14 @@ from typing import Any, ClassVar
 
 import numpy as np
 from impactbench.engines import oblique_tuned
-from impactbench.engines.base import Adapter, Builder, EngineUnavailable, RunSettings
+from impactbench.engines.base import (
+    CUBE_TOSS_NOT_INJECTED,
+    CUBE_TOSS_STEP_S,
+    Adapter,
+    Builder,
+    EngineUnavailable,
+    RunSettings,
+)
 from impactbench.engines.common import NATIVE_REFERENCE_VELOCITY_M_S, classify
 from impactbench.engines.mujoco_adapter import (
     BALL_TIMESTEP_S,
@@ -466,6 +473,9 @@ class MjxAdapter(Adapter):
         "ball-on-plate": Builder("run_ball", BALL_TIMESTEP_S),
         "rigid-flexible": Builder("run_rigid_flexible", RIGID_FLEXIBLE_TIMESTEP_S),
         "oblique": Builder("run_oblique", OBLIQUE_TIMESTEP_S),
+        "cube-toss": Builder("cube_toss", CUBE_TOSS_STEP_S,
+                             modes=("default", "custom", "tuned", "native"), own_keys=True,
+                             why_not=CUBE_TOSS_NOT_INJECTED["mjx"]),
     }
 
     def version(self) -> str:

@@ -130,7 +130,13 @@ from typing import Any, ClassVar, Protocol
 
 import numpy as np
 from impactbench.engines import oblique_tuned
-from impactbench.engines.base import Adapter, Builder, EngineUnavailable, RunSettings
+from impactbench.engines.base import (
+    CUBE_TOSS_STEP_S,
+    Adapter,
+    Builder,
+    EngineUnavailable,
+    RunSettings,
+)
 from impactbench.engines.common import (
     NATIVE_REFERENCE_VELOCITY_M_S,
     SpringDamper,
@@ -1105,6 +1111,7 @@ class MujocoAdapter(Adapter):
         "rigid-flexible": Builder("run_rigid_flexible", RIGID_FLEXIBLE_TIMESTEP_S,
                                   modes=("native", "injected", "tuned")),
         "oblique": Builder("run_oblique", OBLIQUE_TIMESTEP_S),
+        "cube-toss": Builder("cube_toss", CUBE_TOSS_STEP_S, own_keys=True),
     }
 
     def version(self) -> str:

@@ -92,7 +92,14 @@ from typing import Any, ClassVar
 
 import numpy as np
 from impactbench.engines import oblique_common, oblique_tuned
-from impactbench.engines.base import Adapter, Builder, EngineUnavailable, RunSettings
+from impactbench.engines.base import (
+    CUBE_TOSS_NOT_INJECTED,
+    CUBE_TOSS_STEP_S,
+    Adapter,
+    Builder,
+    EngineUnavailable,
+    RunSettings,
+)
 from impactbench.engines.common import (
     NATIVE_REFERENCE_VELOCITY_M_S,
     SpringDamper,
@@ -721,6 +728,9 @@ class NewtonAdapter(Adapter):
         "ball-on-plate": Builder("run_ball", BALL_TIMESTEP_S),
         "rigid-flexible": Builder("run_rigid_flexible", RIGID_FLEXIBLE_TIMESTEP_S),
         "oblique": Builder("run_oblique", BALL_TIMESTEP_S),
+        "cube-toss": Builder("cube_toss", CUBE_TOSS_STEP_S,
+                             modes=("default", "custom", "tuned", "native"), own_keys=True,
+                             why_not=CUBE_TOSS_NOT_INJECTED["newton"]),
     }
 
     def version(self) -> str:

@@ -139,7 +139,14 @@ from collections.abc import Callable
 from typing import Any, ClassVar
 
 from impactbench.engines import oblique_tuned
-from impactbench.engines.base import Adapter, Builder, EngineUnavailable, RunSettings, Scenario
+from impactbench.engines.base import (
+    CUBE_TOSS_STEP_S,
+    Adapter,
+    Builder,
+    EngineUnavailable,
+    RunSettings,
+    Scenario,
+)
 from impactbench.engines.common import (
     NATIVE_REFERENCE_VELOCITY_M_S,
     Recorder,
@@ -441,6 +448,7 @@ class PybulletAdapter(Adapter):
         "rigid-flexible": Builder("run_rigid_flexible", RF_DEFAULT_DT_S,
                                   modes=("native", "injected", "tuned")),
         "oblique": Builder("run_oblique", OBLIQUE_DT_S),
+        "cube-toss": Builder("cube_toss", CUBE_TOSS_STEP_S, own_keys=True),
     }
 
     def version(self) -> str:

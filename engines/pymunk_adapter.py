@@ -142,7 +142,14 @@ from typing import Any, ClassVar
 
 import numpy as np
 from impactbench.engines import oblique_common, oblique_tuned, stepping
-from impactbench.engines.base import Adapter, Builder, EngineUnavailable, RunSettings, Scenario
+from impactbench.engines.base import (
+    CUBE_TOSS_TWO_D,
+    Adapter,
+    Builder,
+    EngineUnavailable,
+    RunSettings,
+    Scenario,
+)
 from impactbench.engines.common import NATIVE_REFERENCE_VELOCITY_M_S, classify
 from impactbench.reference import validation as check
 from impactbench.reference.laws import no_further_contact
@@ -469,6 +476,7 @@ class PymunkAdapter(Adapter):
                                   modes=("native", "injected", "tuned")),
         "oblique": Builder("run_oblique", 1e-6),
     }
+    missing_builders: ClassVar[dict[str, str]] = {"cube-toss": CUBE_TOSS_TWO_D.format("pymunk")}
 
     def version(self) -> str:
         return str(_import_pymunk().version)

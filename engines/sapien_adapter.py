@@ -83,10 +83,16 @@ from __future__ import annotations
 
 import warnings
 from contextlib import contextmanager
-from typing import Any
+from typing import Any, ClassVar
 
 from impactbench.engines import oblique_tuned, stepping
-from impactbench.engines.base import EngineUnavailable, RunSettings, Scenario
+from impactbench.engines.base import (
+    CUBE_TOSS_STEP_S,
+    Builder,
+    EngineUnavailable,
+    RunSettings,
+    Scenario,
+)
 from impactbench.engines.common import (
     native_ball_restitution,
     native_ball_spring,
@@ -427,6 +433,10 @@ class SapienAdapter(stepping.SteppedAdapter):
     ball_model = BallModel
     pair_model = PairModel
     oblique_model = ObliqueModel
+    builders: ClassVar[dict[str, Builder]] = {
+        **stepping.SteppedAdapter.builders,
+        "cube-toss": Builder("cube_toss", CUBE_TOSS_STEP_S, own_keys=True),
+    }
     injection = ("cannot: PhysX's compliant contact is an undamped spring (no damping to "
                  "schedule); the law is an external force (collision off) integrated by PhysX's "
                  "semi-implicit Euler step; oblique: Coulomb friction is a force and torque "

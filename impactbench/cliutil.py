@@ -85,6 +85,31 @@ def print_table(rows: Iterable[Mapping[str, Any]], columns: Sequence[str] | None
                    floatfmt=floatfmt))
 
 
+def interruptible(fn: Any, *args: Any) -> Any:
+    """``fn(*args)`` in a daemon thread while this (main) thread waits in short joins, so
+    Ctrl-C (and SIGTERM or SIGHUP, routed to KeyboardInterrupt by the CLI) stops the command
+    at once even while compiled code that releases the GIL computes (the 2-DOF kernel: a
+    signal handler runs only between Python bytecodes, so a call into it from this thread
+    could not be interrupted before it returned). Its exception, if any, is re-raised here."""
+    import threading
+
+    box: dict[str, Any] = {}
+
+    def target() -> None:
+        try:
+            box["value"] = fn(*args)
+        except BaseException as exc:  # noqa: BLE001 - handed to the main thread
+            box["error"] = exc
+
+    thread = threading.Thread(target=target, daemon=True, name="impactbench-solve")
+    thread.start()
+    while thread.is_alive():
+        thread.join(0.05)
+    if "error" in box:
+        raise box["error"]
+    return box["value"]
+
+
 MAX_GRID_POINTS = 100_000_000
 TABLE_FORMATS = (".csv", ".parquet")
 

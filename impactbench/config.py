@@ -205,8 +205,8 @@ def _scenario(spec: scenarios.ScenarioSpec, table: dict[str, Any],
 
     name = spec.table
     fields = set(spec.cls.field_names()) - set(spec.axis_names)
-    if spec.replay:
-        # A data-driven scenario (its spec's ``replay``): its fields, and the runs of the
+    if spec.measured:
+        # A data-driven scenario (its spec's ``measured``): its fields, and the runs of the
         # report's "Against real tosses" section: ``engines`` (default the report's),
         # ``modes`` (default :data:`REPLAY_MODES`), ``model`` (the reference model's row,
         # default true), ``trajectories`` (best: the measured-vs-simulated figure of each
@@ -233,15 +233,13 @@ def _scenario(spec: scenarios.ScenarioSpec, table: dict[str, Any],
         if "engines" in table and not own:
             return None  # ``engines = []``: the section dropped (the model's row with it)
         _names(f"{name}.modes", table.get("modes", list(REPLAY_MODES)), MODES)
-        hook = scenarios.load(spec.replay)
         for set_name in _names(f"{name}.param_sets", table.get("param_sets", []),
                                tuple(map(str, table.get("param_sets", [])))):
             errors = []
             for engine in own:
                 try:
-                    if hook(engine, scenario, "custom", param_set=set_name,
-                            check_only=True) == "":
-                        break  # an engine that has it
+                    scenario.engine_parameters(engine, "custom", {"param_set": set_name}, None)
+                    break  # an engine that has it
                 except ValueError as exc:
                     errors.append(str(exc))
             else:
@@ -357,7 +355,7 @@ def parse(data: dict[str, Any], source: str = "") -> ReportConfig:
         subs = {k: v for k, v in t.items() if isinstance(v, dict)}
         _check_keys(t, {"velocity_m_s", "velocities_m_s", "timesteps_s", "modes"}
                     | {spec.table for spec in scenarios.specs() if spec.axes
-                       and not spec.replay and "work_precision" not in spec.studies},
+                       and not spec.measured and "work_precision" not in spec.studies},
                     "work_precision.")
         wp_more = tuple(w for name, sub in subs.items()
                         if (w := _work_precision_of(name, sub, t, data)) is not None)

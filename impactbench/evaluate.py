@@ -8,6 +8,7 @@ The reference metrics come from the reference solvers; the engine's from
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import Any
 
 from impactbench import plausibility
@@ -67,6 +68,10 @@ def compare(engine: str, scenario: Scenario, mode: str,
     """
     from impactbench import cluster
 
+    spec = spec_of(scenario)
+    scenario, step_source = spec.at_timestep(scenario, settings.timestep_s if settings else None)
+    if step_source and settings is not None:  # the scenario's own fields now carry the step
+        settings = replace(settings, timestep_s=None)
     ref = reference if reference is not None else reference_metrics(scenario)
     rec = _unbound(engine, scenario, mode, settings)
     if rec is None and timeout_s is None:  # (a caller's own alarm passes through)
@@ -94,11 +99,13 @@ def compare(engine: str, scenario: Scenario, mode: str,
         "params": dict(rec.meta.get("params", {})),
         "engine_defaults": dict(rec.meta.get("engine_defaults", {})),
         "reference": ref,
-        # an unresolved metric is reported, never compared: no relative error
-        "rel_error": {k: (metrics.relative_error(float(got[k]), float(ref[k]))
-                          if resolved[k] else math.nan) for k in got},
     }
-    spec = spec_of(scenario)
+    if step_source:
+        out["timestep_source"] = step_source
+    if rec.status in (Status.OK, Status.MAX_TIME, Status.STRUCTURE_COLLAPSED):
+        out.update(spec.run_details(rec, scenario, mode))
+    # an unresolved metric is reported, never compared: no relative error
+    out["rel_error"] = spec.run_errors(out, got, ref, resolved)
     if rec.status in (Status.OK, Status.MAX_TIME, Status.STRUCTURE_COLLAPSED):
         out["plausibility"] = spec.measure(scenario, rec, got)
         out = plausibility.judge(out)
@@ -152,7 +159,8 @@ def _unbound(engine: str, scenario: Scenario, mode: str,
         from impactbench.tuned import binding_mismatch
 
         dt = settings.timestep_s or builder.timestep_s
-        why = binding_mismatch(settings.tuned_for, engine, scenario, dt)
+        why = settings.tuned_for["mismatch"] if "mismatch" in settings.tuned_for else \
+            binding_mismatch(settings.tuned_for, engine, scenario, dt)
         if not why:
             return None
         return ImpactRecord.failed(Status.UNSUPPORTED, why, engine=engine,

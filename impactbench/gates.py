@@ -81,7 +81,8 @@ The baseline (JSON) maps check ids to measured values::
     {"format": 1, "checks": {"<check id>": {"value": …, "reference": …, "rel_error": …,
                                              "status": "ok", "engine_version": "…"}}}
 
-Data gates (a data-driven scenario, one whose spec has a ``replay`` hook: the cube tosses).
+Data gates (a data-driven scenario, one whose spec has no axes and its own ``errors``: the cube
+tosses).
 Its reference is a measurement, and its metrics are already errors against it (the test
 split's median of each toss's time-mean position error as a fraction of the cube's width,
 ``position_error_median``, and of its rotation error in degrees); a relative error against the
@@ -92,9 +93,10 @@ measurement: ~1.3× the measured median, as for a contact model's error). The ba
 works on the value the same way (``baseline_margin``·|base| + ``baseline_floor``): a median
 that grows beyond it is ``worse``, one that shrinks beyond it is ``better``; replays are
 deterministic, so data gates use a narrow margin (0.05). A replay whose tosses did not all
-run (status ``partial`` or ``failed``) gives no value: ``fail``. Not the values DAIR or the
-independent replay reported: those are over all tosses, and DAIR's parameters were fitted on
-all of them (no held-out set); the test split's medians are this suite's own measurement.
+run (a message naming the failed ones, or status ``diverged``) gives no value: ``fail``. Not
+the values DAIR or the independent replay reported: those are over all tosses, and DAIR's
+parameters were fitted on all of them (no held-out set); the test split's medians are this
+suite's own measurement.
 Schema::
 
     [[gate]]
@@ -108,9 +110,8 @@ Schema::
 
 on the scenario as it comes (the cube tosses: the packaged data's test split, DAIR's protocol).
 Its check id: ``drake-custom-cube-toss-dtdefault-param_set=dair2022-position_error_median``
-(``dtdefault``: the protocol's step). Data runs go through the same results
-store, in this process (the replay hook, :attr:`impactbench.scenarios.ScenarioSpec.replay`),
-not on workers.
+(``dtdefault``: the protocol's step). Data runs go through the same door as every other run
+(the engines' cube-toss builders, the run matrix, the results store).
 """
 
 from __future__ import annotations
@@ -380,7 +381,7 @@ def _expand_gate(n: int, gate: Mapping[str, Any], defaults: Mapping[str, float],
     def fail(key: tuple[str, ...], exc: ValueError) -> ValueError:
         return ValueError(f"line {where('gate', n, *key)}: gate {n}: {exc}")
 
-    if gate.get("scenario") in scenarios.names() and scenarios.get(gate["scenario"]).replay:
+    if gate.get("scenario") in scenarios.names() and scenarios.get(gate["scenario"]).measured:
         return _expand_data_gate(n, gate, defaults, where)
     keys = gate_keys()
     for key in gate:
@@ -511,9 +512,9 @@ DATA_KEYS = ("engine", "mode", "scenario", "param_set", "params", "tolerance",
 
 def _expand_data_gate(n: int, gate: Mapping[str, Any], defaults: Mapping[str, float],
                       where: Callable[..., int]) -> list[Check]:
-    """Validate one data gate (a scenario with a ``replay`` hook) and expand it into checks:
-    one run per engine and mode of the scenario as it comes (the test split), its settings
-    checked by the hook itself."""
+    """Validate one data gate (a scenario without axes: its points are recorded trials) and
+    expand it into checks: one run per engine and mode of the scenario as it comes (the test
+    split); a published set is checked against the engines' (``engine_parameters``)."""
     from impactbench.config import did_you_mean, frozen_params
 
     def fail(key: tuple[str, ...], exc: ValueError) -> ValueError:
@@ -542,17 +543,20 @@ def _expand_data_gate(n: int, gate: Mapping[str, Any], defaults: Mapping[str, fl
     params = gate.get("params", {})
     if not isinstance(params, dict):
         raise fail(("params",), ValueError(f"params = {params!r}: must be a table of the "
-                                           "replay's engine parameters"))
+                                           "builder's engine parameters"))
     scenario = spec.build()
-    hook = scenarios.load(spec.replay)
-    for engine in engines:
-        for mode in modes:
+    if "custom" in modes and param_set is None and not params:
+        raise fail(("mode",), ValueError(
+            "mode = 'custom': needs param_set (a published set) or params (the engine's "
+            "board./cube. keys)"))
+    for engine in engines:  # a published set must be the engine's (no engine imported)
+        if "custom" in modes and hasattr(scenario, "engine_parameters"):
             try:
-                hook(engine, scenario, mode, param_set=param_set, params=params or None,
-                     check_only=True)
+                scenario.engine_parameters(engine, "custom", {
+                    **params, **({"param_set": param_set} if param_set else {})}, None)
             except ValueError as exc:
                 key = "param_set" if param_set is not None else "mode"
-                raise fail((key,), ValueError(f"{engine} {mode}: {exc}")) from None
+                raise fail((key,), ValueError(f"{engine} custom: {exc}")) from None
     tolerance = gate["tolerance"]
     if not isinstance(tolerance, dict) or not tolerance:
         raise fail(("tolerance",), ValueError(
@@ -731,46 +735,8 @@ def evaluate(checks: Iterable[Check], baseline: Mapping[str, Mapping[str, Any]] 
              **run_options: Any) -> list[Outcome]:
     """Plan, run (deduplicated, in parallel) and judge ``checks``, in their order."""
     checks = list(checks)
-    runs = plan(checks)
-    data = [r for r in runs if r.spec.replay]
-    results = execute_data(data, progress=progress, **run_options) if data else {}
-    if len(data) < len(runs):
-        results |= execute([r for r in runs if not r.spec.replay], jobs=jobs,
-                           progress=progress, **run_options)
+    results = execute(plan(checks), jobs=jobs, progress=progress, **run_options)
     return [judge(c, results[c.run], baseline) for c in checks]
-
-
-def execute_data(runs: Iterable[RunKey], progress: Callable[[int], None] | None = None,
-                 store: Any = None, fresh: bool = False, **_: Any
-                 ) -> dict[RunKey, dict[str, Any]]:
-    """Run data gates' runs through their scenario's ``replay`` hook (in this process, looked
-    up in and saved to ``store``) and shape each for :func:`judge` (module doc, "Data
-    gates"): ``reference`` 0 and ``rel_error`` the metric itself, NaN unless every trial
-    ran."""
-    from impactbench.config import thawed
-    from impactbench.engines.registry import stdout_to_stderr
-
-    out = {}
-    for run in runs:
-        spec = run.spec
-        settings = thawed(run.params)
-        param_set = settings.pop("param_set", None)
-        with stdout_to_stderr():
-            result = scenarios.load(spec.replay)(
-                run.engine, run.build_scenario(), run.mode, param_set=param_set,
-                params=settings or None, timestep_s=run.timestep_s, store=store, fresh=fresh)
-        out[run] = data_result(result, spec.metrics)
-        if progress is not None:
-            progress(1)
-    return out
-
-
-def data_result(result: Mapping[str, Any], metrics: Iterable[str]) -> dict[str, Any]:
-    """A replay's run object as :func:`judge` reads it: the metrics as absolute errors
-    (``reference`` 0, ``rel_error`` the value; NaN unless the status is ``ok``)."""
-    ok = result.get("status") == "ok"
-    values = {m: _float(result.get(m)) if ok else math.nan for m in metrics}
-    return {**result, "reference": dict.fromkeys(values, 0.0), "rel_error": values}
 
 
 def rejudge(outcomes: Iterable[Outcome],

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 import textwrap
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -22,11 +22,42 @@ import numpy as np
 import pandas as pd
 from matplotlib.colors import LogNorm
 
-ENGINE_COLORS = {"reference": "black", "mujoco": "tab:blue", "pybullet": "tab:orange",
-                 "pymunk": "tab:green", "drake": "tab:red", "sapien": "tab:purple",
-                 "dart": "tab:brown", "box2d": "tab:pink", "mjx": "tab:cyan",
-                 "newton": "tab:olive"}
-"""One colour per engine in every figure (a plug-in engine gets matplotlib's next one)."""
+from impactbench.engines.registry import engine_names, fallback_color, spec
+
+REFERENCE_COLOR = "black"
+"""The reference's colour in every figure."""
+
+
+def engine_color(engine: str) -> str:
+    """The colour of ``engine`` in every figure: its spec's
+    (:attr:`~impactbench.engines.registry.EngineSpec.plot_color`: its own, or a deterministic
+    fallback for a plug-in that sets none); the same fallback for a name no longer registered
+    (rows in an old store); :data:`REFERENCE_COLOR` for ``reference``."""
+    if engine == "reference":
+        return REFERENCE_COLOR
+    try:
+        return spec(engine).plot_color
+    except ValueError:
+        return fallback_color(engine)
+
+
+class _EngineColors(Mapping[str, str]):
+    """``reference`` and every registered engine → its colour (:func:`engine_color`), in the
+    registry's order; any other name maps to its fallback colour."""
+
+    def __getitem__(self, engine: str) -> str:
+        return engine_color(engine)
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(("reference", *engine_names()))
+
+    def __len__(self) -> int:
+        return 1 + len(engine_names())
+
+
+ENGINE_COLORS: Mapping[str, str] = _EngineColors()
+"""One colour per engine in every figure, read from the engines' specs (kept as a mapping for
+the modules that index it: ``ENGINE_COLORS.get(engine)``, iteration in the registry's order)."""
 MODE_STYLES = {"native": "--", "injected": "-", "tuned": ":", "default": "-.",
                "custom": (0, (5, 1, 1, 1))}
 MODE_MARKERS = {"native": "s", "injected": "o", "tuned": "^", "default": "D", "custom": "v"}
@@ -47,7 +78,7 @@ History = Mapping[str, np.ndarray]
 
 
 def _order(engine: str, mode: str) -> tuple:
-    """Legend order: engines as in :data:`ENGINE_COLORS`, modes as in :data:`MODE_ORDER`."""
+    """Legend order: engines in the registry's order, modes as in :data:`MODE_ORDER`."""
     engines = list(ENGINE_COLORS)
     return (engines.index(engine) if engine in engines else 99, engine,
             MODE_ORDER.index(mode) if mode in MODE_ORDER else 99, mode)
@@ -100,7 +131,7 @@ def force_time(histories: Mapping[tuple[str, str], History], reference: History,
         if a is None:
             continue
         ax.plot(a[0] / time_unit, a[1], linestyle=MODE_STYLES.get(mode, "-"),
-                color=ENGINE_COLORS.get(engine), lw=1.2, label=f"{engine} {mode}")
+                color=engine_color(engine), lw=1.2, label=f"{engine} {mode}")
         curves.append(a[:2])
     end = contact_span(curves) / time_unit
     if end > 0:
@@ -126,7 +157,7 @@ def hysteresis(histories: Mapping[tuple[str, str], History], reference: History,
             continue
         m = h["normal_force_n"] > 0
         ax.plot(h["penetration_m"][m] * 1e6, h["normal_force_n"][m],
-                linestyle=MODE_STYLES.get(mode, "-"), color=ENGINE_COLORS.get(engine), lw=1.1,
+                linestyle=MODE_STYLES.get(mode, "-"), color=engine_color(engine), lw=1.1,
                 label=f"{engine} {mode}")
     ax.set_xlabel("penetration x (µm)")
     ax.set_ylabel("normal force F (N)")
@@ -158,8 +189,8 @@ def restitution_vs_velocity(df: pd.DataFrame, damping_s_per_m: float, how: str,
                 label="Hunt–Crossley k(b·V0)")
     for (engine, mode), g in rows[rows.status == "ok"].groupby(["engine", "mode"]):
         ax.plot(g.velocity_m_s, g.value, MODE_MARKERS.get(mode, "o"), ls="none", ms=6,
-                mfc="none" if mode == "native" else ENGINE_COLORS.get(engine),
-                color=ENGINE_COLORS.get(engine), label=f"{engine} {mode}")
+                mfc="none" if mode == "native" else engine_color(engine),
+                color=engine_color(engine), label=f"{engine} {mode}")
     lo, hi = ax.get_ylim()
     if hi - lo < 0.1:  # a flat curve (a model set from a nominal e): no 1e-6 zoom
         mid = 0.5 * (lo + hi)
@@ -292,7 +323,7 @@ def work_precision(df: pd.DataFrame, metric_names: tuple[str, ...], how: str,
             m = at_v[at_v.metric == metric]
             for (engine, mode), g in m.groupby(["engine", "mode"]):
                 g = g.sort_values("timestep_s", ascending=False)
-                color = ENGINE_COLORS.get(engine)
+                color = engine_color(engine)
                 good = (g.status == "ok") & resolved[g.index]
                 ok = g[good]
                 err = np.abs(ok.rel_error.to_numpy(dtype=float))

@@ -280,11 +280,11 @@ def build(cfg: config_mod.ReportConfig, out_dir: Path, *, engines: list[str] | N
     commit = git_commit(exclude=out_dir)  # before anything is written
     with publish.writer_lock(out_dir):
         jobs = plan(cfg, engines)
-        replays = [s for s in cfg.scenarios if scenarios.get(s.name).replay]
+        replays = [s for s in cfg.scenarios if scenarios.get(s.name).measured]
         if not jobs and not replays:
             tables = " or ".join(f"[{s.table}] {s.axes[0].config_key}" for s in
-                                 scenarios.specs() if s.axes and not s.replay)
-            data = " or ".join(f"[{s.table}]" for s in scenarios.specs() if s.replay)
+                                 scenarios.specs() if s.axes and not s.measured)
+            data = " or ".join(f"[{s.table}]" for s in scenarios.specs() if s.measured)
             raise ValueError(f"config {cfg.source or '<inline>'}: nothing to run (no "
                              f"{tables}, no [work_precision] timesteps_s"
                              + (f", no {data} table" if data else "") + "); see "

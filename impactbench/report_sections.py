@@ -624,10 +624,10 @@ def _replay_row(who: str, mode: str, param_set: str, out: dict[str, Any]) -> lis
     quartiles of both errors, their means and the run's message."""
     status = str(out["status"])
     numbers = status in ("ok", "partial")
-    n_ok = out["tosses"] - len(out.get("failed") or [])
+    n_ok = out.get("tosses", 0) - len(out.get("failed") or [])
     na = Cell("—", "na")
     return [Cell(who), Cell(mode), Cell(param_set),
-            Cell(f"{n_ok}/{out['tosses']}" if numbers else status,
+            Cell(f"{n_ok}/{out.get('tosses', 0)}" if numbers else status,
                  "" if status == "ok" else "fail"),
             _quartiles(out, "position_error", ".3f") if numbers else na,
             _quartiles(out, "rotation_error_deg", ".1f") if numbers else na,
@@ -650,14 +650,28 @@ def _real_tosses_part(ctx: ReportContext, spec: scenarios.ScenarioSpec, sm: Any
     modes = table.get("modes", list(REPLAY_MODES))
     sets = table.get("param_sets", [])
     scenario = spec.build(parameters=sm.parameters)
-    hook = scenarios.load(spec.replay)
     store = _section_store(ctx.cfg)
     which = _selection_text(scenario.tosses)
     rows, cdf, done = [], [], []
     from impactbench.cliutil import progress_bar
+    from impactbench.matrix import Job, run_jobs
 
-    per_engine = sum(len(sets) if mode == "custom" else 1 for mode in modes)
-    total = int(bool(table.get("model", True))) + len(engines) * per_engine
+    fields = tuple(sorted(sm.parameters.items()))
+    jobs = []
+    for engine in engines:  # the same door as every run: the engines' cube-toss builders
+        for mode in modes:
+            choices: list[tuple] = [()]
+            if mode == "custom":
+                choices = []
+                for name in sets:
+                    try:
+                        scenario.engine_parameters(engine, mode, {"param_set": name}, None)
+                        choices.append((("param_set", name),))
+                    except ValueError:
+                        pass  # this engine has no such set
+            jobs += [Job(engine, spec.name, (), mode, None, fields, params, study="real_tosses")
+                     for params in choices]
+    total = int(bool(table.get("model", True))) + len(jobs)
     tick, close = (progress_bar(total, f"{spec.name} replay") if ctx.show_progress
                    else ((lambda n: None), (lambda: None)))
     if table.get("model", True):  # the reference model first: the floor the engines approach
@@ -670,36 +684,29 @@ def _real_tosses_part(ctx: ReportContext, spec: scenarios.ScenarioSpec, sm: Any
                                 "reference.toml", out))
         if numbers:
             cdf.append((MODEL_LABEL, "reference", "fitted", out["per_toss"]))
-    for engine in engines:
-        why = hook(engine, scenario, "default", check_only=True)
-        if why:  # no replay in this engine at all: one row
+    with stdout_to_stderr():
+        results = run_jobs(jobs, 0, progress=lambda n: tick(n) if n else None, store=store)
+    by_engine: dict[str, list] = {}
+    for job in jobs:  # in the config's order (results come sorted by job id)
+        by_engine.setdefault(job.engine, []).append(job)
+    found = {r.job.id: r.run for r in results}
+    for engine, own in by_engine.items():
+        outs = [(job, found[job.id]) for job in own]
+        whys = {out["message"] for _, out in outs}
+        if all(out["status"] == "unsupported" for _, out in outs) and len(whys) == 1:
             rows.append([Cell(engine), Cell("all"), Cell("—"), Cell("unsupported", "fail"),
                          Cell("—", "na"), Cell("—", "na"), Cell("—", "na"),
-                         Cell(why, wrap=True)])
-            tick(per_engine)
+                         Cell(whys.pop(), wrap=True)])  # no replay in this engine at all
             continue
-        for mode in modes:
-            choices: list[str | None] = [None]
-            if mode == "custom":
-                choices = []
-                for name in sets:
-                    try:
-                        if hook(engine, scenario, mode, param_set=name, check_only=True) == "":
-                            choices.append(name)
-                    except ValueError:
-                        pass  # this engine has no such set
-                tick(len(sets) - len(choices))  # the sets it cannot run
-            for param_set in choices:
-                with stdout_to_stderr():
-                    out = hook(engine, scenario, mode, param_set=param_set, store=store)
-                tick(1)
-                numbers = str(out["status"]) in ("ok", "partial")
-                label = f"{engine} {mode}" + (f" {param_set}" if param_set else "")
-                rows.append(_replay_row(f"{engine} {out.get('engine_version') or ''}".strip(),
-                                        mode, param_set or "—", out))
-                if numbers:
-                    cdf.append((label, engine, mode, out["per_toss"]))
-                    done.append((label, engine, mode, param_set, out))
+        for job, out in outs:
+            param_set = dict(job.params).get("param_set")
+            numbers = out["status"] == "ok"
+            label = f"{engine} {job.mode}" + (f" {param_set}" if param_set else "")
+            rows.append(_replay_row(f"{engine} {out.get('engine_version') or ''}".strip(),
+                                    job.mode, param_set or "—", out))
+            if numbers:
+                cdf.append((label, engine, job.mode, out["per_toss"]))
+                done.append((label, engine, job.mode, param_set, out))
     close()
     step = next((o for *_, o in done), {})
     dt = float(step.get("timestep_s") or math.nan)
@@ -726,8 +733,8 @@ def _real_tosses_part(ctx: ReportContext, spec: scenarios.ScenarioSpec, sm: Any
         picks = _picks(out["per_toss"])
         with stdout_to_stderr():
             got = trajectories(engine, scenario, mode, [t for _, t in picks],
-                               param_set=param_set, params=out.get("params")
-                               if mode == "tuned" else None)
+                               params={"param_set": param_set} if param_set else None,
+                               tuned=out.get("params") if mode == "tuned" else None)
         name = "_".join(x for x in (stem, engine, mode, param_set) if x)
         title = f"Measured and simulated, {label}"
         path = toss_plots.trajectories(got, [p for p, _ in picks], engine, title, how,
@@ -768,7 +775,7 @@ def _real_tosses_part(ctx: ReportContext, spec: scenarios.ScenarioSpec, sm: Any
 
 
 def real_tosses(ctx: ReportContext) -> dict[str, Any] | None:
-    """"Against real tosses": for each data-driven scenario (a spec with a ``replay`` hook)
+    """"Against real tosses": for each data-driven scenario (a ``measured`` spec)
     whose table the config has (``[cube_toss]``: ``engines``, ``modes``, ``param_sets`` and the
     scenario's fields, ``tosses`` the test split by default), per engine, mode and parameter
     set the tosses' median and quartiles of position and rotation error, their cumulative
@@ -778,7 +785,7 @@ def real_tosses(ctx: ReportContext) -> dict[str, Any] | None:
     parts = []
     for spec in scenarios.specs():
         sm = next((s for s in ctx.cfg.scenarios if s.name == spec.name), None)
-        if spec.replay and sm is not None:
+        if spec.measured and sm is not None:
             parts.append(_real_tosses_part(ctx, spec, sm))
     return {"parts": parts} if parts else None
 

@@ -266,6 +266,11 @@ def run_inputs(engine: str, scenario_name: str, scenario: Any, mode: str,
         "mode": mode,
         "settings": asdict(settings),
     }
+    from impactbench.scenarios import get
+
+    more = get(scenario_name).store_inputs(scenario, mode)
+    if more:  # what the settings do not hold (a data file's content)
+        inputs["inputs"] = more
     package = type(scenario).__module__.partition(".")[0]
     if package != "impactbench":  # a plug-in's scenario and builders: its source counts too
         inputs["plugin_version"] = source_version(package)

@@ -459,6 +459,43 @@ def integrate_box(params: BoxContactParams, y0: np.ndarray, t_eval: np.ndarray, 
                       model.evaluations, status, message)
 
 
+class CornerWrench:
+    """The model's corner forces on a box as one force at its centre and a torque (both in
+    the board's frame): ``wrench(p, q, v, w_world)`` from the centre (m), the quaternion (w, x,
+    y, z), the velocity (m/s) and the angular velocity in the board's frame (rad/s).
+
+    It evaluates the model's own right-hand side (:meth:`BoxOnBoard.rhs`: the normal law and
+    the regularised friction of every corner below the board) and takes back the force
+    m·(v̇ + g·e_z) and the torque R·(I·ω̇ + ω × I·ω)."""
+
+    def __init__(self, params: BoxContactParams, box: Box | None = None, board_z_m: float = 0.0,
+                 gravity_m_s2: float = GRAVITY_M_S2) -> None:
+        box = Box() if box is None else box
+        self.model = BoxOnBoard(params, box, board_z_m=board_z_m, gravity_m_s2=gravity_m_s2)
+        self.model.max_evaluations = math.inf
+        self.params, self.box = params, box
+        self.board_z, self.g = board_z_m, gravity_m_s2
+        self.reach = box.half_width_m * math.sqrt(3.0)
+        self.m = box.mass_kg
+        self.inertia = box.inertia
+        self.zero = (np.zeros(3), np.zeros(3))
+
+    def __call__(self, p: np.ndarray, q: np.ndarray, v: np.ndarray, w_world: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray]:
+        if p[2] - self.reach >= self.board_z:
+            return self.zero
+        q = np.asarray(q, dtype=float)
+        q = q / math.sqrt(float(q @ q))
+        rot = quat_matrix(q)
+        w_body = rot.T @ np.asarray(w_world, dtype=float)
+        d = self.model.rhs(0.0, np.concatenate([p, q, v, w_body]))
+        force = self.m * d[7:10]
+        force[2] += self.m * self.g
+        iw = self.inertia * w_body
+        torque_body = self.inertia * d[10:13] + np.cross(w_body, iw)
+        return force, rot @ torque_body
+
+
 __all__ = ["ATOL", "DAIR_CUBE", "LAWS", "MAX_STEP_S", "METHOD", "RTOL", "Box", "BoxContactParams",
-           "BoxOnBoard", "IntegrationBudgetExceeded", "Trajectory", "initial_state",
+           "BoxOnBoard", "CornerWrench", "IntegrationBudgetExceeded", "Trajectory", "initial_state",
            "integrate_box", "quat_matrix", "quat_multiply"]

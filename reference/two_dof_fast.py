@@ -92,6 +92,14 @@ _B = np.array([0.054293734116568765, 0.0, 0.0, 0.0, 0.0, 4.450312892752409,
 # event kinds
 _START, _END, _YIELD, _TURN, _REJOIN, _FAIL, _COLLAPSE, _DONE = range(8)
 _MAX_EVENTS = 100_000
+MAX_STEPS = 3_000_000
+"""Step budget of one impact (steps of ``STEP_RAD`` of the fastest mode: 3e5 rad, ~5e4
+periods of it): 1e7 steps took 11–14 s here (2 shared cores), so ~4 s. The most any test or
+figure sweep takes is 3.1e5 (measured: the rigid-wall limit k2 = 1e13 N/m; the crosscheck's
+random corners ≤ 3e4, the figures' grids less). A body 2 1e12 times lighter than body 1
+(its mode √((k1+k2)/m2) 1e6 times the contact's √(k1/m1)) needs ~1e8 per contact: the run
+stops with status max_time (``steps`` = MAX_STEPS says why) instead of computing for
+minutes, or for ever at m2 = 1e-30 kg."""
 
 
 @njit(cache=True, error_model="numpy")
@@ -352,11 +360,11 @@ def _hermite_extremum(g0, d0, g1, d1, h):
     return best
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def solve_kernel(code, v0, m1, m2, k1, k2, kt, k1f, eps_s, beta, fm, tmax, step_rad):
     """One impact. Returns (status 0 ok / 1 collapsed / 2 max_time, peak_force_n,
     pulse_width_s, contact_time_s, impulse_ns, impacts, t_end, x1, x2, v1, v2, max_dx,
-    failed)."""
+    failed, steps); ``steps`` ≥ :data:`MAX_STEPS`: the step budget ran out (status 2)."""
     y = np.zeros(4)
     y[2] = v0
     ynew = np.zeros(4)
@@ -383,6 +391,7 @@ def solve_kernel(code, v0, m1, m2, k1, k2, kt, k1f, eps_s, beta, fm, tmax, step_
     contact_start = 0.0
     impacts = 1
     status = 2
+    steps = 0
     # the first contact starts at t = 0
     mode = 2 if code == 1 else 1
     for _ in range(_MAX_EVENTS):
@@ -420,7 +429,8 @@ def solve_kernel(code, v0, m1, m2, k1, k2, kt, k1f, eps_s, beta, fm, tmax, step_
             dgold[w] = dg[0]
         found = -1
         s_found = 0.0
-        while True:
+        while steps < MAX_STEPS:
+            steps += 1
             s_peak = -1.0
             f_peak = 0.0
             # the step: a fraction of the fastest period (a softening structure's tangent
@@ -499,7 +509,7 @@ def solve_kernel(code, v0, m1, m2, k1, k2, kt, k1f, eps_s, beta, fm, tmax, step_
                     peak = fn
             if last:
                 break
-        if found < 0:  # time cap
+        if found < 0:  # time cap or step budget
             status = 2
             break
         _step(y, s_found, k, f0, m1, m2, k2, beta, K, tmp, ynew)
@@ -539,7 +549,7 @@ def solve_kernel(code, v0, m1, m2, k1, k2, kt, k1f, eps_s, beta, fm, tmax, step_
         last_end = t
     impulse = m1 * (v0 - y[2])
     return (status, peak, last_end, contact_time, impulse, impacts, t, y[0], y[1], y[2], y[3],
-            max_dx, 1.0 if failed else 0.0)
+            max_dx, 1.0 if failed else 0.0, steps)
 
 
 PARAMS: tuple[str, ...] = ("velocity_m_s", "m1_kg", "m2_kg", "k1_n_per_m", "k2_n_per_m", "kt",
@@ -549,14 +559,14 @@ kernel reads them: k1' and F_m/k1 for ``mutation-continuous``; ``beta`` 0 for a 
 structure)."""
 RESULTS: tuple[str, ...] = ("status", "peak_force_n", "pulse_width_s", "contact_time_s",
                             "impulse_ns", "impacts", "t_end_s", "x1_m", "x2_m", "v1_m_s",
-                            "v2_m_s", "max_dx_m", "failed")
+                            "v2_m_s", "max_dx_m", "failed", "steps")
 """The kernel's results, in order (:func:`solve_kernel`)."""
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
 def solve_batch(code, params, step_rad, out):
     """:func:`solve_kernel` for every row of ``params`` (n, 11: :data:`PARAMS`) with law
-    ``code``, its results into the rows of ``out`` (n, 13: :data:`RESULTS`, the integers as
+    ``code``, its results into the rows of ``out`` (n, 14: :data:`RESULTS`, the integers as
     floats): one call for a whole chunk of a sweep, the same numbers bit for bit. Releases
     the GIL: chunks solve on several threads at once."""
     for i in range(params.shape[0]):
@@ -564,7 +574,7 @@ def solve_batch(code, params, step_rad, out):
         r = solve_kernel(code, p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9],
                          p[10], step_rad)
         (out[i, 0], out[i, 1], out[i, 2], out[i, 3], out[i, 4], out[i, 5], out[i, 6],
-         out[i, 7], out[i, 8], out[i, 9], out[i, 10], out[i, 11], out[i, 12]) = r
+         out[i, 7], out[i, 8], out[i, 9], out[i, 10], out[i, 11], out[i, 12], out[i, 13]) = r
 
 
 def kernel_params(scenario) -> tuple[int, tuple[float, ...]]:
@@ -586,7 +596,7 @@ def run(scenario, step_rad: float = STEP_RAD) -> tuple:
 
 
 def run_many(code: int, params: np.ndarray, step_rad: float = STEP_RAD) -> np.ndarray:
-    """The kernel's results (n, 13: :data:`RESULTS`) for ``params`` (n, 11: :data:`PARAMS`)
+    """The kernel's results (n, 14: :data:`RESULTS`) for ``params`` (n, 11: :data:`PARAMS`)
     under law ``code``, in one compiled loop (:func:`solve_batch`)."""
     p = np.ascontiguousarray(params, dtype=float).reshape(-1, len(PARAMS))
     out = np.empty((p.shape[0], len(RESULTS)))

@@ -10,12 +10,14 @@ results store holds and solves only the others, on Dask workers when that pays
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from impactbench.cliutil import (
     add_execution_flags,
     check_workers,
     grid,
+    interruptible,
     number,
     print_json,
     print_table,
@@ -68,12 +70,19 @@ def reference_main(args: argparse.Namespace) -> int:
     from impactbench.reference import two_dof
 
     scenario = scenario_from_args("rigid-flexible", args)
-    out = two_dof.solve(scenario)
+    # in a thread: Ctrl-C stops the command even inside the compiled kernel (up to its step
+    # budget, two_dof_fast.MAX_STEPS: seconds, for a body 2 far lighter than body 1)
+    out = interruptible(two_dof.solve, scenario)
+    message = out.pop("message", "")
     if args.json:
+        if message:
+            print(f"impactbench: status {out['status']}: {message}", file=sys.stderr)
         print_json({k: out[k] for k in ("status", *two_dof.METRIC_KEYS)})
         return 0
     print(f"rigid-flexible  local {scenario.local}  structure {scenario.structure}  "
           f"v1 {scenario.velocity_m_s:g} m/s  status {out['status']}")
+    if message:
+        print(f"  ({message})")
     print_table([{"quantity": k, "value": v} for k, v in out.items() if k != "status"])
     return 0
 

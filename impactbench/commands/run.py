@@ -92,37 +92,50 @@ def main(args: argparse.Namespace) -> int:
     if "velocity_m_s" not in spec.axis_names and args.velocity_m_s is not None:
         raise ValueError(f"velocity = {args.velocity_m_s:g}: {spec.name} has no impact "
                          "velocity (drop --velocity)")
-    if spec.replay:
-        return replay_main(args, spec)
-    if args.param_set is not None:
-        raise ValueError(f"param-set = {args.param_set!r}: {spec.name} has no parameter sets "
-                         "(they come with a data-driven scenario's measurements)")
     scenario = scenario_from_args(args.scenario, args)
-    mode = args.mode or ("tuned" if args.tuned_file else "native")
-    if args.params and mode != "custom":
-        raise ValueError(f"param = {args.params[0][0]}: --param needs --mode custom "
+    mode = args.mode or ("tuned" if args.tuned_file else spec.default_mode)
+    params = dict(args.params)
+    if args.param_set is not None:
+        params["param_set"] = args.param_set  # a published set (custom mode's own key)
+    if params and mode != "custom":
+        what = args.params[0][0] if args.params else "param_set"
+        raise ValueError(f"param = {what}: --param and --param-set need --mode custom "
                          f"(got {mode})")
     if args.tuned_file and mode != "tuned":
         raise ValueError(f"tuned = {str(args.tuned_file)!r}: --tuned needs --mode tuned "
                          f"(got {mode})")
-    _check_param_keys(args.engine, args.params)
-    timestep_s, timestep_source = run_timestep(args.engine, mode, args.timestep_s)
-    settings = RunSettings(timestep_s=timestep_s, params=dict(args.params) or None)
+    own_step = bool(spec.with_timestep)  # the scenario's fields carry the step (cube tosses)
+    if own_step:
+        timestep_s, timestep_source = args.timestep_s, ""
+    else:
+        if args.param_set is not None:
+            raise ValueError(f"param-set = {args.param_set!r}: {spec.name} has no parameter "
+                             "sets (they come with a data-driven scenario's measurements)")
+        _check_param_keys(args.engine, args.params)
+        timestep_s, timestep_source = run_timestep(args.engine, mode, args.timestep_s)
+    settings = RunSettings(timestep_s=timestep_s, params=params or None)
     if mode == "tuned":
         from impactbench.tuned import load_tuned_settings
 
-        tuned, provenance = load_tuned_settings(args.engine, args.scenario, timestep_s,
-                                                args.tuned_file)
+        if spec.tuned_settings:
+            tuned, provenance = scenarios.load(spec.tuned_settings)(args.engine, scenario,
+                                                                     args.tuned_file)
+        else:
+            tuned, provenance = load_tuned_settings(args.engine, args.scenario, timestep_s,
+                                                    args.tuned_file)
         settings = RunSettings(timestep_s=timestep_s, tuned=tuned, tuned_for=provenance)
     allowed = _allowed_statuses(args.allow_status, ("timeout",))
     from impactbench import cluster
     from impactbench.evaluate import reference_metrics
     from impactbench.matrix import estimated_steps_of
 
-    reference = reference_metrics(scenario)
+    reference = reference_metrics(spec.at_timestep(scenario, timestep_s)[0])
     steps = estimated_steps_of(reference, timestep_s)
     check_cost(steps, f"timestep = {timestep_s!r}", args.yes, "integration steps")
-    limit = timeout_option(args) or cluster.default_timeout(cluster.run_estimate_s(steps))
+    # a run without an estimate (a replay, whose length varies with its tosses) has no
+    # default timeout
+    limit = timeout_option(args) or (cluster.default_timeout(cluster.run_estimate_s(steps))
+                                     if steps or not own_step else None)
     with stdout_to_stderr():
         out, _ = compare(args.engine, scenario, mode, settings, reference, timeout_s=limit,
                          backstop=True)
@@ -132,6 +145,7 @@ def main(args: argparse.Namespace) -> int:
         from impactbench.plausibility import Limits, judge
 
         out = judge(out, Limits(**limits))
+    timestep_source = out.pop("timestep_source", "") or timestep_source
     at = list(out).index("timestep_s") + 1  # beside the step it explains
     out = dict([*list(out.items())[:at], ("timestep_source", timestep_source),
                 *list(out.items())[at:]])
@@ -151,65 +165,6 @@ def main(args: argparse.Namespace) -> int:
              "rel_error": out["rel_error"][k] if out["resolved"][k] else "not resolved"}
             for k in out["rel_error"]]
     print_table(rows)
-    return code
-
-
-REPLAY_STATUSES = ("partial", "failed")
-"""Statuses of a data-driven scenario's run besides :class:`~impactbench.reference.record.
-Status`'s: some of its trials failed, or all did."""
-
-
-def replay_main(args: argparse.Namespace, spec: scenarios.ScenarioSpec) -> int:
-    """``run`` of a data-driven scenario: its ``replay`` hook instead of the builders."""
-    scenario = scenario_from_args(spec.name, args)
-    mode = args.mode or ("tuned" if args.tuned_file else "default")
-    for flag, value in (("max-penetration-ratio", args.max_penetration_ratio),
-                        ("max-energy-ratio", args.max_energy_ratio)):
-        if value is not None:
-            raise ValueError(f"{flag} = {value:g}: {spec.name} is judged against its "
-                             "measurements, not by plausibility limits")
-    if args.params and mode != "custom":
-        raise ValueError(f"param = {args.params[0][0]}: --param needs --mode custom "
-                         f"(got {mode})")
-    allowed = _allowed_statuses(args.allow_status, (*REPLAY_STATUSES, "timeout"))
-    hook = scenarios.load(spec.replay)
-    kwargs = {"param_set": args.param_set, "params": dict(args.params) or None,
-              "timestep_s": args.timestep_s, "tuned_file": args.tuned_file}
-    hook(args.engine, scenario, mode, check_only=True, **kwargs)  # bad input: before the data
-    from impactbench import cluster
-
-    limit = timeout_option(args)  # a replay's length varies with the tosses: none by default
-    try:
-        with stdout_to_stderr(), cluster.deadline(limit):
-            out = hook(args.engine, scenario, mode, **kwargs)
-    except cluster.RunTimeout:
-        out = {"status": "timeout", "message": f"no result after {limit:g} s (--timeout)",
-               "engine": args.engine, "mode": mode}
-        code = 0 if "timeout" in allowed else 1
-        if code:
-            print(f"impactbench: run status timeout ({out['message']}); exit 1 "
-                  "(--allow-status to accept it)", file=sys.stderr)
-        if args.json:
-            print_json(out)
-        else:
-            print(f"{args.engine}  mode {mode}  status timeout ({out['message']})")
-        return code
-    code = 0 if out["status"] == "ok" or out["status"] in allowed else 1
-    if code:
-        print(f"impactbench: run status {out['status']}"
-              + (f" ({out['message']})" if out["message"] else "")
-              + "; exit 1 (--allow-status to accept it)", file=sys.stderr)
-    if args.json:
-        print_json(out)
-        return code
-    what = f"param set {out['param_set']}" if out.get("param_set") else ""
-    print(f"{out['engine']} {out['engine_version']}  mode {out['mode']} {what}  "
-          f"{spec.title.lower()} {out['tosses']} ({out.get('split') or scenario.tosses})  "
-          f"timestep {out['timestep_s']:.6g} s ({out['timestep_source']})  status "
-          f"{out['status']}" + (f" ({out['message']})" if out["message"] else "")
-          + (f"  wall {out['wall_s']:.3g} s" if out.get("wall_s") == out.get("wall_s")
-             else ""))
-    print_table([{"metric": k, "value": out[k]} for k in spec.metrics])
     return code
 
 

@@ -68,7 +68,7 @@ def register(top: argparse._SubParsersAction, groups: dict) -> None:
     p = top.add_parser("tune", help=HELP, description=HELP + ". " + __doc__.split("\n\n")[1])
     p.add_argument("--engine", required=True, metavar="E", help=f"one of {', '.join(ENGINES)}")
     tunable = [s.name for s in scenarios.specs() if "tuning" in s.studies]
-    data_driven = [s.name for s in scenarios.specs() if s.replay]
+    data_driven = [s.name for s in scenarios.specs() if s.measured]
     own = [s.name for s in scenarios.specs() if own_fit(s.name)]
     p.add_argument("--scenario", default=tunable[0], metavar="S",
                    help=f"{' | '.join(tunable + data_driven + own)} (the scenarios that serve "
@@ -147,7 +147,7 @@ def main(args: argparse.Namespace) -> int:
 
     check.one_of("engine", args.engine, tuple(ENGINES))
     check.one_of("scenario", args.scenario, scenarios.names())
-    if scenarios.get(args.scenario).replay:
+    if scenarios.get(args.scenario).measured:
         from impactbench.commands import tune_tosses
 
         args.seed = 20240607 if args.seed is None else args.seed

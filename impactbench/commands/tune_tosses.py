@@ -36,7 +36,7 @@ def _out_path(args: argparse.Namespace) -> Path:
 def _reference_sets(engine: str, protocol: Any) -> dict[str, dict[str, Any]]:
     """The engine out of the box and its published parameter sets, scored on the held-out
     test tosses (what the fit is compared with; cached as the fit's evaluations are)."""
-    import impactbench.cube_tosses.engines as engines_mod
+    import impactbench.engines.cube_toss as engines_mod
     from impactbench.cube_tosses.tune import EvalCache, default_cache_path, score_params
 
     cache = EvalCache(default_cache_path())

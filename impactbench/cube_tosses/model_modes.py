@@ -30,8 +30,8 @@ is the stored quantity, so a user's box gets its own m_ref. At that point the fi
 e_ref = 0.269, T_ref = 13.0 ms (peak force 102 N, penetration 2.35 mm).
 
 Friction is μ for every engine: each body gets the value its engine's combination rule needs
-for the *pair* to have μ (the rules are :mod:`~impactbench.cube_tosses.engines`' and
-:mod:`~impactbench.cube_tosses.engines_more`'s). The regularisation v_s maps where the engine
+for the *pair* to have μ (the rules are :mod:`~impactbench.engines.cube_toss`' and
+:mod:`~impactbench.engines.cube_toss_more`'s). The regularisation v_s maps where the engine
 has a parameter of that role (Drake's stiction tolerance, Newton's friction slope).
 
 Per engine (:func:`native_mapping`; the numbers are DAIR's cube with the packaged fit; each
@@ -139,7 +139,12 @@ import numpy as np
 from scipy import integrate, optimize
 
 from impactbench.cube_tosses.protocol import DAIR_BOX, GRAVITY_M_S2, Box
-from impactbench.reference.box_contact import BoxContactParams, BoxOnBoard, quat_matrix
+from impactbench.reference.box_contact import (
+    BoxContactParams,
+    BoxOnBoard,
+    CornerWrench,
+    quat_matrix,
+)
 
 MODES = ("native", "injected")
 
@@ -482,42 +487,6 @@ def native_parameters(engine: str, params: BoxContactParams | None = None,
 
 
 # ------------------------------------------------------------------------------ injected
-
-
-class CornerWrench:
-    """The model's corner forces on a box as one force at its centre and a torque (both in
-    the board's frame): ``wrench(p, q, v, w_world)`` from the centre (m), the quaternion (w, x,
-    y, z), the velocity (m/s) and the angular velocity in the board's frame (rad/s).
-
-    It evaluates the model's own right-hand side (:meth:`~impactbench.reference.box_contact.
-    BoxOnBoard.rhs`: the normal law and the regularised friction of every corner below the
-    board) and takes back the force m·(v̇ + g·e_z) and the torque R·(I·ω̇ + ω × I·ω)."""
-
-    def __init__(self, params: BoxContactParams, box: Box = DAIR_BOX, board_z_m: float = 0.0,
-                 gravity_m_s2: float = GRAVITY_M_S2) -> None:
-        self.model = BoxOnBoard(params, box, board_z_m=board_z_m, gravity_m_s2=gravity_m_s2)
-        self.model.max_evaluations = math.inf
-        self.params, self.box = params, box
-        self.board_z, self.g = board_z_m, gravity_m_s2
-        self.reach = box.half_width_m * math.sqrt(3.0)
-        self.m = box.mass_kg
-        self.inertia = box.inertia
-        self.zero = (np.zeros(3), np.zeros(3))
-
-    def __call__(self, p: np.ndarray, q: np.ndarray, v: np.ndarray, w_world: np.ndarray
-                 ) -> tuple[np.ndarray, np.ndarray]:
-        if p[2] - self.reach >= self.board_z:
-            return self.zero
-        q = np.asarray(q, dtype=float)
-        q = q / math.sqrt(float(q @ q))
-        rot = quat_matrix(q)
-        w_body = rot.T @ np.asarray(w_world, dtype=float)
-        d = self.model.rhs(0.0, np.concatenate([p, q, v, w_body]))
-        force = self.m * d[7:10]
-        force[2] += self.m * self.g
-        iw = self.inertia * w_body
-        torque_body = self.inertia * d[10:13] + np.cross(w_body, iw)
-        return force, rot @ torque_body
 
 
 def injected_reason(engine: str) -> str:

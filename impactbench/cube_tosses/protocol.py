@@ -25,7 +25,7 @@ What one replay does (defaults = DAIR's ``cube_sim.py``/``evaluate_cube_paramete
    rotation angle of q_sim⁻¹ q_real in degrees; per toss their time means over samples
    i0 … end (the start sample included, as DAIR's); across tosses mean, median and quartiles.
 
-Everything here is numpy/scipy; the engines are in :mod:`impactbench.cube_tosses.engines`.
+Everything here is numpy/scipy; the engines are in :mod:`impactbench.engines.cube_toss`.
 """
 
 from __future__ import annotations

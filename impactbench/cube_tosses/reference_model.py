@@ -9,7 +9,7 @@ continuous contact model gets to the measured tosses, with no time stepping in t
   engines' start (sample i0, DAIR's refitted initial velocity) — to the pose at every reference
   sample time t_ref − t_ref[0] (the true sample times; the engines round them to their step);
 - :func:`replay_reference`: a split or ids replayed and scored as
-  :func:`~impactbench.cube_tosses.replay.replay` does (the same keys, ``engine =
+  :func:`~impactbench.cube_tosses.scenario.replay` does (the same keys, ``engine =
   "reference"``), so the reference sits in the engines' table;
 - :func:`fit`: nevergrad (``CMA`` by default, as :mod:`~impactbench.cube_tosses.tune`) over
   the normal law's stiffness, exponent and damping, μ and v_s (:data:`KNOBS`) on
@@ -55,7 +55,7 @@ import pandas as pd
 
 import impactbench.cube_tosses.data as data_mod
 from impactbench.cube_tosses.protocol import Protocol, Start, prepare, summarize, toss_errors
-from impactbench.cube_tosses.replay import RESULT_KEYS, frame_of, outcome, prepared
+from impactbench.cube_tosses.selection import RESULT_KEYS, frame_of, outcome, prepared
 from impactbench.cube_tosses.tune import (
     FAILED_TOSS_ERROR,
     TUNED_DIR,
@@ -213,7 +213,7 @@ def replay_reference(tosses: str | int | Iterable[int] = "test",
     the packaged tosses) in the reference model with ``params`` (None: the packaged fit,
     :func:`load_fitted`), under ``protocol`` (DAIR's by default, with ``box``'s half width).
 
-    Returns the dict :func:`~impactbench.cube_tosses.replay.replay` returns (same keys:
+    Returns the dict :func:`~impactbench.cube_tosses.scenario.replay` returns (same keys:
     status, summary statistics, per_toss, protocol, ...) with ``engine = "reference"``,
     ``mode`` "fitted" (the packaged parameters) or "custom", and ``engine_setup`` describing
     the model, the box and the integrator. ``integrator``: ``method``, ``rtol``, ``atol``,

@@ -1,93 +1,65 @@
-"""The cube-toss scenario's engine runs: the spec's ``replay`` hook (:func:`run`), the
-measurement summary its reference shows (:func:`measurement`) and the trajectories the report
-draws (:func:`trajectories`).
+"""The cube-toss scenario's side of a replay: what the scenario prepares for the engines'
+builders, how it scores their records against the measurement, and what it shows besides.
 
-A run replays the scenario's tosses (:class:`~impactbench.scenarios.cube_toss.CubeToss`: box,
-data, selection, protocol options) in one engine through
-:func:`~impactbench.cube_tosses.replay.replay` and returns its dict with a few keys more
-(``message``, ``engine_version``, ``timestep_s``, ``timestep_source``, ``substeps``, ``box``,
-``wall_s``). Modes: ``default`` (the engine's own contact) and ``custom`` (a published
-parameter set such as ``dair2022`` and/or engine parameters by the replay's own names,
-``board.``/``cube.``-prefixed) and ``tuned`` (the engine's parameters fitted to the training
-tosses, :mod:`~impactbench.cube_tosses.tune`: the packaged tuned file or ``tuned_file``; it
-applies only at the step and to the cube half-width it was fitted for, else the run is
-``unsupported`` naming the difference), ``native`` (the reference model's fitted corner contact
-mapped into the engine's own parameters, :func:`~impactbench.cube_tosses.model_modes.
-native_mapping`: custom mode with the mapped parameters, which the result's ``params`` and
-``engine_setup["native"]`` record with the mapping's inputs) and ``injected`` (the engine's
-box–board contact off and the model's corner forces applied at every step; ``unsupported`` in
-MJX and Newton, which step in compiled batches: :mod:`~impactbench.cube_tosses.model_modes`).
-The 2D engines (pymunk, Box2D) and engines without a cube replay are ``unsupported``.
+An engine run goes through the one door: :meth:`~impactbench.engines.base.Adapter.run` of
+the engine's adapter, whose cube-toss builder (:func:`impactbench.engines.cube_toss.replay`)
+asks the scenario object (:class:`~impactbench.scenarios.cube_toss.CubeToss`) for its inputs
+— :func:`starts` (each selected toss's start from the measurement, DAIR's protocol),
+:func:`box_of`, :func:`engine_parameters` (by mode) and :func:`injected_law` — and returns a
+record of the replayed poses. The spec scores it: :func:`record_metrics` (each toss's time
+mean position and rotation errors, :func:`~impactbench.cube_tosses.protocol.toss_errors`, and
+their median, quartiles and mean) and :func:`details` (the per-toss rows, the split, the
+protocol, what the engine built). The metrics are errors against the measurement, so a run's
+``rel_error`` is the metric itself (the spec's ``absolute_errors``).
+
+Modes: ``default`` (the engine's own contact), ``custom`` (a published parameter set,
+``param_set = "dair2022"``, and/or engine parameters by the builder's own names,
+``board.``/``cube.``-prefixed), ``tuned`` (the engine's parameters fitted to the training tosses,
+:mod:`~impactbench.cube_tosses.tune`: the packaged tuned file or a given one; bound to the
+protocol's step and the cube's half width, :func:`tuned_settings`), ``native`` (the reference
+model's fitted corner contact mapped into the engine's own parameters,
+:func:`~impactbench.cube_tosses.model_modes.native_mapping`) and ``injected`` (the engine's
+box–board contact off and the model's corner forces applied every step; ``unsupported`` in
+MJX and Newton, which step in compiled batches). The 2D engines (pymunk, Box2D) have no
+cube-toss builder (``unsupported``, saying why).
 
 Step: the protocol's, ``sample_dt_s / substeps`` (DAIR: 1/148 s / 10). A given ``timestep_s``
-sets ``substeps = max(1, round(sample_dt_s / timestep_s))``: the engine steps at the nearest
-step that divides the sample interval (the run says which, ``timestep_s`` and
+sets ``substeps = max(1, round(sample_dt_s / timestep_s))`` (:func:`with_timestep`): the engine
+steps at the nearest step that divides the sample interval (the run says which,
 ``timestep_source``), since the replay records the pose at every sample.
 
-Results store: with ``store``, a run is looked up by
-:func:`~impactbench.store.run_inputs` of (engine, scenario, scenario object, mode,
-:class:`ReplaySettings`): the engine and its version, impactbench's version, the scenario's
-fields (box, data path, selection, protocol), the mode, the parameter set, the engine
-parameters and the SHA-256 of the data file (``native``: the mapped parameters and the
-fitted model file's SHA-256; ``injected``: the model's parameters and that SHA-256); a stored
-run is returned as stored.
-
-The box: DAIR's cube by default (h, m, I: :class:`~impactbench.cube_tosses.protocol.Box`); a
-box of the user's is passed to :func:`~impactbench.cube_tosses.engines.make`
-(:func:`box_of`) and its inertia read back from the built engine (:func:`_check_box`).
+Store key: beside the engine, its version, the scenario's fields (box, data path, selection,
+protocol), the mode and the settings, :func:`key_inputs` adds the data file's SHA-256 and, in
+``native`` and ``injected`` modes, the fitted reference model's.
 """
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import math
-import os
 import time
-from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field, replace
+from collections.abc import Mapping
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 import impactbench.cube_tosses.data as data_mod
-import impactbench.cube_tosses.engines as engines_mod
 from impactbench.cube_tosses.protocol import (
     SAMPLE_DT_S,
     Box,
     Protocol,
-    prepare,
     rotation_angle,
+    summarize,
+    toss_errors,
 )
-from impactbench.cube_tosses.replay import engine_parameters, replay, select
-
-MODES = ("default", "custom", "tuned", "native", "injected")
-"""The modes a cube replay has."""
-
-TWO_D = {
-    "pymunk": "pymunk is a 2D engine (bodies move in a plane with one rotation angle): a cube "
-              "tumbling in 3D cannot be expressed",
-    "box2d": "Box2D is a 2D engine (bodies move in a plane with one rotation angle): a cube "
-             "tumbling in 3D cannot be expressed",
-}
-"""Engines the tosses cannot run on, and why."""
+from impactbench.cube_tosses.selection import frame_of, outcome, prepared, select
 
 METRIC_KEYS = ("position_error_median", "position_error_q1", "position_error_q3",
                "position_error_mean", "rotation_error_deg_median", "rotation_error_deg_q1",
                "rotation_error_deg_q3", "rotation_error_deg_mean")
-
-
-@dataclass(frozen=True)
-class ReplaySettings:
-    """What determines a replay besides the engine, the scenario object and the mode (hashed
-    into its store key with them)."""
-
-    param_set: str | None = None
-    params: dict[str, Any] = field(default_factory=dict)
-    data_sha256: str = ""
-    tuned_sha256: str = ""
-    """The tuned file's SHA-256 (tuned mode) or the fitted reference model's (native,
-    injected)."""
 
 
 # ------------------------------------------------------------------------------ the scenario
@@ -148,7 +120,32 @@ def with_timestep(scenario: Any, timestep_s: float | None) -> tuple[Any, str]:
         f"{_interval(scenario.sample_dt_s)} sample interval")
 
 
-# ------------------------------------------------------------------------------ the box
+@functools.lru_cache(maxsize=8)
+def _prepared(scenario: Any) -> tuple[tuple[Any, ...], tuple[dict[str, Any], ...],
+                                      tuple[int, ...], str, str]:
+    df, source = frame_of(str(data_path(scenario)) if scenario.data else None)
+    ids, split_name, starts, failed = prepared(df, scenario.selection, protocol_of(scenario))
+    return tuple(starts), tuple(failed), tuple(ids), split_name, source
+
+
+def starts(scenario: Any) -> tuple[list[Any], list[dict[str, Any]]]:
+    """(each selected toss's replay start, a ``failed`` row per toss the protocol cannot
+    start) of the scenario (cached per scenario: a frozen dataclass)."""
+    got = _prepared(scenario)
+    return list(got[0]), [dict(r) for r in got[1]]
+
+
+def step_s(scenario: Any) -> float:
+    """The engine step (s) when no toss could start (the protocol's, else the first toss's
+    median sample interval over the substeps)."""
+    from impactbench.cube_tosses.protocol import sample_dt
+
+    protocol = protocol_of(scenario)
+    if protocol.sample_dt_s is not None:
+        return protocol.sample_dt_s / protocol.substeps
+    df, _ = frame_of(str(data_path(scenario)) if scenario.data else None)
+    ids = select(df, scenario.selection)
+    return sample_dt(next(data_mod.tosses(df, ids[:1])).t, protocol) / protocol.substeps
 
 
 def box_of(scenario: Any) -> Box:
@@ -163,63 +160,139 @@ def _dair_box(scenario: Any) -> bool:
         HALF_WIDTH_M, MASS_KG, INERTIA_KG_M2)
 
 
-# ------------------------------------------------------------------------------ settings
+def engine_parameters(engine: str, scenario: Any, mode: str,
+                      params: Mapping[str, Any] | None, tuned: Mapping[str, Any] | None
+                      ) -> dict[str, Any]:
+    """The engine parameters a replay sets: none in ``default`` and ``injected`` modes; in
+    ``custom`` mode the published set ``params["param_set"]`` (:data:`~impactbench.engines.
+    cube_toss.PARAM_SETS`) overlaid with the other keys; in ``tuned`` mode the fitted ones; in
+    ``native`` mode the reference model's contact mapped into the engine for the scenario's
+    cube. One-line ValueError for a set the engine lacks or a custom run without any."""
+    from impactbench.engines.cube_toss import PARAM_SETS
 
+    if mode == "tuned":
+        if not tuned:
+            raise ValueError("tuned: tuned mode needs the fitted parameters (a tuned file)")
+        return dict(tuned)
+    if mode == "native":
+        from impactbench.cube_tosses.model_modes import native_parameters
 
-def _unsupported_reason(engine: str, mode: str) -> str:
-    if engine in TWO_D:
-        return TWO_D[engine]
-    if engine not in engines_mod.ENGINES:
-        return (f"no cube-toss replay for {engine} yet (replays: "
-                f"{', '.join(engines_mod.ENGINES)})")
-    if mode not in MODES:
-        return f"mode {mode}: no such cube-toss mode (available: {', '.join(MODES)})"
-    if mode == "injected":
-        from impactbench.cube_tosses.model_modes import injected_reason
-
-        why = injected_reason(engine)
-        return f"mode injected in {engine}: {why}" if why else ""
-    return ""
-
-
-def check(engine: str, mode: str, param_set: str | None = None,
-          params: Mapping[str, Any] | None = None) -> str:
-    """Validate a run's settings: "" when the run can go, the reason when it is
-    ``unsupported``; a one-line ValueError for bad input (a parameter set in default mode, an
-    unknown set with the valid names and a "did you mean")."""
-    why = _unsupported_reason(engine, mode)
-    if why:
-        return why
-    if mode == "tuned" and (param_set is not None or params):
-        what = f"param-set = {param_set!r}" if param_set is not None else \
-            f"param = {next(iter(params))!r}"
-        raise ValueError(f"{what}: tuned mode takes its parameters from the tuned file "
-                         "(--tuned FILE); use --mode custom to set them")
-    if mode in ("default", "native", "injected") and (param_set is not None or params):
-        what = f"param-set = {param_set!r}" if param_set is not None else \
-            f"param = {next(iter(params))!r}"
-        how = {"default": "sets no engine parameters (the engine's own contact)",
-               "native": "maps the reference model's fitted contact into the engine's "
-                         "parameters",
-               "injected": "applies the reference model's corner forces (the engine's "
-                           "contact off)"}[mode]
-        raise ValueError(f"{what}: {mode} mode {how}; use --mode custom")
-    sets = engines_mod.PARAM_SETS.get(engine, {})
-    if mode == "custom" and param_set is None and not params:
-        raise ValueError(f"mode = 'custom': needs --param-set ({', '.join(sets) or 'none for '}"
-                         f"{'' if sets else engine}) or --param KEY=VALUE (the engine's "
-                         "board./cube. keys)")
-    if param_set is not None and param_set not in sets:
+        return native_parameters(engine, None, box_of(scenario))
+    if mode != "custom":
+        return {}
+    params = dict(params or {})
+    name = params.pop("param_set", None)
+    sets = PARAM_SETS.get(engine, {})
+    if name is None and not params:
+        raise ValueError(f"mode = 'custom': needs a parameter set ({', '.join(sets) or 'none for '}"
+                         f"{'' if sets else engine}: param_set = NAME) or the engine's board./"
+                         "cube. keys")
+    if name is not None and name not in sets:
         import difflib
 
-        hint = difflib.get_close_matches(str(param_set), list(sets), n=1)
-        raise ValueError(f"param-set = {param_set!r}: {engine} has "
+        hint = difflib.get_close_matches(str(name), list(sets), n=1)
+        raise ValueError(f"param-set = {name!r}: {engine} has "
                          f"{', '.join(sets) or 'no parameter sets'}"
                          + (f" (did you mean {hint[0]!r}?)" if hint else ""))
-    return ""
+    return (dict(sets[name]) if name is not None else {}) | params
 
 
-# ------------------------------------------------------------------------------ tuned files
+def injected_law(scenario: Any) -> Any:
+    """The reference model's fitted contact (``injected`` mode's law: its corner forces)."""
+    from impactbench.cube_tosses.model_modes import load_model
+
+    return load_model()
+
+
+# ------------------------------------------------------------------------------ the spec's hooks
+
+
+def _per_toss(record: Any, scenario: Any) -> list[dict[str, Any]]:
+    """Each toss's row: its errors against the measurement (the replayed ones) or why it
+    failed, in the selection's order (kept on the record: metrics and details share it)."""
+    if "per_toss" not in record.meta:
+        protocol = protocol_of(scenario)
+        got, _, ids, _, _ = _prepared(scenario)
+        poses = record.meta.get("poses", {})
+        rows = [{"status": "ok", **toss_errors(s, *poses[int(s.toss)], protocol)}
+                for s in got if int(s.toss) in poses]
+        rows += [dict(r) for r in record.meta.get("failed_tosses", [])]
+        outcome(rows, list(ids))
+        record.meta["per_toss"] = rows
+    return record.meta["per_toss"]
+
+
+def record_metrics(record: Any, scenario: Any) -> dict[str, Any]:
+    """Over the replayed tosses: the median, quartiles and mean of each toss's time-mean
+    position error |Δp|/(2h) and rotation error (degrees)."""
+    return summarize(_per_toss(record, scenario))
+
+
+def details(record: Any, scenario: Any, mode: str) -> dict[str, Any]:
+    """What a replay's run object carries besides the metrics: ``split``, ``tosses``,
+    ``failed`` (ids), ``per_toss``, ``protocol``, ``engine_setup`` (with the native mapping in
+    ``native`` mode), ``data``, ``substeps``, ``box`` and a note when tuned, native or injected
+    runs replay training tosses (not held out)."""
+    rows = _per_toss(record, scenario)
+    _, ids, split_name, source = _prepared(scenario)[1:]
+    _, failed = outcome(rows, list(ids))
+    setup = dict(record.meta.get("engine_setup", {}))
+    if mode == "native":
+        from impactbench.cube_tosses.model_modes import native_mapping
+
+        setup["native"] = native_mapping(record.meta.get("engine", ""), None,
+                                         box_of(scenario)).describe()
+    out = {"split": split_name, "tosses": len(rows), "failed": failed, "per_toss": rows,
+           "protocol": protocol_of(scenario).describe(), "engine_setup": setup,
+           "data": source, "substeps": scenario.substeps, "box": _box_of(scenario),
+           "elapsed_s": record.meta.get("replay_s", math.nan)}
+    out["tosses_per_s"] = (len(rows) - len(failed)) / out["elapsed_s"] \
+        if out["elapsed_s"] > 0 else math.nan
+    if mode in ("native", "injected"):
+        from impactbench.cube_tosses import reference_model
+
+        out["model_file"] = str(reference_model.FITTED_PATH)
+    if mode in ("tuned", "native", "injected") and not scenario.data \
+            and scenario.selection != "test":
+        seen = len(data_mod.split([int(r["toss"]) for r in rows], "train"))
+        what = ("the parameters were fitted on" if mode == "tuned" else
+                "the reference model's fit drew on")
+        if seen:
+            out["note"] = (f"{seen} of the {len(rows)} tosses are training tosses {what} "
+                           "(not held out)")
+    return out
+
+
+def errors(run: Mapping[str, Any], metrics: Mapping[str, Any]) -> dict[str, float]:
+    """The errors a gate and a table read: the metrics themselves (they are errors against the
+    measurement), NaN unless every selected toss replayed."""
+    whole = run.get("status") == "ok" and not run.get("failed")
+    return {k: (float(v) if whole else math.nan) for k, v in metrics.items()}
+
+
+def key_inputs(scenario: Any, mode: str) -> dict[str, Any]:
+    """What a replay's store key holds beside the run's settings: the data file's SHA-256 and,
+    in ``native`` and ``injected`` modes, the fitted reference model's."""
+    out = {"data_sha256": data_sha256(data_path(scenario))}
+    if mode in ("native", "injected"):
+        from impactbench.cube_tosses import reference_model
+
+        out["model_sha256"] = hashlib.sha256(reference_model.FITTED_PATH.read_bytes()
+                                             ).hexdigest()
+    return out
+
+
+def tuned_settings(engine: str, scenario: Any, tuned_file: str | Path | None = None
+                   ) -> tuple[dict[str, Any] | None, dict[str, Any] | None]:
+    """(parameters, provenance) of ``engine``'s cube-toss tuned file (the packaged one unless
+    ``tuned_file``): provenance in the shape :func:`impactbench.tuned.binding_mismatch` reads
+    (engine, scenario, the fields it binds, ``file``) plus ``mismatch``, why it does not apply
+    to ``scenario`` ("" when it does). (None, None) when no packaged file exists."""
+    params, path, _sha, why = tuned_binding(engine, scenario, tuned_file)
+    if not params and why.startswith("no packaged tuned file"):
+        return None, None
+    return params, {"engine": engine, "scenario": type(scenario).name, "file": Path(path).name,
+                    "mismatch": why}
 
 
 def tuned_binding(engine: str, scenario: Any, tuned_file: str | Path | None = None
@@ -269,18 +342,6 @@ def tuned_binding(engine: str, scenario: Any, tuned_file: str | Path | None = No
     return params, str(path), sha, ""
 
 
-# ------------------------------------------------------------------------------ the hook
-
-
-def _empty(engine: str, mode: str, param_set: str | None, status: str, message: str,
-           scenario: Any, timestep_s: float | None, source: str) -> dict[str, Any]:
-    return {"status": status, "message": message, "engine": engine, "engine_version": "",
-            "mode": mode, "param_set": param_set, "split": None, "tosses": 0, "failed": [],
-            **dict.fromkeys(METRIC_KEYS, math.nan), "per_toss": [],
-            "timestep_s": timestep_s, "timestep_source": source,
-            "substeps": scenario.substeps, "box": _box_of(scenario), "wall_s": math.nan}
-
-
 def _box_of(scenario: Any) -> dict[str, float]:
     return {"half_width_m": scenario.half_width_m, "mass_kg": scenario.mass_kg,
             "inertia_kg_m2": scenario.inertia_kg_m2}
@@ -309,128 +370,12 @@ def _keep(store: Any, key: str, inputs: Mapping[str, Any], engine: str, mode: st
                 {})])
 
 
-def result_ids(out: Mapping[str, Any]) -> list[int]:
-    """The toss ids a replay's result covers."""
-    return [int(r["toss"]) for r in out.get("per_toss", [])]
-
-
 def _message(out: Mapping[str, Any]) -> str:
     failed = [r for r in out.get("per_toss", []) if r.get("status") != "ok"]
     if not failed:
         return ""
     ids = ", ".join(str(r["toss"]) for r in failed[:5]) + (" …" if len(failed) > 5 else "")
     return f"{len(failed)} of {out['tosses']} tosses failed ({ids}): {failed[0].get('error')}"
-
-
-def run(engine: str, scenario: Any, mode: str = "default", *, param_set: str | None = None,
-        params: Mapping[str, Any] | None = None, timestep_s: float | None = None,
-        store: Any = None, fresh: bool = False, check_only: bool = False,
-        tuned_file: str | Path | None = None,
-        progress: Callable[[int, int], None] | None = None) -> dict[str, Any] | str:
-    """Replay ``scenario``'s tosses in ``engine`` (the spec's ``replay`` hook; module doc).
-
-    Returns :func:`~impactbench.cube_tosses.replay.replay`'s dict plus ``message``,
-    ``engine_version``, ``timestep_s`` (the engine step), ``timestep_source``, ``substeps``,
-    ``box`` and ``wall_s`` (and in ``tuned`` mode ``tuned_file`` and ``params``); an
-    ``unsupported`` or ``unavailable`` run object (NaN metrics, the reason in ``message``)
-    for what cannot run here. ``check_only``: validate (one-line ValueError) and return why
-    the run would be unsupported ("" when it can run), running nothing.
-    """
-    params = dict(params or {})
-    scenario, source = with_timestep(scenario, timestep_s)
-    if tuned_file is not None and mode != "tuned":
-        raise ValueError(f"tuned = {str(tuned_file)!r}: --tuned needs --mode tuned "
-                         f"(got {mode})")
-    why = check(engine, mode, param_set, params)
-    tuned = ("", "")
-    key_params = params
-    if mode == "tuned" and not why:
-        params, *tuned, why = tuned_binding(engine, scenario, tuned_file)
-        key_params = params
-    if check_only:
-        return why
-    if mode in ("native", "injected") and not why:
-        from impactbench.cube_tosses import reference_model
-        from impactbench.cube_tosses.model_modes import native_parameters
-
-        tuned = (str(reference_model.FITTED_PATH),
-                 hashlib.sha256(reference_model.FITTED_PATH.read_bytes()).hexdigest())
-        key_params = (native_parameters(engine, None, box_of(scenario)) if mode == "native"
-                      else {"reference_model": reference_model.load_fitted().describe()})
-    step = scenario.sample_dt_s / scenario.substeps if scenario.sample_dt_s else None
-    if why:
-        return _empty(engine, mode, param_set, "unsupported", why, scenario, step, source)
-    from impactbench.engines.registry import DISABLE_ENV
-
-    if engine in {x.strip() for x in os.environ.get(DISABLE_ENV, "").split(",")}:
-        return _empty(engine, mode, param_set, "unavailable",
-                      f"engine {engine!r} is disabled by {DISABLE_ENV}", scenario, step, source)
-    key = inputs = None
-    path = data_path(scenario)
-    if store is not None:
-        from impactbench.store import run_inputs, run_key
-
-        settings = ReplaySettings(param_set, key_params, data_sha256(path), tuned[1])
-        inputs = run_inputs(engine, type(scenario).name, scenario, mode, settings)
-        key = run_key(inputs)
-        if (stored := _stored(store, key, fresh)) is not None:
-            return stored
-    t0 = time.perf_counter()
-    try:
-        out = replay(engine, mode, tosses=scenario.selection, param_set=param_set,
-                     data=str(path) if scenario.data else None, params=params or None,
-                     protocol=protocol_of(scenario), progress=progress, box=box_of(scenario))
-    except ImportError:
-        from impactbench.engines.base import EngineUnavailable
-
-        return _empty(engine, mode, param_set, "unavailable", str(EngineUnavailable(engine)),
-                      scenario, step, source)
-    except (RuntimeError, OSError) as exc:
-        return _empty(engine, mode, param_set, "failed",
-                      f"{type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}",
-                      scenario, step, source)
-    setup = out.get("engine_setup") or {}
-    if out["status"] == "unsupported":  # the replay's own refusal
-        return _empty(engine, mode, param_set, "unsupported",
-                      str(out.get("reason") or "unsupported"), scenario, step, source)
-    _check_box(scenario, engine, params, param_set, setup)
-    result = {"status": out["status"], "message": _message(out), "engine": engine,
-              "engine_version": str(setup.get("version", "")), **out,
-              "timestep_s": setup.get("step_s", step), "timestep_source": source,
-              "substeps": scenario.substeps, "box": _box_of(scenario),
-              "wall_s": time.perf_counter() - t0}
-    if mode in ("native", "injected"):
-        result |= {"model_file": tuned[0], "params": key_params if mode == "native" else {}}
-    if mode == "tuned":
-        result |= {"tuned_file": tuned[0], "params": params}
-    if mode in ("tuned", "native", "injected") and not scenario.data \
-            and scenario.selection != "test":
-        seen = len(data_mod.split(result_ids(out), "train"))
-        what = ("the parameters were fitted on" if mode == "tuned" else
-                "the reference model's fit drew on")
-        if seen:
-            result["message"] = "; ".join(x for x in (
-                result["message"], f"{seen} of the {out['tosses']} tosses are training "
-                f"tosses {what} (not held out)") if x)
-    _keep(store, key, inputs, engine, mode, scenario, result)
-    return result
-
-
-def _check_box(scenario: Any, engine: str, params: Mapping[str, Any],
-               param_set: str | None, setup: Mapping[str, Any]) -> None:
-    """A box of the user's must have reached the engine (its inertia read back)."""
-    if _dair_box(scenario):
-        return
-    eparams = dict(engines_mod.PARAM_SETS.get(engine, {}).get(param_set, {})) | dict(params)
-    got = setup.get("cube_inertia_kg_m2")
-    if "cube.inertia" in eparams or not isinstance(got, int | float):
-        return
-    if not math.isclose(float(got), scenario.inertia_kg_m2, rel_tol=1e-5):
-        raise RuntimeError(f"{engine}: built the cube with I = {got:g} kg·m², not the given "
-                           f"{scenario.inertia_kg_m2:g}: its replay ignores the box")
-
-
-# ------------------------------------------------------------------------------ the model
 
 
 MODEL_LABEL = "reference model"
@@ -473,9 +418,6 @@ def model_run(scenario: Any, *, store: Any = None, fresh: bool = False) -> dict[
     return result
 
 
-# ------------------------------------------------------------------------------ measurement
-
-
 def measurement(scenario: Any) -> dict[str, Any]:
     """What the selected measurement holds: the data file, the selection and its ids, the
     split's sizes in the file, samples, the sample interval, the tosses' initial speed and spin
@@ -512,33 +454,86 @@ def measurement(scenario: Any) -> dict[str, Any]:
 
 
 def trajectories(engine: str, scenario: Any, mode: str, toss_ids: list[int], *,
-                 param_set: str | None = None, params: Mapping[str, Any] | None = None
-                 ) -> list[dict[str, Any]]:
-    """Measured and simulated trajectories of ``toss_ids`` (for plots): per toss ``toss``,
-    ``t_s`` (from the replay's start), ``z_ref_m``/``z_sim_m`` (the centre's height) and
-    ``angle_ref_deg``/``angle_sim_deg`` (the rotation from the start orientation)."""
-    protocol = protocol_of(scenario)
-    box = box_of(scenario)
-    eparams = engine_parameters(engine, mode, param_set, params, box=box)
-    df = data_mod.load(data_path(scenario))
-    starts = [prepare(t, protocol) for t in data_mod.tosses(df, toss_ids)]
-    if not starts:
-        return []
-    out = []
-    law = None
-    if mode == "injected":
-        from impactbench.cube_tosses.reference_model import load_fitted
+                 params: Mapping[str, Any] | None = None,
+                 tuned: Mapping[str, Any] | None = None) -> list[dict[str, Any]]:
+    """Measured and simulated trajectories of ``toss_ids`` (for plots), replayed through the
+    engine's adapter: per toss ``toss``, ``t_s`` (from the replay's start),
+    ``z_ref_m``/``z_sim_m`` (the centre's height) and ``angle_ref_deg``/``angle_sim_deg`` (the
+    rotation from the start orientation)."""
+    from impactbench.engines.base import RunSettings, run_safely
 
-        law = load_fitted()
-    sim = engines_mod.make(engine, eparams, starts[0].step_s, protocol.board_z_m, box,
-                           law=law)
-    try:
-        for s in starts:
-            p, q = sim.run(s)
-            out.append({"toss": s.toss, "t_s": s.t_ref - s.t_ref[0],
-                        "z_ref_m": s.p_ref[:, 2], "z_sim_m": p[:, 2],
-                        "angle_ref_deg": np.degrees(rotation_angle(s.q_ref[0], s.q_ref)),
-                        "angle_sim_deg": np.degrees(rotation_angle(q[0], q))})
-    finally:
-        sim.close()
+    if not toss_ids:
+        return []
+    picked = replace(scenario, tosses=",".join(str(i) for i in toss_ids))
+    rec = run_safely(engine, picked, mode, RunSettings(params=dict(params) if params else None,
+                                                        tuned=dict(tuned) if tuned else None))
+    got, _ = starts(picked)
+    poses = rec.meta.get("poses", {})
+    out = []
+    for s in got:
+        if int(s.toss) not in poses:
+            continue
+        p, q = poses[int(s.toss)]
+        out.append({"toss": s.toss, "t_s": s.t_ref - s.t_ref[0],
+                    "z_ref_m": s.p_ref[:, 2], "z_sim_m": p[:, 2],
+                    "angle_ref_deg": np.degrees(rotation_angle(s.q_ref[0], s.q_ref)),
+                    "angle_sim_deg": np.degrees(rotation_angle(q[0], q))})
     return out
+
+
+# ------------------------------------------------------------------------------ from Python
+
+
+def replay(engine: str, mode: str = "default", tosses: str | int | list[int] = "all",
+           param_set: str | None = None, data: Any = None, *,
+           params: Mapping[str, Any] | None = None, protocol: Protocol | None = None,
+           box: Box | None = None, timestep_s: float | None = None) -> dict[str, Any]:
+    """Replay ``tosses`` (a split name, an id or ids) of ``data`` (a CSV path, a DataFrame of
+    its columns, written to a temporary CSV; None: the packaged tosses) in ``engine`` through its adapter's cube-toss builder (the one door) and
+    return the run object ``impactbench run cube-toss --json`` prints: status, the metrics,
+    ``per_toss``, ``split``, ``protocol``, ``engine_setup``, … ``param_set`` (custom mode) names
+    a published set, ``params`` are engine parameters by the builder's own names (custom) or
+    the fitted ones (tuned); ``protocol`` and ``box`` set the scenario's fields."""
+    from impactbench.engines.base import RunSettings
+    from impactbench.evaluate import compare
+    from impactbench.scenarios.cube_toss import CubeToss
+
+    import pandas as pd
+
+    if isinstance(data, pd.DataFrame):
+        import tempfile
+
+        with tempfile.TemporaryDirectory() as folder:
+            path = Path(folder) / "tosses.csv"
+            data_mod.validate(data).to_csv(path, index=False)
+            return replay(engine, mode, tosses, param_set, path, params=params,
+                          protocol=protocol, box=box, timestep_s=timestep_s)
+    if mode in ("default", "native", "injected") and (param_set is not None or params):
+        what = ("sets no engine parameters" if mode == "default" else
+                "maps the reference model's contact" if mode == "native" else
+                "applies the reference model's corner forces")
+        raise ValueError(f"param_set = {param_set!r}: {mode} mode {what}; use mode "
+                         "'custom' to set engine parameters")
+    if mode == "tuned" and param_set is not None:
+        raise ValueError(f"param_set = {param_set!r}: tuned mode takes the fitted parameters "
+                         "(params = load_tuned(engine)), no parameter set")
+    if mode == "tuned" and not params:
+        raise ValueError(f"params = {params!r}: tuned mode needs the fitted parameters "
+                         "(params = load_tuned(engine))")
+    protocol = protocol or Protocol()
+    box = box or Box()
+    selection = tosses if isinstance(tosses, str) else ",".join(
+        str(int(i)) for i in ([tosses] if isinstance(tosses, int | np.integer) else tosses))
+    scenario = CubeToss(half_width_m=box.half_width_m, mass_kg=box.mass_kg,
+                        inertia_kg_m2=box.inertia_kg_m2, data=str(data) if data else "",
+                        tosses=selection, substeps=protocol.substeps,
+                        start_rule=protocol.start_rule, samples_before=protocol.samples_before,
+                        refit=protocol.refit, min_preceding=protocol.min_preceding,
+                        velocity_fit=protocol.velocity_fit, sample_dt_s=protocol.sample_dt_s,
+                        board_z_m=protocol.board_z_m)
+    given = dict(params or {}) | ({"param_set": param_set} if param_set is not None else {})
+    settings = RunSettings(timestep_s=timestep_s,
+                           params=given if mode == "custom" else None,
+                           tuned=given if mode == "tuned" else None)
+    out, _ = compare(engine, scenario, mode, settings)
+    return {**out, "param_set": param_set}

@@ -55,7 +55,7 @@ import numpy as np
 import pandas as pd
 
 import impactbench.cube_tosses.data as data_mod
-import impactbench.cube_tosses.engines as engines_mod
+import impactbench.engines.cube_toss as engines_mod
 from impactbench.cube_tosses.protocol import Protocol, Start, prepare, summarize, toss_errors
 
 OBJECTIVE = ("mean over the training tosses of the time-mean position error "

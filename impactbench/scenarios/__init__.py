@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import difflib
 import importlib
+import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from functools import cache
@@ -152,23 +153,23 @@ class ScenarioSpec:
         studies: the suite's single-scenario studies it serves (``work_precision``,
             ``practical``, ``tuning``, ``calibrate``): each runs the first scenario that lists
             it (:func:`for_study`).
-        replay: ``"module:function"`` of a *data-driven* scenario (its reference is a
-            measurement, its points are recorded trials): commands call it instead of the
-            adapters' builders, ``f(engine, scenario, mode, *, param_set=None, params=None,
-            timestep_s=None, store=None, fresh=False, check_only=False)`` → the run object
-            (``status``, ``message``, ``engine``, ``engine_version``, ``mode``,
-            ``timestep_s``, ``wall_s``, the spec's ``metrics``, which are already errors
-            against the measurement, and the scenario's own detail). ``param_set`` names a
-            parameter set published with the data (``custom`` mode), ``params`` are engine
-            parameters by the replay's own names, ``store`` a results store the run is looked
-            up in and saved to, ``check_only`` validates the settings (one-line ValueError)
-            and returns why the run would be ``unsupported`` ("" when it can run) without
-            running. An engine or mode the replay lacks gives an
-            ``unsupported`` run object, never an exception. Such a spec has no axes; the run
-            matrix plans no jobs for it (its config table feeds the report's "Against real
-            tosses" section, :mod:`impactbench.config`), and gates judge its metrics as
-            absolute errors (:mod:`impactbench.gates`). "" for a scenario with a reference
-            solution (the builders' path).
+        default_mode: the mode ``run`` takes without ``--mode`` (``native``; the cube
+            tosses': ``default``, the engines as they come against the measurement).
+        details: ``"module:function"`` (record, scenario, mode) → what a run object carries
+            besides the metrics (the cube tosses' per-toss rows, split, protocol); "" for
+            nothing.
+        errors: ``"module:function"`` (run object, metrics) → the errors tables and gates read,
+            for a scenario whose metrics are already errors against a measurement (the cube
+            tosses: the metric itself); "" for relative errors against the reference.
+        key_inputs: ``"module:function"`` (scenario, mode) → what a run's store key holds
+            beside its settings (a data file's SHA-256); "" for nothing.
+        with_timestep: ``"module:function"`` (scenario, timestep_s or None) → (the scenario
+            the step maps to, where the step comes from), for a scenario whose step is one of
+            its own fields (the cube tosses' substeps); "" when the step is the run's.
+        tuned_settings: ``"module:function"`` (engine, scenario, tuned file or None) →
+            (parameters, provenance) of its tuned files where they differ from the suite's
+            (:func:`impactbench.tuned.load_tuned_settings`); provenance's ``mismatch`` says
+            why a file does not apply; "" for the suite's.
     """
 
     name: str
@@ -196,7 +197,12 @@ class ScenarioSpec:
     plausibility: str = ""
     descriptions: Mapping[str, str] = field(default_factory=dict)
     studies: tuple[str, ...] = ()
-    replay: str = ""
+    default_mode: str = "native"
+    details: str = ""
+    errors: str = ""
+    key_inputs: str = ""
+    with_timestep: str = ""
+    tuned_settings: str = ""
 
     # ------------------------------------------------------------------ the dataclass
     @property
@@ -212,6 +218,12 @@ class ScenarioSpec:
     def point_of(self, scenario: Any) -> Point:
         """The point of a scenario object (its axes' values)."""
         return tuple((a.name, getattr(scenario, a.name)) for a in self.axes)
+
+    @property
+    def measured(self) -> bool:
+        """A data-driven scenario: its reference is a measurement and a run replays all its
+        recorded trials at once (no axes: one point, ``()``), scored by its own ``errors``."""
+        return not self.axes and bool(self.errors)
 
     @property
     def axis_names(self) -> tuple[str, ...]:
@@ -238,6 +250,32 @@ class ScenarioSpec:
         """The plausibility measures of one run ({} when the spec has none)."""
         return dict(load(self.plausibility)(scenario, record, metrics)) if self.plausibility \
             else {}
+
+    def run_details(self, record: Any, scenario: Any, mode: str) -> dict[str, Any]:
+        """What a run object carries besides the metrics ({} when the spec adds nothing)."""
+        return dict(load(self.details)(record, scenario, mode)) if self.details else {}
+
+    def run_errors(self, run: Mapping[str, Any], metrics: Mapping[str, Any],
+                   reference: Mapping[str, Any], resolved: Mapping[str, bool]
+                   ) -> dict[str, float]:
+        """The errors of a run's metrics: relative to the reference (an unresolved metric is
+        reported, never compared: NaN), or the spec's own (errors against a measurement)."""
+        if self.errors:
+            return dict(load(self.errors)(run, metrics))
+        from impactbench.reference.metrics import relative_error
+
+        return {k: (relative_error(float(metrics[k]), float(reference[k])) if resolved[k]
+                    else math.nan) for k in metrics}
+
+    def store_inputs(self, scenario: Any, mode: str) -> dict[str, Any]:
+        """What a run's store key holds beside its settings ({} for nothing)."""
+        return dict(load(self.key_inputs)(scenario, mode)) if self.key_inputs else {}
+
+    def at_timestep(self, scenario: Any, timestep_s: float | None) -> tuple[Any, str]:
+        """(the scenario a step maps to, where the step comes from; "" when the step stays
+        the run's own)."""
+        return load(self.with_timestep)(scenario, timestep_s) if self.with_timestep \
+            else (scenario, "")
 
     def problem(self, scenario: Any, reference: Mapping[str, Any]) -> str:
         """Why the reference of ``scenario`` is outside its model ("" when it is not)."""

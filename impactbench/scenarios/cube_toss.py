@@ -3,14 +3,16 @@
 Data-driven: its reference is the measurement (DAIR Lab's ContactNets tosses, or a user's CSV
 of the same columns, :mod:`impactbench.cube_tosses.data`), its points are tosses, and it splits
 into train and test (a hash of the toss id, 80/20). An engine run is a *replay*
-(:mod:`impactbench.cube_tosses.replay`, DAIR's protocol): each selected toss started from its
-measured state near the first impact and simulated to its end; the metrics are, over tosses,
-the median, quartiles and mean of each toss's time-mean position error (a fraction of the
-cube's width 2h) and rotation error (degrees). So the spec has no axes and its engine runs go
-through its ``replay`` hook (:func:`impactbench.cube_tosses.scenario.run`), not through the
-adapters' builders. Its subcommand (``reference cube-toss``: what the selected measurement
-holds) is in :mod:`impactbench.commands.cube_toss`; the report's "Against real tosses" section
-runs it when a config has a ``[cube_toss]`` table.
+(DAIR's protocol): each selected toss started from its measured state near the first impact and
+simulated to its end, through the engines' cube-toss builders like every other scenario
+(:func:`impactbench.engines.cube_toss.replay`, asking this dataclass for its inputs:
+:meth:`CubeToss.starts`, :meth:`~CubeToss.box`, :meth:`~CubeToss.engine_parameters`,
+:meth:`~CubeToss.injected_law`); the metrics are, over tosses, the median, quartiles and mean
+of each toss's time-mean position error (a fraction of the cube's width 2h) and rotation error
+(degrees), errors against the measurement (:mod:`impactbench.cube_tosses.scenario`). The spec
+has no axes: a run is one point, ``()``. Its subcommand (``reference cube-toss``: what the
+selected measurement holds) is in :mod:`impactbench.commands.cube_toss`; the report's "Against
+real tosses" section runs it when a config has a ``[cube_toss]`` table.
 
 This module imports nothing heavy (the command line builds its flags from the dataclass).
 """
@@ -129,6 +131,39 @@ class CubeToss:
             raise ValueError(f"board_z_m = {self.board_z_m!r}: must be a finite number (m)")
         set_(self, "board_z_m", float(self.board_z_m))
 
+    # -- what the engines' cube-toss builder asks of the scenario (engines import nothing
+    # from the suite: these methods are the scenario's side of the door)
+    def starts(self) -> tuple[list[Any], list[dict[str, Any]]]:
+        """(the selected tosses' replay starts, a ``failed`` row per toss that cannot start)."""
+        from impactbench.cube_tosses.scenario import starts
+
+        return starts(self)
+
+    def box(self) -> Any:
+        """The cube as the engines build it (:class:`~impactbench.reference.box_contact.Box`)."""
+        from impactbench.cube_tosses.scenario import box_of
+
+        return box_of(self)
+
+    def step_s(self) -> float:
+        """The engine step (s): the sample interval over the substeps."""
+        from impactbench.cube_tosses.scenario import step_s
+
+        return step_s(self)
+
+    def engine_parameters(self, engine: str, mode: str, params: Any, tuned: Any
+                          ) -> dict[str, Any]:
+        """The engine parameters a replay in ``mode`` sets (one-line ValueError for bad ones)."""
+        from impactbench.cube_tosses.scenario import engine_parameters
+
+        return engine_parameters(engine, self, mode, params, tuned)
+
+    def injected_law(self) -> Any:
+        """The reference model's fitted contact, applied in ``injected`` mode."""
+        from impactbench.cube_tosses.scenario import injected_law
+
+        return injected_law(self)
+
     @property
     def selection(self) -> str | list[int]:
         """The tosses as ``replay()`` takes them: a split name or a list of ids."""
@@ -214,5 +249,11 @@ SPEC = ScenarioSpec(
     commands="impactbench.commands.cube_toss",
     options=f"{__name__}:add_options",
     descriptions=DESCRIPTIONS,
-    replay="impactbench.cube_tosses.scenario:run",
+    default_mode="default",
+    record_metrics="impactbench.cube_tosses.scenario:record_metrics",
+    details="impactbench.cube_tosses.scenario:details",
+    errors="impactbench.cube_tosses.scenario:errors",
+    key_inputs="impactbench.cube_tosses.scenario:key_inputs",
+    with_timestep="impactbench.cube_tosses.scenario:with_timestep",
+    tuned_settings="impactbench.cube_tosses.scenario:tuned_settings",
 )

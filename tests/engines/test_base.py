@@ -15,6 +15,7 @@ from impactbench.engines.base import (
     get_adapter,
     run_safely,
 )
+from impactbench.engines.registry import spec
 from impactbench.reference.scenarios import BallOnPlate
 
 
@@ -43,8 +44,7 @@ def test_engine_unavailable_names_the_pip_command() -> None:
 @pytest.mark.parametrize("engine", sorted(ENGINES))
 def test_absent_engine_becomes_status_unavailable(engine: str) -> None:
     """In a fresh interpreter where the engine's package cannot be imported."""
-    module = {"drake": "pydrake", "dart": "dartpy", "box2d": "Box2D",
-              "mjx": "mujoco.mjx"}.get(engine, engine)
+    module = spec(engine).module or engine  # its spec's import name (pydrake, Box2D, …)
     code = (
         "import sys, json\n"
         f"sys.modules[{module!r}] = None  # makes `import {module}` raise ImportError\n"

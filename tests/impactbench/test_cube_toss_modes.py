@@ -20,15 +20,15 @@ import mpmath
 import numpy as np
 import pytest
 from conftest import require_engine
+from impactbench.engines import cube_toss as engines_mod
 from scipy.integrate import solve_ivp
 
 from impactbench.cli import main
-from impactbench.cube_tosses import engines as engines_mod
 from impactbench.cube_tosses import model_modes as mm
 from impactbench.cube_tosses import reference_model
 from impactbench.cube_tosses.data import load, tosses
 from impactbench.cube_tosses.protocol import DAIR_BOX, Protocol, prepare, rotation_angle
-from impactbench.cube_tosses.replay import replay
+from impactbench.cube_tosses.scenario import replay
 
 FIT = reference_model.load_fitted()
 IMPACT = mm.corner_impact()
@@ -335,14 +335,17 @@ def test_store_keys_carry_the_mapped_parameters(tmp_path, monkeypatch) -> None:
     """A native run is stored under its mapped parameters: the same mapping comes back from
     the store, another mapping is a new run."""
     require_engine("pybullet")
-    from impactbench import scenarios
-    from impactbench.cube_tosses.scenario import run
+    from impactbench.matrix import Job, run_jobs
     from impactbench.store import Store
 
     store = Store(tmp_path / "s.duckdb")
-    cube = scenarios.get("cube-toss").build(parameters={"tosses": "0"})
-    native = run("pybullet", cube, "native", store=store)
-    again = run("pybullet", cube, "native", store=store)
+
+    def run(engine: str, mode: str) -> dict:  # through the one door: the run matrix's store
+        job = Job(engine, "cube-toss", (), mode, None, (("tosses", "0"),))
+        return run_jobs([job], 0, store=store)[0].run
+
+    native = run("pybullet", "native")
+    again = run("pybullet", "native")
     assert again["wall_s"] == native["wall_s"] and again["params"] == native["params"]
     mapped = mm.native_parameters
 
@@ -350,35 +353,31 @@ def test_store_keys_carry_the_mapped_parameters(tmp_path, monkeypatch) -> None:
         return mapped(*args, **kwargs) | {"board.lateralFriction": 0.1}
 
     monkeypatch.setattr(mm, "native_parameters", softer)
-    other = run("pybullet", cube, "native", store=store)
+    other = run("pybullet", "native")
     assert other["params"]["board.lateralFriction"] == 0.1
     assert other["engine_setup"]["params"]["board.lateralFriction"] == 0.1
     assert other["position_error_median"] != native["position_error_median"]
-    injected = run("pybullet", cube, "injected", store=store)
+    injected = run("pybullet", "injected")
     assert injected["mode"] == "injected" and injected["wall_s"] != native["wall_s"]
 
 
 @pytest.mark.parametrize("engine, words", [("mjx", "jax"), ("newton", "warp")])
 def test_engines_stepping_in_compiled_batches_cannot_inject(engine: str, words: str) -> None:
+    from impactbench.engines.base import get_adapter
+
     from impactbench import scenarios
-    from impactbench.cube_tosses.scenario import check, run
 
     assert words in mm.injected_reason(engine) and "between steps" in mm.injected_reason(engine)
-    assert words in check(engine, "injected")
     out = replay(engine, "injected", tosses=[0])
-    assert out["status"] == "unsupported" and words in out["reason"]
+    assert out["status"] == "unsupported" and words in out["message"]
     cube = scenarios.get("cube-toss").build(parameters={"tosses": "0"})
-    got = run(engine, cube, "injected")
-    assert got["status"] == "unsupported" and words in got["message"]
-    with pytest.raises(ValueError, match=f"engine = '{engine}': .*{words}"):
-        engines_mod.make(engine, {}, law=FIT)
+    got = get_adapter(engine).run(cube, "injected")  # the builder refuses before any step
+    assert got.status == "unsupported" and words in got.message
 
 
 @pytest.mark.parametrize("mode", ["native", "injected"])
 def test_model_modes_take_no_engine_parameters(mode: str) -> None:
-    from impactbench.cube_tosses.scenario import check
-
-    with pytest.raises(ValueError, match=f"param-set = 'dair2022': {mode} mode .*--mode custom"):
-        check("pybullet", mode, param_set="dair2022")
+    with pytest.raises(ValueError, match=f"param_set = 'dair2022': {mode} mode .*'custom'"):
+        replay("pybullet", mode, tosses=[0], param_set="dair2022")
     with pytest.raises(ValueError, match=f"param_set = None: {mode} mode"):
         replay("pybullet", mode, tosses=[0], params={"board.lateralFriction": 0.3})

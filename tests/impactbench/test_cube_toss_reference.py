@@ -13,7 +13,7 @@ from impactbench.reference import box_contact as bc
 
 from impactbench.cube_tosses import data, protocol
 from impactbench.cube_tosses import reference_model as rm
-from impactbench.cube_tosses.replay import RESULT_KEYS
+from impactbench.cube_tosses.selection import RESULT_KEYS
 from impactbench.cube_tosses.tune import ids_hash
 
 

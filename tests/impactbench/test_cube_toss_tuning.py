@@ -80,7 +80,7 @@ def test_the_optimiser_never_sees_a_test_toss(df, monkeypatch) -> None:
 
 
 def test_every_space_maps_onto_engine_keys() -> None:
-    from impactbench.cube_tosses.engines import make
+    from impactbench.engines.cube_toss import make
 
     for engine, knobs in tune_mod.SPACES.items():
         assert all(k.choices or (k.low < k.high and (k.low > 0 or not k.log)) for k in knobs)

@@ -53,23 +53,26 @@ Drake
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from importlib import metadata
 from typing import Any
 
 import numpy as np
+from impactbench.engines.base import SettingsError
+from impactbench.reference.box_contact import GRAVITY_M_S2, Box, quat_matrix
+from impactbench.reference.record import ImpactRecord, Status
 
-from impactbench.cube_tosses.protocol import (
-    DAIR_BOX,
-    GRAVITY_M_S2,
-    Box,
-    Start,
-)
+DAIR_BOX = Box()
+Start = Any
+"""A toss's replay start (:class:`impactbench.cube_tosses.protocol.Start`: ``toss``, ``p``,
+``q`` (w, x, y, z), ``v``, ``w_world``, ``step_s``, ``record_steps``), duck-typed: the scenario
+prepares it from the measurement."""
 
 ENGINES = ("pybullet", "mujoco", "drake", "sapien", "dart", "newton", "mjx")
 """The engines the tosses replay on; the last four live in
-:mod:`impactbench.cube_tosses.engines_more` (imported when one is built)."""
+:mod:`impactbench.engines.cube_toss_more` (imported when one is built)."""
 
 # DAIR's fitted values (learned_parameters/cube/*.json of the branch above), full precision.
 _DAIR_BULLET = {"stiffness": 1783.7652890360182, "damping": 27.221707506471567,
@@ -154,7 +157,7 @@ class CubeEngine:
         self._wrench = None
         self._contact_off = ""
         if self.law is not None:
-            from impactbench.cube_tosses.model_modes import CornerWrench
+            from impactbench.reference.box_contact import CornerWrench
 
             self._wrench = CornerWrench(self.law, self.box, self.board_z_m, GRAVITY_M_S2)
         self._build()
@@ -465,9 +468,8 @@ class MujocoCube(CubeEngine):
 
     @staticmethod
     def _mj_rotation(q: np.ndarray) -> np.ndarray:
-        from impactbench.cube_tosses.protocol import quat_to_matrix
 
-        return quat_to_matrix(q)
+        return quat_matrix(q)
 
     def _push_step(self, force: np.ndarray, torque: np.ndarray) -> None:
         d = self._data
@@ -538,6 +540,7 @@ class DrakeCube(CubeEngine):
         super().__init__(dict(params), step_s, board_z_m, "drake", keys, box, law)
 
     def _build(self) -> None:
+        from impactbench.engines.common import quiet_drake_log
         from pydrake.geometry import HalfSpace, ProximityProperties
         from pydrake.math import RigidTransform
         from pydrake.multibody.parsing import Parser
@@ -548,8 +551,6 @@ class DrakeCube(CubeEngine):
         )
         from pydrake.systems.analysis import Simulator
         from pydrake.systems.framework import DiagramBuilder
-
-        from impactbench.engines.common import quiet_drake_log
 
         quiet_drake_log()
         approx = self.params.get("discrete_contact_approximation")
@@ -720,7 +721,7 @@ def _replace() -> Any:
 
 _CLASSES: dict[str, type[CubeEngine]] = {"pybullet": PyBulletCube, "mujoco": MujocoCube,
                                          "drake": DrakeCube}
-MORE_ENGINES = "impactbench.cube_tosses.engines_more"
+MORE_ENGINES = "impactbench.engines.cube_toss_more"
 BULLET_BREAKING_THRESHOLD_M = 0.02
 """Bullet's default contact breaking threshold (``gContactBreakingThreshold``, m)."""
 """The module of the other engines' classes (``CLASSES``), imported when one is built."""
@@ -731,20 +732,88 @@ def make(engine: str, params: Mapping[str, Any] = (), step_s: float = 1.0 / 1480
     """The cube-on-board model of ``engine`` with engine parameters ``params`` and the cube
     ``box`` (DAIR's by default); with ``law`` (the reference model's
     :class:`~impactbench.reference.box_contact.BoxContactParams`) the injected model: the
-    engine's own box–board contact off, the model's corner forces applied every step
-    (ValueError naming why for an engine that cannot)."""
+    engine's own box–board contact off, the model's corner forces applied every step."""
     cls = _CLASSES.get(engine)
     if cls is None and engine in ENGINES:  # by name, as the engine registry loads adapters:
-        import importlib  # engines_more builds on this module's classes
+        import importlib  # cube_toss_more builds on this module's classes
 
         cls = importlib.import_module(MORE_ENGINES).CLASSES[engine]
     if cls is None:
         raise ValueError(f"engine = {engine!r}: the cube tosses run on {', '.join(ENGINES)}")
     if law is None:
         return cls(params, step_s, board_z_m, box=box)
-    from impactbench.cube_tosses.model_modes import injected_reason
-
-    why = injected_reason(engine)
-    if why:
-        raise ValueError(f"engine = {engine!r}: {why}")
     return cls(params, step_s, board_z_m, box=box, law=law)
+
+
+REPLAY_ERRORS = (RuntimeError, FloatingPointError, ValueError)
+"""What one toss may raise in an engine (an engine error or a non-finite state): that toss
+fails, the others go on."""
+
+
+def replay(engine: str, scenario: Any, mode: str, settings: Any) -> ImpactRecord:
+    """The cube-toss builder of every 3D engine: replay the scenario's tosses in ``engine``.
+
+    The scenario (:class:`impactbench.scenarios.cube_toss.CubeToss`) prepares what the
+    engine needs — the tosses' starts from the measurement (:meth:`starts`), the cube
+    (:meth:`box`), the engine parameters of ``mode`` (:meth:`engine_parameters`: none in
+    ``default``; ``custom`` the user's keys, a published ``param_set``; ``tuned`` the fitted
+    ones; ``native`` the reference model's contact mapped into the engine) and, in
+    ``injected`` mode, the reference model's contact law (:meth:`injected_law`). One engine
+    instance replays every toss (a batched engine, MJX or Newton, all in one call).
+
+    The record carries no impact channels: ``meta["poses"]`` maps each replayed toss to its
+    positions (n, 3, m) and quaternions (n, 4, w x y z) at the toss's reference samples, which
+    the scenario scores against the measurement; ``meta["failed_tosses"]`` the tosses that
+    could not start or failed in the engine (``toss``, ``error``); ``meta["engine_setup"]``
+    what was built; ``meta["params"]`` the engine parameters set. Status: ``ok`` when any toss
+    ran (the message names the failed ones), ``diverged`` when none did."""
+    try:
+        params = scenario.engine_parameters(engine, mode, settings.params, settings.tuned)
+    except ValueError as exc:  # a published set the engine lacks, a custom run without keys
+        raise SettingsError(str(exc)) from None
+    law = scenario.injected_law() if mode == "injected" else None
+    starts, failed = scenario.starts()
+    box = scenario.box()
+    steps = {round(s.step_s, 15) for s in starts}
+    if len(steps) > 1:
+        raise ValueError(f"data: the tosses' sample intervals differ ({sorted(steps)[:3]} s "
+                         "engine steps); set sample_dt_s")
+    step_s = starts[0].step_s if starts else scenario.step_s()
+    try:
+        sim = make(engine, params, step_s, scenario.board_z_m, box, law=law)
+    except ValueError as exc:  # a parameter the engine does not take, or a value it refuses
+        raise SettingsError(str(exc)) from None
+    poses: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+    failed = list(failed)
+    try:
+        setup = sim.describe()
+        if law is not None:
+            setup["injected"] = sim.injected_setup()
+        t0 = time.perf_counter()
+        batch = sim.run_many(starts) if getattr(sim, "batched", False) else None
+        for n, start in enumerate(starts):
+            try:
+                if batch is not None and isinstance(batch[n], Exception):
+                    raise batch[n]
+                p, q = batch[n] if batch is not None else sim.run(start)
+                if not (np.all(np.isfinite(p)) and np.all(np.isfinite(q))):
+                    raise FloatingPointError("non-finite state")
+                poses[int(start.toss)] = (p, q)
+            except REPLAY_ERRORS as exc:
+                failed.append({"toss": int(start.toss), "status": "failed",
+                               "error": f"{type(exc).__name__}: {str(exc).splitlines()[0]}"})
+        elapsed = time.perf_counter() - t0
+    finally:
+        sim.close()
+    meta = {"poses": poses, "failed_tosses": failed, "engine_setup": setup,
+            "params": dict(params), "replay_s": elapsed, "timestep_s": step_s,
+            "engine_version": str(setup.get("version", ""))}
+    empty = np.empty(0)
+    status, message = Status.OK, ""
+    if failed:
+        ids = ", ".join(str(r["toss"]) for r in failed[:5]) + (" …" if len(failed) > 5 else "")
+        message = (f"{len(failed)} of {len(failed) + len(poses)} tosses failed ({ids}): "
+                   f"{failed[0].get('error')}")
+        status = Status.OK if poses else Status.DIVERGED
+    return ImpactRecord(empty, empty, empty, empty, empty, empty, mass_1_kg=box.mass_kg,
+                        status=status, message=message, meta=meta)

@@ -1,8 +1,8 @@
 """The cube on the board in SAPIEN (PhysX), DART, Newton and MJX; pymunk and Box2D refused.
 
-The same physical set-up as :mod:`impactbench.cube_tosses.engines` (a free box, h = 0.0524 m,
+The same physical set-up as :mod:`impactbench.engines.cube_toss` (a free box, h = 0.0524 m,
 0.37 kg, 0.00081 kg·m² about each axis; the board's surface at ``board_z_m``, z up; gravity
-9.81 m/s²; a fixed step), the same interface (:class:`~impactbench.cube_tosses.engines.CubeEngine`)
+9.81 m/s²; a fixed step), the same interface (:class:`~impactbench.engines.cube_toss.CubeEngine`)
 and the same key convention: ``board.`` / ``cube.`` + the engine's own name, plus engine-wide
 keys; ``default`` mode sets none, ``custom`` mode the caller's. The engines are imported when a
 model is built, never at import. ``injected`` mode (the reference model's corner forces,
@@ -42,7 +42,7 @@ MJX (MuJoCo XLA, jax CPU, float64)
     MuJoCo's physics on the cube on a **plane** (MJX collides box–plane in 4 fixed contact
     slots; box–box would be far more costly), so it is compared with C MuJoCo on the same
     plane model (:class:`MujocoPlaneCube`), not with the box board of
-    :class:`~impactbench.cube_tosses.engines.MujocoCube`. The two agree to rounding until a
+    :class:`~impactbench.engines.cube_toss.MujocoCube`. The two agree to rounding until a
     second corner touches: MJX's ``plane_convex`` keeps only the vertices within 1 mm of the
     deepest one (``support > max(0, support.max() − 1e-3)``, mujoco-mjx 3.17), C MuJoCo's
     box–plane every penetrating vertex, so with a soft contact (the default solref 0.02 s
@@ -66,14 +66,8 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
-
-from impactbench.cube_tosses.engines import CubeEngine, MujocoCube, _version
-from impactbench.cube_tosses.protocol import (
-    DAIR_BOX,
-    GRAVITY_M_S2,
-    Box,
-    Start,
-)
+from impactbench.engines.cube_toss import DAIR_BOX, CubeEngine, MujocoCube, Start, _version
+from impactbench.reference.box_contact import GRAVITY_M_S2, Box, quat_matrix
 
 ENGINES = ("sapien", "dart", "newton", "mjx")
 
@@ -328,13 +322,12 @@ class DartCube(CubeEngine):
         self._world, self._cube = world, cube
 
     def _reset(self, start: Start) -> None:
-        from impactbench.cube_tosses.protocol import quat_to_matrix
 
         dart = self._dart
         self._world.reset()
         tf = dart.math.Isometry3()
         tf.set_translation(start.p.tolist())
-        tf.set_rotation(quat_to_matrix(start.q))
+        tf.set_rotation(quat_matrix(start.q))
         self._cube.setPositions(dart.dynamics.FreeJoint.convertToPositions(tf))
         self._cube.setVelocities(np.zeros(6))
         world = dart.dynamics.Frame.World()
@@ -553,7 +546,7 @@ class NewtonCube(BatchedCube):
 
 class MujocoPlaneCube(MujocoCube):
     """C MuJoCo with the board as a plane geom (MJX's model), for comparing the two on one
-    model; keys as :class:`~impactbench.cube_tosses.engines.MujocoCube`'s."""
+    model; keys as :class:`~impactbench.engines.cube_toss.MujocoCube`'s."""
 
     def xml(self) -> str:
         xml = super().xml()
