@@ -203,12 +203,20 @@ class Adapter(ABC):
     def version(self) -> str:
         """The engine package's version string."""
 
-    def cube_toss(self, scenario: Scenario, mode: str, settings: RunSettings) -> ImpactRecord:
+    def replay_tosses(self, scenario: Scenario, mode: str, settings: RunSettings
+                      ) -> ImpactRecord:
         """The cube-toss builder of the 3D engines (:func:`impactbench.engines.cube_toss.
-        replay`: the engine's cube on the board, every selected toss replayed)."""
+        replay`: the engine's cube on the board, every selected toss replayed). A
+        ValueError before the first step (a parameter the engine does not take, a published
+        set it lacks) is bad input: :class:`SettingsError`."""
         from impactbench.engines.cube_toss import replay
 
-        return replay(self.name, scenario, mode, settings)
+        try:
+            return replay(self.name, scenario, mode, settings)
+        except SettingsError:
+            raise
+        except ValueError as exc:
+            raise SettingsError(str(exc)) from None
 
     def builder(self, scenario: Scenario) -> Builder | None:
         """The builder of ``scenario``: the adapter's own, else one the scenario's class
@@ -248,7 +256,7 @@ class Adapter(ABC):
                 f"{', '.join(self.builders) or 'none'})")
             return ImpactRecord.failed(Status.UNSUPPORTED, why, engine=self.name, mode=mode)
         if found.modes is not None and mode not in found.modes:
-            why = found.why_not or (
+            why = f"mode {mode} in {self.name}: {found.why_not}" if found.why_not else (
                 f"{mode} mode is implemented for "
                 f"{' and '.join(s for s, b in self.builders.items() if b.modes is None)} only")
             return ImpactRecord.failed(

@@ -60,7 +60,6 @@ from importlib import metadata
 from typing import Any
 
 import numpy as np
-from impactbench.engines.base import SettingsError
 from impactbench.reference.box_contact import GRAVITY_M_S2, Box, quat_matrix
 from impactbench.reference.record import ImpactRecord, Status
 
@@ -767,10 +766,9 @@ def replay(engine: str, scenario: Any, mode: str, settings: Any) -> ImpactRecord
     could not start or failed in the engine (``toss``, ``error``); ``meta["engine_setup"]``
     what was built; ``meta["params"]`` the engine parameters set. Status: ``ok`` when any toss
     ran (the message names the failed ones), ``diverged`` when none did."""
-    try:
-        params = scenario.engine_parameters(engine, mode, settings.params, settings.tuned)
-    except ValueError as exc:  # a published set the engine lacks, a custom run without keys
-        raise SettingsError(str(exc)) from None
+    # a ValueError here (a published set the engine lacks, a key it does not take) is bad
+    # input: the adapter's builder raises it as SettingsError
+    params = scenario.engine_parameters(engine, mode, settings.params, settings.tuned)
     law = scenario.injected_law() if mode == "injected" else None
     starts, failed = scenario.starts()
     box = scenario.box()
@@ -779,10 +777,7 @@ def replay(engine: str, scenario: Any, mode: str, settings: Any) -> ImpactRecord
         raise ValueError(f"data: the tosses' sample intervals differ ({sorted(steps)[:3]} s "
                          "engine steps); set sample_dt_s")
     step_s = starts[0].step_s if starts else scenario.step_s()
-    try:
-        sim = make(engine, params, step_s, scenario.board_z_m, box, law=law)
-    except ValueError as exc:  # a parameter the engine does not take, or a value it refuses
-        raise SettingsError(str(exc)) from None
+    sim = make(engine, params, step_s, scenario.board_z_m, box, law=law)
     poses: dict[int, tuple[np.ndarray, np.ndarray]] = {}
     failed = list(failed)
     try:
@@ -807,6 +802,7 @@ def replay(engine: str, scenario: Any, mode: str, settings: Any) -> ImpactRecord
         sim.close()
     meta = {"poses": poses, "failed_tosses": failed, "engine_setup": setup,
             "params": dict(params), "replay_s": elapsed, "timestep_s": step_s,
+            "param_set": (settings.params or {}).get("param_set") if mode == "custom" else None,
             "engine_version": str(setup.get("version", ""))}
     empty = np.empty(0)
     status, message = Status.OK, ""

@@ -342,7 +342,7 @@ class DartAdapter(stepping.SteppedAdapter):
     oblique_model = ObliqueModel
     builders: ClassVar[dict[str, Builder]] = {
         **stepping.SteppedAdapter.builders,
-        "cube-toss": Builder("cube_toss", CUBE_TOSS_STEP_S, own_keys=True),
+        "cube-toss": Builder("replay_tosses", CUBE_TOSS_STEP_S, own_keys=True),
     }
     injection = ("cannot: DART's contacts are rigid LCP impulses with no compliance; the law is "
                  "a joint force (collision off) integrated by DART's semi-implicit Euler step; "

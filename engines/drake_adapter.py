@@ -855,7 +855,7 @@ class DrakeAdapter(Adapter):
         "rigid-flexible": Builder("run_rigid_flexible", RIGID_FLEXIBLE_TIMESTEP_S,
                                   modes=("native", "injected", "tuned")),
         "oblique": Builder("run_oblique", OBLIQUE_TIMESTEP_S),
-        "cube-toss": Builder("cube_toss", CUBE_TOSS_STEP_S, own_keys=True),
+        "cube-toss": Builder("replay_tosses", CUBE_TOSS_STEP_S, own_keys=True),
     }
     model_builders: ClassVar[dict[str, Callable[[Any, str, RunSettings], DrakeModel]]] = {
         "ball-on-plate": build_ball,

@@ -473,7 +473,7 @@ class MjxAdapter(Adapter):
         "ball-on-plate": Builder("run_ball", BALL_TIMESTEP_S),
         "rigid-flexible": Builder("run_rigid_flexible", RIGID_FLEXIBLE_TIMESTEP_S),
         "oblique": Builder("run_oblique", OBLIQUE_TIMESTEP_S),
-        "cube-toss": Builder("cube_toss", CUBE_TOSS_STEP_S,
+        "cube-toss": Builder("replay_tosses", CUBE_TOSS_STEP_S,
                              modes=("default", "custom", "tuned", "native"), own_keys=True,
                              why_not=CUBE_TOSS_NOT_INJECTED["mjx"]),
     }

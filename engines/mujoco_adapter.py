@@ -1111,7 +1111,7 @@ class MujocoAdapter(Adapter):
         "rigid-flexible": Builder("run_rigid_flexible", RIGID_FLEXIBLE_TIMESTEP_S,
                                   modes=("native", "injected", "tuned")),
         "oblique": Builder("run_oblique", OBLIQUE_TIMESTEP_S),
-        "cube-toss": Builder("cube_toss", CUBE_TOSS_STEP_S, own_keys=True),
+        "cube-toss": Builder("replay_tosses", CUBE_TOSS_STEP_S, own_keys=True),
     }
 
     def version(self) -> str:

@@ -448,7 +448,7 @@ class PybulletAdapter(Adapter):
         "rigid-flexible": Builder("run_rigid_flexible", RF_DEFAULT_DT_S,
                                   modes=("native", "injected", "tuned")),
         "oblique": Builder("run_oblique", OBLIQUE_DT_S),
-        "cube-toss": Builder("cube_toss", CUBE_TOSS_STEP_S, own_keys=True),
+        "cube-toss": Builder("replay_tosses", CUBE_TOSS_STEP_S, own_keys=True),
     }
 
     def version(self) -> str:

@@ -435,7 +435,7 @@ class SapienAdapter(stepping.SteppedAdapter):
     oblique_model = ObliqueModel
     builders: ClassVar[dict[str, Builder]] = {
         **stepping.SteppedAdapter.builders,
-        "cube-toss": Builder("cube_toss", CUBE_TOSS_STEP_S, own_keys=True),
+        "cube-toss": Builder("replay_tosses", CUBE_TOSS_STEP_S, own_keys=True),
     }
     injection = ("cannot: PhysX's compliant contact is an undamped spring (no damping to "
                  "schedule); the law is an external force (collision off) integrated by PhysX's "

@@ -280,9 +280,9 @@ def _build(name: str, values: Mapping[str, Any]) -> Any:
     spec = scenarios.get(name)
     fields = set(spec.cls.field_names())
     given = {k: v for k, v in values.items() if k in fields}
-    if spec.from_args:
+    if spec.has_options:
         args = argparse.Namespace(**{**_options(name), **values})
-        given = scenarios.load(spec.from_args)(args, given)
+        given = spec.from_args(args, given)
     point = {a: given.pop(a) for a in spec.axis_names if a in given}
     return spec.build(point, given)
 
@@ -432,9 +432,9 @@ def run(engine: str, scenario: str | None = None, mode: str | None = None, *,
     built = _build(name, fields)
     timestep_s, timestep_source = _timestep(engine, mode, timestep_s)
     if mode == "tuned":
-        from impactbench.tuned import load_tuned_settings
+        from impactbench.tuned import tuned_settings
 
-        tuned, provenance = load_tuned_settings(engine, name, timestep_s, tuned_file)
+        tuned, provenance = tuned_settings(engine, built, timestep_s, tuned_file)
         settings = RunSettings(timestep_s=timestep_s, tuned=tuned, tuned_for=provenance)
     else:
         settings = RunSettings(timestep_s=timestep_s, params=dict(params or {}) or None)
@@ -514,6 +514,13 @@ def tune(engine: str, scenario: str | None = None, *,
     _check_keywords(f"impactbench.tune(scenario={name!r})", fields,
                     (*TUNE_KEYWORDS, *_scenario_keywords(name, point=False)))
     _one_of("engine", engine, engine_names())
+    from numbers import Integral
+
+    if max_evals is not None and (isinstance(max_evals, bool)
+                                  or not isinstance(max_evals, Integral) or max_evals < 1):
+        # "5" or 2.5 would fail deep in the search
+        raise ValueError(f"max_evals = {max_evals!r}: must be an integer >= 1 (None: no "
+                         "evaluation budget)")
     if params:  # a key the engine's tuned mode does not read would be written and ignored
         from impactbench.tuned import tuned_keys
 

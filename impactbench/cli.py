@@ -25,13 +25,18 @@ import sys
 from collections.abc import Sequence
 
 COMMAND_MODULES: tuple[str, ...] = (
-    # one line per subcommand module; keep this list sorted. Each scenario's own subcommands
-    # (reference NAME, sweep NAME) come from its spec's ``commands`` module.
+    # one line per subcommand module; keep this list sorted. The packaged scenarios' own
+    # subcommands (reference NAME, sweep NAME) are here too; a plug-in's come from its spec
+    # (``register_commands``).
+    "impactbench.commands.ball_on_plate",
     "impactbench.commands.calibrate",
+    "impactbench.commands.cube_toss",
     "impactbench.commands.figures",
     "impactbench.commands.gate",
     "impactbench.commands.history",
+    "impactbench.commands.oblique",
     "impactbench.commands.report",
+    "impactbench.commands.rigid_flexible",
     "impactbench.commands.run",
     "impactbench.commands.tune",
 )
@@ -47,7 +52,15 @@ class UsageError(ValueError):
 
 
 class Parser(argparse.ArgumentParser):
-    """ArgumentParser whose errors are one line and exit 2."""
+    """ArgumentParser whose errors are one line and exit 2, and which reads ``-1e-3`` as a
+    negative number (:data:`impactbench.cliutil.NEGATIVE_NUMBER`), so the validator names
+    the field and its rule."""
+
+    def __init__(self, *args, **kwargs) -> None:  # type: ignore[no-untyped-def]
+        super().__init__(*args, **kwargs)
+        from impactbench.cliutil import NEGATIVE_NUMBER
+
+        self._negative_number_matcher = NEGATIVE_NUMBER
 
     def error(self, message: str) -> None:  # type: ignore[override]
         raise UsageError(f"{self.prog}: {message}")
@@ -92,8 +105,9 @@ def build_parser() -> argparse.ArgumentParser:
                                             parser_class=Parser)
     from impactbench import scenarios
 
-    own = tuple(s.commands for s in scenarios.specs() if s.commands)
-    for module in (*own, *COMMAND_MODULES):
+    for spec in scenarios.specs():  # each scenario's own subcommands (reference NAME, …)
+        spec.register_commands(top, groups)
+    for module in COMMAND_MODULES:
         importlib.import_module(module).register(top, groups)
     return parser
 

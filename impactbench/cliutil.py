@@ -5,11 +5,19 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import re
 import sys
 from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
 from impactbench.engines.registry import stdout_to_stderr  # noqa: F401  (re-exported)
+
+NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|infinity|nan)$",
+                             re.IGNORECASE)
+"""What a command-line word that starts with ``-`` must look like to be read as a negative
+number, not an option: argparse's own pattern (``-1``, ``-.5``) misses the exponent form,
+so ``--timestep -1e-3`` read as a missing argument instead of reaching the validator that
+names the field and its rule (set on every parser by :class:`impactbench.cli.Parser`)."""
 
 
 def number(text: str) -> float:
@@ -98,7 +106,7 @@ def interruptible(fn: Any, *args: Any) -> Any:
     def target() -> None:
         try:
             box["value"] = fn(*args)
-        except BaseException as exc:  # noqa: BLE001 - handed to the main thread
+        except BaseException as exc:
             box["error"] = exc
 
     thread = threading.Thread(target=target, daemon=True, name="impactbench-solve")

@@ -102,8 +102,14 @@ def compare(engine: str, scenario: Scenario, mode: str,
     }
     if step_source:
         out["timestep_source"] = step_source
+    if mode == "tuned" and settings is not None and settings.tuned_for:
+        out["tuned_file"] = settings.tuned_for.get("file")
     if rec.status in (Status.OK, Status.MAX_TIME, Status.STRUCTURE_COLLAPSED):
-        out.update(spec.run_details(rec, scenario, mode))
+        details = spec.run_details(rec, scenario, mode)
+        note = details.pop("note", "")
+        out.update(details)
+        if note:  # what the reader should know of these numbers (not held out)
+            out["message"] = "; ".join(x for x in (out["message"], note) if x)
     # an unresolved metric is reported, never compared: no relative error
     out["rel_error"] = spec.run_errors(out, got, ref, resolved)
     if rec.status in (Status.OK, Status.MAX_TIME, Status.STRUCTURE_COLLAPSED):

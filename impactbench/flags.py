@@ -13,7 +13,7 @@ import argparse
 from typing import Any
 
 from impactbench.cliutil import number
-from impactbench.scenarios import get, load
+from impactbench.scenarios import get
 
 
 def add_parameter_flags(parser: argparse.ArgumentParser, scenario: str, *,
@@ -38,9 +38,10 @@ def add_parameter_flags(parser: argparse.ArgumentParser, scenario: str, *,
         added.add(f.flag)
         group.add_argument(f"--{f.flag}", type=number, default=None, dest=f.field,
                            metavar="X", help=f"{f.help}; default {getattr(defaults, f.field):g}")
-    if spec.options and spec.options not in added:
-        added.add(spec.options)
-        load(spec.options)(group, with_gravity)
+    options = f"options:{type(spec).add_options.__qualname__}"  # shared options: added once
+    if spec.has_options and options not in added:
+        added.add(options)
+        spec.add_options(group, with_gravity)
 
 
 def add_axis_flags(parser: argparse.ArgumentParser, scenario: str, *,
@@ -61,7 +62,6 @@ def scenario_from_args(scenario: str, args: argparse.Namespace, **overrides: Any
     spec = get(scenario)
     fields = set(spec.cls.field_names())
     values = {k: v for k, v in vars(args).items() if k in fields and v is not None}
-    if spec.from_args:
-        values = load(spec.from_args)(args, values)
+    values = spec.from_args(args, values)
     values.update(overrides)
     return spec.cls(**values)

@@ -549,14 +549,14 @@ def _expand_data_gate(n: int, gate: Mapping[str, Any], defaults: Mapping[str, fl
         raise fail(("mode",), ValueError(
             "mode = 'custom': needs param_set (a published set) or params (the engine's "
             "board./cube. keys)"))
-    for engine in engines:  # a published set must be the engine's (no engine imported)
-        if "custom" in modes and hasattr(scenario, "engine_parameters"):
+    given = {**params, **({"param_set": param_set} if param_set is not None else {})}
+    for engine in engines:  # the settings must be the engine's (no engine imported)
+        for mode in modes if given else ():
             try:
-                scenario.engine_parameters(engine, "custom", {
-                    **params, **({"param_set": param_set} if param_set else {})}, None)
+                scenario.engine_parameters(engine, mode, given, {"checked": True})
             except ValueError as exc:
-                key = "param_set" if param_set is not None else "mode"
-                raise fail((key,), ValueError(f"{engine} custom: {exc}")) from None
+                key = "param_set" if param_set is not None else "params"
+                raise fail((key,), ValueError(f"{engine} {mode}: {exc}")) from None
     tolerance = gate["tolerance"]
     if not isinstance(tolerance, dict) or not tolerance:
         raise fail(("tolerance",), ValueError(

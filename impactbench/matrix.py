@@ -141,18 +141,13 @@ def job_settings(job: Job):
     """The :class:`~impactbench.engines.base.RunSettings` of a job (hashed into its store key)."""
     from impactbench.config import thawed
     from impactbench.engines.base import RunSettings
-    from impactbench.tuned import load_tuned_settings
+    from impactbench.tuned import tuned_settings
 
     settings = RunSettings(timestep_s=job.timestep_s,
                            params=thawed(job.params) if job.mode == "custom" else None)
     if job.mode == "tuned":
-        spec = job.spec
-        if spec.tuned_settings:  # a scenario with tuned files of its own (the cube tosses)
-            tuned, provenance = scenarios.load(spec.tuned_settings)(
-                job.engine, job.build_scenario(), job.tuned_file or None)
-        else:
-            tuned, provenance = load_tuned_settings(job.engine, job.scenario, job.timestep_s,
-                                                    job.tuned_file or None, thawed(job.params))
+        tuned, provenance = tuned_settings(job.engine, job.build_scenario(), job.timestep_s,
+                                           job.tuned_file or None, thawed(job.params))
         settings = RunSettings(timestep_s=job.timestep_s, tuned=tuned, tuned_for=provenance)
     return settings
 

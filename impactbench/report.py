@@ -142,8 +142,7 @@ def _figures(ctx: ReportContext) -> None:
         loops.setdefault(scenario, []).append((title, how, point, hist, ref))
     for spec in scenarios.specs():
         runs = [r for r in matrix_runs if r.job.scenario == spec.name]
-        if spec.report_figures:
-            scenarios.load(spec.report_figures)(ctx, spec, runs, loops.get(spec.name, []))
+        spec.report_figures(ctx, runs, loops.get(spec.name, []))
         if not runs:
             continue
         vs = ", ".join(f"{v:g}" for v in sorted({r.job.velocity_m_s for r in runs}))

@@ -20,30 +20,33 @@ from functools import cache
 from pathlib import Path
 from typing import Any
 
-from impactbench.scenarios import ScenarioSpec, for_study, load
+from impactbench.scenarios import ScenarioSpec, for_study, get
 
 
 @cache
-def _option_keys(options: str, from_args: str, fields: tuple[str, ...]) -> tuple[str, ...]:
+def _option_keys(name: str) -> tuple[str, ...]:
+    spec = get(name)
+    fields = tuple(spec.cls.field_names())
     parser = argparse.ArgumentParser(add_help=False)
-    load(options)(parser.add_argument_group(), False)
+    spec.add_options(parser.add_argument_group(), False)
     return tuple(a.dest for a in parser._actions
                  if a.dest not in fields and a.dest != "scenario_file")
 
 
 def option_keys(spec: ScenarioSpec) -> tuple[str, ...]:
     """The keys a scenario table may hold besides the scenario's fields: the destinations of
-    its further options (``spec.options``) that ``spec.from_args`` turns into fields, a
-    scenario file itself excepted; () for a scenario without them."""
-    if not (spec.options and spec.from_args):
+    its further options (:meth:`~ScenarioSpec.add_options`) that its
+    :meth:`~ScenarioSpec.from_args` turns into fields, a scenario file itself excepted; () for
+    a scenario without them."""
+    if not spec.has_options or type(spec).from_args is ScenarioSpec.from_args:
         return ()
-    return _option_keys(spec.options, spec.from_args, tuple(spec.cls.field_names()))
+    return _option_keys(spec.name)
 
 
 def apply_options(spec: ScenarioSpec, table: dict[str, Any], prefix: str = ""
                   ) -> dict[str, Any]:
     """The scenario fields of ``table``: its fields, with its option keys (a material) applied
-    through ``spec.from_args`` as the command-line flags are; a one-line error is prefixed
+    through the spec's ``from_args`` as the command-line flags are; a one-line error is prefixed
     with ``prefix`` (``ball_on_plate.``)."""
     keys = option_keys(spec)
     given = {k: v for k, v in table.items() if k in keys}
@@ -51,7 +54,7 @@ def apply_options(spec: ScenarioSpec, table: dict[str, Any], prefix: str = ""
     if not given:
         return fields
     try:
-        return load(spec.from_args)(argparse.Namespace(**{**dict.fromkeys(keys), **given}),
+        return spec.from_args(argparse.Namespace(**{**dict.fromkeys(keys), **given}),
                                     fields)
     except ValueError as exc:
         raise ValueError(f"{prefix}{exc}") from None

@@ -268,7 +268,7 @@ def run_inputs(engine: str, scenario_name: str, scenario: Any, mode: str,
     }
     from impactbench.scenarios import get
 
-    more = get(scenario_name).store_inputs(scenario, mode)
+    more = get(scenario_name).store_inputs(engine, scenario, mode)
     if more:  # what the settings do not hold (a data file's content)
         inputs["inputs"] = more
     package = type(scenario).__module__.partition(".")[0]

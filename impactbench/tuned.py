@@ -180,6 +180,18 @@ def load_tuned_settings(engine: str, scenario: str, timestep_s: float | None = N
     return data["parameters"], (dict(prov, file=shown) if isinstance(prov, dict) else None)
 
 
+def tuned_settings(engine: str, scenario: Any, timestep_s: float | None = None,
+                   path: Path | str | None = None, variant: dict[str, Any] | None = None
+                   ) -> tuple[dict[str, Any] | None, dict[str, Any] | None]:
+    """(parameters, provenance) of the tuned file a ``tuned`` run of ``scenario`` (an object)
+    takes: its scenario's own (:meth:`~impactbench.scenarios.spec.ScenarioSpec.load_tuned`),
+    else :func:`load_tuned_settings`."""
+    own = spec_of(scenario).load_tuned(engine, scenario, timestep_s, path, variant)
+    if own is not None:
+        return own
+    return load_tuned_settings(engine, spec_of(scenario).name, timestep_s, path, variant)
+
+
 def tune_command(engine: str, scenario: Any, timestep_s: float) -> str:
     """The ``impactbench tune`` command line that fits ``engine`` to ``scenario`` at this step
     (``--scenario`` unless it is the ball's; the scenario's axes, which a fit sweeps, left

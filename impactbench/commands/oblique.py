@@ -45,7 +45,6 @@ def add_flags(parser: argparse.ArgumentParser) -> None:
     """The scenario's field flags and options from its spec (as
     :func:`impactbench.flags.add_parameter_flags` does for a registered scenario; defaults
     None, so an explicit value can be told from the default)."""
-    from impactbench.scenarios import load
 
     spec = _spec()
     defaults = spec.cls()
@@ -56,7 +55,7 @@ def add_flags(parser: argparse.ArgumentParser) -> None:
             continue
         group.add_argument(f"--{f.flag}", type=number, default=None, dest=f.field,
                            metavar="X", help=f"{f.help}; default {getattr(defaults, f.field):g}")
-    load(spec.options)(group, False)
+    spec.add_options(group, False)
 
 
 def scenario_from_args(args: argparse.Namespace, **overrides: Any) -> Any:
@@ -106,7 +105,7 @@ def register(top: argparse._SubParsersAction, groups: dict) -> None:
 def sweep_main(args: argparse.Namespace) -> int:
     """The reference over the angle grid (rigid: one vectorised closed form; mindlin: one
     integration per angle), written as a table."""
-    from impactbench.cliutil import grid, table_format, write_table
+    from impactbench.cliutil import table_format, write_table
     from impactbench.publish import check_file_target
     from impactbench.reference import oblique
     from impactbench.reference.oblique_scenario import CASE_POINTS
@@ -116,12 +115,28 @@ def sweep_main(args: argparse.Namespace) -> int:
     case_point = CASE_POINTS.get(args.case, {}) if args.case else {}
     v = args.velocity_m_s if args.velocity_m_s is not None else case_point.get("velocity_m_s")
     base = scenario_from_args(args, **({"velocity_m_s": v} if v is not None else {}))
-    angles = grid(args.start, args.stop, args.step, yes=args.yes) if args.start > 0 else \
-        [0.0, *grid(args.step, args.stop, args.step, yes=args.yes)]
+    angles = angle_grid(args.start, args.stop, args.step, yes=args.yes)
     table = oblique.sweep(base, angles)
     write_table(table, args.out)
     print(f"wrote {len(table)} rows to {args.out}", file=sys.stderr)
     return 0
+
+
+def angle_grid(start: float, stop: float, step: float, *, yes: bool = True) -> list[float]:
+    """The incidence angles start, start + step, …, ≤ stop (°): :func:`cliutil.grid`, but an
+    angle may start at 0 (normal incidence). One-line errors name the bad field: step > 0,
+    start ≥ 0, stop ≥ start."""
+    from impactbench.cliutil import grid
+    from impactbench.reference import validation as check
+
+    check.positive("step", step)
+    check.non_negative("start", start)
+    if stop < start:
+        raise ValueError(f"stop = {stop!r}: must be >= start ({start!r})")
+    if start > 0:
+        return list(grid(start, stop, step, yes=yes))
+    # from 0: 0 then step, 2·step, … (grid's values from step, as before)
+    return [0.0, *(grid(step, stop, step, yes=yes) if stop >= step else [])]
 
 
 def _with_status(scenario: Any, metrics: dict) -> dict:

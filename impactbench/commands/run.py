@@ -94,36 +94,38 @@ def main(args: argparse.Namespace) -> int:
                          "velocity (drop --velocity)")
     scenario = scenario_from_args(args.scenario, args)
     mode = args.mode or ("tuned" if args.tuned_file else spec.default_mode)
-    params = dict(args.params)
-    if args.param_set is not None:
-        params["param_set"] = args.param_set  # a published set (custom mode's own key)
-    if params and mode != "custom":
-        what = args.params[0][0] if args.params else "param_set"
-        raise ValueError(f"param = {what}: --param and --param-set need --mode custom "
+    if args.params and mode != "custom":
+        raise ValueError(f"param = {args.params[0][0]}: --param needs --mode custom "
                          f"(got {mode})")
     if args.tuned_file and mode != "tuned":
         raise ValueError(f"tuned = {str(args.tuned_file)!r}: --tuned needs --mode tuned "
                          f"(got {mode})")
-    own_step = bool(spec.with_timestep)  # the scenario's fields carry the step (cube tosses)
+    params = dict(args.params)
+    if args.param_set is not None:
+        if not spec.measured:
+            raise ValueError(f"param-set = {args.param_set!r}: {spec.name} has no parameter "
+                             "sets (they come with a data-driven scenario's measurements)")
+        params["param_set"] = args.param_set  # the builder says which modes take it
+    if spec.measured:
+        for flag, value in (("max-penetration-ratio", args.max_penetration_ratio),
+                            ("max-energy-ratio", args.max_energy_ratio)):
+            if value is not None:
+                raise ValueError(f"{flag} = {value:g}: {spec.name} is judged against its "
+                                 "measurements, not by plausibility limits")
+    own_step = spec.owns_timestep  # the scenario's fields carry the step (cube tosses)
     if own_step:
         timestep_s, timestep_source = args.timestep_s, ""
     else:
-        if args.param_set is not None:
-            raise ValueError(f"param-set = {args.param_set!r}: {spec.name} has no parameter "
-                             "sets (they come with a data-driven scenario's measurements)")
         _check_param_keys(args.engine, args.params)
         timestep_s, timestep_source = run_timestep(args.engine, mode, args.timestep_s)
     settings = RunSettings(timestep_s=timestep_s, params=params or None)
-    if mode == "tuned":
-        from impactbench.tuned import load_tuned_settings
+    if mode == "tuned":  # bound to the scenario at this step (a replay's substeps)
+        from impactbench.tuned import tuned_settings
 
-        if spec.tuned_settings:
-            tuned, provenance = scenarios.load(spec.tuned_settings)(args.engine, scenario,
-                                                                     args.tuned_file)
-        else:
-            tuned, provenance = load_tuned_settings(args.engine, args.scenario, timestep_s,
-                                                    args.tuned_file)
-        settings = RunSettings(timestep_s=timestep_s, tuned=tuned, tuned_for=provenance)
+        tuned, provenance = tuned_settings(args.engine, spec.at_timestep(scenario, timestep_s)[0],
+                                           timestep_s, args.tuned_file)
+        settings = RunSettings(timestep_s=timestep_s, tuned=tuned, tuned_for=provenance,
+                               params=params or None)
     allowed = _allowed_statuses(args.allow_status, ("timeout",))
     from impactbench import cluster
     from impactbench.evaluate import reference_metrics

@@ -7,7 +7,8 @@ reference model and the fits.
   velocity, errors, statistics), numpy only;
 - :mod:`~impactbench.cube_tosses.scenario`: the scenario's side of an engine replay (the
   engines' cube-toss builders, :mod:`impactbench.engines.cube_toss`, replay the tosses; the
-  scenario prepares their inputs and scores their records); ``replay(engine, mode, …)``.
+  scenario prepares their inputs and scores their records);
+- :mod:`~impactbench.cube_tosses.replays`: ``replay(engine, mode, tosses=…, param_set=…)``.
 
 Engines are imported only when a replay runs.
 """
@@ -16,6 +17,6 @@ from __future__ import annotations
 
 from impactbench.cube_tosses.data import load, split
 from impactbench.cube_tosses.protocol import Protocol
-from impactbench.cube_tosses.scenario import replay
+from impactbench.cube_tosses.replays import replay
 
 __all__ = ["Protocol", "load", "replay", "split"]

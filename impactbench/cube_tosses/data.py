@@ -80,8 +80,16 @@ def load(path: str | Path | None = None, *, min_samples: int = MIN_SAMPLES) -> p
     source = Path(path) if path is not None else DEFAULT_PATH
     if not source.is_file():
         raise ValueError(f"path = {str(source)!r}: no such file")
+    import lzma
+    import zlib
+
     try:
         df = pd.read_csv(source)
+    except (EOFError, zlib.error, lzma.LZMAError) as exc:
+        # a compressed file cut short (EOFError) or damaged: neither is an OSError
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise ValueError(f"path = {str(source)!r}: truncated or corrupt compressed file "
+                         f"({first}); must be a whole CSV or .csv.gz") from None
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError,
             OSError) as exc:
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__

@@ -160,6 +160,15 @@ def _dair_box(scenario: Any) -> bool:
         HALF_WIDTH_M, MASS_KG, INERTIA_KG_M2)
 
 
+_WHY_NO_PARAMS = {
+    "default": "sets no engine parameters (the engine's own contact)",
+    "tuned": "takes its parameters from the tuned file (--tuned FILE)",
+    "native": "maps the reference model's fitted contact into the engine's parameters",
+    "injected": "applies the reference model's corner forces (the engine's contact off)",
+}
+"""Why a mode other than ``custom`` takes no engine parameters (its one-line error)."""
+
+
 def engine_parameters(engine: str, scenario: Any, mode: str,
                       params: Mapping[str, Any] | None, tuned: Mapping[str, Any] | None
                       ) -> dict[str, Any]:
@@ -170,6 +179,12 @@ def engine_parameters(engine: str, scenario: Any, mode: str,
     cube. One-line ValueError for a set the engine lacks or a custom run without any."""
     from impactbench.engines.cube_toss import PARAM_SETS
 
+    given = dict(params or {})
+    if mode != "custom" and given:
+        name = given.get("param_set")
+        what = f"param-set = {name!r}" if name is not None else f"param = {next(iter(given))!r}"
+        raise ValueError(f"{what}: {mode} mode {_WHY_NO_PARAMS.get(mode, '')}; use --mode "
+                         "custom to set engine parameters")
     if mode == "tuned":
         if not tuned:
             raise ValueError("tuned: tuned mode needs the fitted parameters (a tuned file)")
@@ -184,9 +199,9 @@ def engine_parameters(engine: str, scenario: Any, mode: str,
     name = params.pop("param_set", None)
     sets = PARAM_SETS.get(engine, {})
     if name is None and not params:
-        raise ValueError(f"mode = 'custom': needs a parameter set ({', '.join(sets) or 'none for '}"
-                         f"{'' if sets else engine}: param_set = NAME) or the engine's board./"
-                         "cube. keys")
+        raise ValueError(f"mode = 'custom': needs --param-set ({', '.join(sets) or 'none for '}"
+                         f"{'' if sets else engine}) or --param KEY=VALUE (the engine's board./"
+                         "cube. keys)")
     if name is not None and name not in sets:
         import difflib
 
@@ -242,14 +257,15 @@ def details(record: Any, scenario: Any, mode: str) -> dict[str, Any]:
 
         setup["native"] = native_mapping(record.meta.get("engine", ""), None,
                                          box_of(scenario)).describe()
-    out = {"split": split_name, "tosses": len(rows), "failed": failed, "per_toss": rows,
+    out = {"param_set": record.meta.get("param_set"),
+           "split": split_name, "tosses": len(rows), "failed": failed, "per_toss": rows,
            "protocol": protocol_of(scenario).describe(), "engine_setup": setup,
            "data": source, "substeps": scenario.substeps, "box": _box_of(scenario),
            "elapsed_s": record.meta.get("replay_s", math.nan)}
     out["tosses_per_s"] = (len(rows) - len(failed)) / out["elapsed_s"] \
         if out["elapsed_s"] > 0 else math.nan
     if mode in ("native", "injected"):
-        from impactbench.cube_tosses import reference_model
+        import impactbench.cube_tosses.reference_model as reference_model
 
         out["model_file"] = str(reference_model.FITTED_PATH)
     if mode in ("tuned", "native", "injected") and not scenario.data \
@@ -270,12 +286,17 @@ def errors(run: Mapping[str, Any], metrics: Mapping[str, Any]) -> dict[str, floa
     return {k: (float(v) if whole else math.nan) for k, v in metrics.items()}
 
 
-def key_inputs(scenario: Any, mode: str) -> dict[str, Any]:
+def key_inputs(engine: str, scenario: Any, mode: str) -> dict[str, Any]:
     """What a replay's store key holds beside the run's settings: the data file's SHA-256 and,
-    in ``native`` and ``injected`` modes, the fitted reference model's."""
-    out = {"data_sha256": data_sha256(data_path(scenario))}
+    in ``native`` and ``injected`` modes, the fitted reference model's (and in ``native`` mode
+    the parameters its contact maps to in ``engine``)."""
+    out: dict[str, Any] = {"data_sha256": data_sha256(data_path(scenario))}
+    if mode == "native":
+        from impactbench.cube_tosses.model_modes import native_parameters
+
+        out["mapped"] = native_parameters(engine, None, box_of(scenario))
     if mode in ("native", "injected"):
-        from impactbench.cube_tosses import reference_model
+        import impactbench.cube_tosses.reference_model as reference_model
 
         out["model_sha256"] = hashlib.sha256(reference_model.FITTED_PATH.read_bytes()
                                              ).hexdigest()
@@ -287,11 +308,10 @@ def tuned_settings(engine: str, scenario: Any, tuned_file: str | Path | None = N
     """(parameters, provenance) of ``engine``'s cube-toss tuned file (the packaged one unless
     ``tuned_file``): provenance in the shape :func:`impactbench.tuned.binding_mismatch` reads
     (engine, scenario, the fields it binds, ``file``) plus ``mismatch``, why it does not apply
-    to ``scenario`` ("" when it does). (None, None) when no packaged file exists."""
+    to ``scenario`` ("" when it does; with no packaged file, that none exists and the command
+    that fits one)."""
     params, path, _sha, why = tuned_binding(engine, scenario, tuned_file)
-    if not params and why.startswith("no packaged tuned file"):
-        return None, None
-    return params, {"engine": engine, "scenario": type(scenario).name, "file": Path(path).name,
+    return params, {"engine": engine, "scenario": type(scenario).name, "file": str(path),
                     "mismatch": why}
 
 
@@ -392,7 +412,7 @@ def model_run(scenario: Any, *, store: Any = None, fresh: bool = False) -> dict[
     the fitted file's SHA-256 and impactbench's version."""
     from importlib import metadata
 
-    from impactbench.cube_tosses import reference_model as model
+    import impactbench.cube_tosses.reference_model as model
     from impactbench.store import _canonical, impactbench_version, run_key
 
     path = data_path(scenario)
@@ -479,61 +499,3 @@ def trajectories(engine: str, scenario: Any, mode: str, toss_ids: list[int], *,
                     "angle_ref_deg": np.degrees(rotation_angle(s.q_ref[0], s.q_ref)),
                     "angle_sim_deg": np.degrees(rotation_angle(q[0], q))})
     return out
-
-
-# ------------------------------------------------------------------------------ from Python
-
-
-def replay(engine: str, mode: str = "default", tosses: str | int | list[int] = "all",
-           param_set: str | None = None, data: Any = None, *,
-           params: Mapping[str, Any] | None = None, protocol: Protocol | None = None,
-           box: Box | None = None, timestep_s: float | None = None) -> dict[str, Any]:
-    """Replay ``tosses`` (a split name, an id or ids) of ``data`` (a CSV path, a DataFrame of
-    its columns, written to a temporary CSV; None: the packaged tosses) in ``engine`` through its adapter's cube-toss builder (the one door) and
-    return the run object ``impactbench run cube-toss --json`` prints: status, the metrics,
-    ``per_toss``, ``split``, ``protocol``, ``engine_setup``, … ``param_set`` (custom mode) names
-    a published set, ``params`` are engine parameters by the builder's own names (custom) or
-    the fitted ones (tuned); ``protocol`` and ``box`` set the scenario's fields."""
-    from impactbench.engines.base import RunSettings
-    from impactbench.evaluate import compare
-    from impactbench.scenarios.cube_toss import CubeToss
-
-    import pandas as pd
-
-    if isinstance(data, pd.DataFrame):
-        import tempfile
-
-        with tempfile.TemporaryDirectory() as folder:
-            path = Path(folder) / "tosses.csv"
-            data_mod.validate(data).to_csv(path, index=False)
-            return replay(engine, mode, tosses, param_set, path, params=params,
-                          protocol=protocol, box=box, timestep_s=timestep_s)
-    if mode in ("default", "native", "injected") and (param_set is not None or params):
-        what = ("sets no engine parameters" if mode == "default" else
-                "maps the reference model's contact" if mode == "native" else
-                "applies the reference model's corner forces")
-        raise ValueError(f"param_set = {param_set!r}: {mode} mode {what}; use mode "
-                         "'custom' to set engine parameters")
-    if mode == "tuned" and param_set is not None:
-        raise ValueError(f"param_set = {param_set!r}: tuned mode takes the fitted parameters "
-                         "(params = load_tuned(engine)), no parameter set")
-    if mode == "tuned" and not params:
-        raise ValueError(f"params = {params!r}: tuned mode needs the fitted parameters "
-                         "(params = load_tuned(engine))")
-    protocol = protocol or Protocol()
-    box = box or Box()
-    selection = tosses if isinstance(tosses, str) else ",".join(
-        str(int(i)) for i in ([tosses] if isinstance(tosses, int | np.integer) else tosses))
-    scenario = CubeToss(half_width_m=box.half_width_m, mass_kg=box.mass_kg,
-                        inertia_kg_m2=box.inertia_kg_m2, data=str(data) if data else "",
-                        tosses=selection, substeps=protocol.substeps,
-                        start_rule=protocol.start_rule, samples_before=protocol.samples_before,
-                        refit=protocol.refit, min_preceding=protocol.min_preceding,
-                        velocity_fit=protocol.velocity_fit, sample_dt_s=protocol.sample_dt_s,
-                        board_z_m=protocol.board_z_m)
-    given = dict(params or {}) | ({"param_set": param_set} if param_set is not None else {})
-    settings = RunSettings(timestep_s=timestep_s,
-                           params=given if mode == "custom" else None,
-                           tuned=given if mode == "tuned" else None)
-    out, _ = compare(engine, scenario, mode, settings)
-    return {**out, "param_set": param_set}

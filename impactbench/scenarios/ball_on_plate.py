@@ -10,9 +10,10 @@ Its subcommands (``reference ball-on-plate``, ``sweep ball-on-plate``) are in
 from __future__ import annotations
 
 import argparse
+from dataclasses import dataclass
 from typing import Any
 
-from impactbench.scenarios import Axis, Flag, ScenarioSpec
+from impactbench.scenarios.spec import Axis, Flag, ScenarioSpec
 
 NAME = "ball-on-plate"
 
@@ -161,13 +162,43 @@ def report_figures(ctx: Any, spec: ScenarioSpec, runs: list, loops: list) -> Non
     ctx.add_figure(path, f"Restitution against V0, ball on plate; {how}", f"extra:{spec.name}")
 
 
-SPEC = ScenarioSpec(
+@dataclass(frozen=True)
+class BallOnPlateSpec(ScenarioSpec):
+    """The ball on plate scenario's behaviour: each method is the module's function of
+    the same purpose (module doc)."""
+
+    @property
+    def cls(self) -> type:
+        from impactbench.reference.scenarios import BallOnPlate
+
+        return BallOnPlate
+
+    def reference_metrics(self, scenario: Any) -> dict[str, Any]:
+        return reference(scenario)
+
+    def history(self, scenario: Any) -> Any:
+        return history(scenario)
+
+    def problem(self, scenario: Any, reference: Any) -> str:
+        return reference_problem(scenario, reference)
+
+    def measure(self, scenario: Any, record: Any, metrics: Any) -> dict:
+        return dict(plausibility(scenario, record, metrics))
+
+    def report_figures(self, ctx: Any, runs: list, loops: list) -> None:
+        report_figures(ctx, self, runs, loops)
+
+    def add_options(self, group: Any, with_gravity: bool = True) -> None:
+        add_options(group, with_gravity)
+
+    def from_args(self, args: Any, values: dict[str, Any]) -> dict[str, Any]:
+        return from_args(args, values)
+
+
+SPEC = BallOnPlateSpec(
     name=NAME,
     title="Ball on plate",
     summary="the steel ball on a massive plate, Hunt–Crossley closed form",
-    scenario="impactbench.reference.scenarios:BallOnPlate",
-    reference=f"{__name__}:reference",
-    reference_history=f"{__name__}:history",
     metrics=("restitution", "duration_s", "peak_force_n", "max_penetration_m",
              "energy_loss_fraction"),
     headline=("restitution", "duration_s", "peak_force_n"),
@@ -179,11 +210,5 @@ SPEC = ScenarioSpec(
             "pymunk": "a rigid contact with the reference restitution at 1 m/s"},
     figure_stem="ball",
     velocity_symbol="V0",
-    commands="impactbench.commands.ball_on_plate",
-    reference_problem=f"{__name__}:reference_problem",
-    plausibility=f"{__name__}:plausibility",
-    report_figures=f"{__name__}:report_figures",
-    options=f"{__name__}:add_options",
-    from_args=f"{__name__}:from_args",
     studies=("work_precision", "practical", "tuning", "calibrate"),
 )

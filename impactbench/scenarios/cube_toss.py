@@ -26,7 +26,7 @@ from dataclasses import asdict, dataclass, fields
 from typing import Any, ClassVar
 
 from impactbench.reference import validation as check
-from impactbench.scenarios import Flag, ScenarioSpec
+from impactbench.scenarios.spec import Flag, ScenarioSpec
 
 NAME = "cube-toss"
 TABLE = "cube_toss"
@@ -225,19 +225,62 @@ def reference(scenario: CubeToss) -> dict[str, Any]:
     return measurement(scenario)
 
 
-def history(scenario: CubeToss) -> Any:
-    raise ValueError(f"scenario = {NAME!r}: its reference is the measured trajectories, not a "
-                     "force history")
+def _side() -> Any:
+    """The scenario's side of a replay (inputs, scoring, store key, step, tuned files),
+    imported when first used: it needs numpy and pandas."""
+    import impactbench.cube_tosses.scenario as side
+
+    return side
 
 
-SPEC = ScenarioSpec(
+@dataclass(frozen=True)
+class CubeTossSpec(ScenarioSpec):
+    """The cube tosses' behaviour: a measured scenario, its reference the measurement and
+    its metrics errors against it (:mod:`impactbench.cube_tosses.scenario` holds the
+    functions each method calls)."""
+
+    @property
+    def cls(self) -> type:
+        return CubeToss
+
+    @property
+    def measured(self) -> bool:
+        return True
+
+    def reference_metrics(self, scenario: Any) -> dict[str, Any]:
+        return reference(scenario)
+
+    def metrics_of(self, record: Any, scenario: Any) -> dict[str, Any]:
+        return dict(_side().record_metrics(record, scenario))
+
+    def run_details(self, record: Any, scenario: Any, mode: str) -> dict[str, Any]:
+        return dict(_side().details(record, scenario, mode))
+
+    def run_errors(self, run: Any, metrics: Any, reference: Any, resolved: Any
+                   ) -> dict[str, float]:
+        return dict(_side().errors(run, metrics))
+
+    def store_inputs(self, engine: str, scenario: Any, mode: str) -> dict[str, Any]:
+        return dict(_side().key_inputs(engine, scenario, mode))
+
+    def at_timestep(self, scenario: Any, timestep_s: float | None) -> tuple[Any, str]:
+        return _side().with_timestep(scenario, timestep_s)
+
+    def load_tuned(self, engine: str, scenario: Any, timestep_s: float | None,
+                   tuned_file: Any = None, variant: Any = None) -> tuple[Any, Any]:
+        """The cube tosses' own tuned files (``data/tuned/cube_toss/<engine>.toml``), bound to
+        the protocol's step and the cube's half width (the scenario already at the step)."""
+        return _side().tuned_settings(engine, scenario, tuned_file)
+
+    def add_options(self, group: Any, with_gravity: bool = True) -> None:
+        add_options(group, with_gravity)
+
+
+SPEC = CubeTossSpec(
     name=NAME,
     title="Cube tosses",
     summary="real motion-capture tosses of a cube onto a board, replayed (DAIR's protocol); "
             "the measurement is the reference",
-    scenario=f"{__name__}:CubeToss",
-    reference=f"{__name__}:reference",
-    reference_history=f"{__name__}:history",
     metrics=METRICS,
     headline=("position_error_median", "rotation_error_deg_median"),
     axes=(),
@@ -246,14 +289,6 @@ SPEC = ScenarioSpec(
     gate_velocities_m_s=(),
     figure_stem="cube_toss",
     velocity_symbol="",
-    commands="impactbench.commands.cube_toss",
-    options=f"{__name__}:add_options",
     descriptions=DESCRIPTIONS,
     default_mode="default",
-    record_metrics="impactbench.cube_tosses.scenario:record_metrics",
-    details="impactbench.cube_tosses.scenario:details",
-    errors="impactbench.cube_tosses.scenario:errors",
-    key_inputs="impactbench.cube_tosses.scenario:key_inputs",
-    with_timestep="impactbench.cube_tosses.scenario:with_timestep",
-    tuned_settings="impactbench.cube_tosses.scenario:tuned_settings",
 )

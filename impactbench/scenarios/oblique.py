@@ -16,9 +16,10 @@ from __future__ import annotations
 
 import argparse
 import math
+from dataclasses import dataclass
 from typing import Any
 
-from impactbench.scenarios import Axis, Flag, ScenarioSpec
+from impactbench.scenarios.spec import Axis, Flag, ScenarioSpec
 
 NAME = "oblique"
 
@@ -203,14 +204,47 @@ def from_args(args: argparse.Namespace, values: dict[str, Any]) -> dict[str, Any
     return out
 
 
-SPEC = ScenarioSpec(
+@dataclass(frozen=True)
+class ObliqueSpec(ScenarioSpec):
+    """The oblique scenario's behaviour: each method is the module's function of
+    the same purpose (module doc)."""
+
+    @property
+    def cls(self) -> type:
+        from impactbench.reference.oblique_scenario import Oblique
+
+        return Oblique
+
+    def reference_metrics(self, scenario: Any) -> dict[str, Any]:
+        return reference(scenario)
+
+    def history(self, scenario: Any) -> Any:
+        return history(scenario)
+
+    def problem(self, scenario: Any, reference: Any) -> str:
+        return reference_problem(scenario, reference)
+
+    def metrics_of(self, record: Any, scenario: Any) -> dict[str, Any]:
+        return dict(record_metrics(record, scenario))
+
+    def report_figures(self, ctx: Any, runs: list, loops: list) -> None:
+        report_figures(ctx, self, runs, loops)
+
+    def measure(self, scenario: Any, record: Any, metrics: Any) -> dict:
+        return dict(plausibility(scenario, record, metrics))
+
+    def add_options(self, group: Any, with_gravity: bool = True) -> None:
+        add_options(group, with_gravity)
+
+    def from_args(self, args: Any, values: dict[str, Any]) -> dict[str, Any]:
+        return from_args(args, values)
+
+
+SPEC = ObliqueSpec(
     name=NAME,
     title="Oblique impact",
     summary="a sphere hitting a plate at an angle with friction and spin, rigid-Coulomb closed "
             "form or Mindlin reference",
-    scenario="impactbench.reference.oblique_scenario:Oblique",
-    reference=f"{__name__}:reference",
-    reference_history=f"{__name__}:history",
     metrics=METRICS,
     headline=("rebound_angle_deg", "spin_out_rad_s", "tangential_restitution"),
     axes=(Axis("angle_deg", "angles_deg", "θ (°)", short="a", zero=True),
@@ -220,13 +254,6 @@ SPEC = ScenarioSpec(
     gate_velocities_m_s=(2.0,),
     figure_stem="oblique",
     velocity_symbol="V",
-    commands="impactbench.commands.oblique",
-    reference_problem=f"{__name__}:reference_problem",
-    record_metrics=f"{__name__}:record_metrics",
-    report_figures=f"{__name__}:report_figures",
-    plausibility=f"{__name__}:plausibility",
-    options=f"{__name__}:add_options",
-    from_args=f"{__name__}:from_args",
     descriptions=DESCRIPTIONS,
 )
 

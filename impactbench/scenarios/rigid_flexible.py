@@ -9,9 +9,10 @@ rigid-flexible``, ``sweep rigid-flexible``) are in :mod:`impactbench.commands.ri
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
-from impactbench.scenarios import Axis, Flag, ScenarioSpec
+from impactbench.scenarios.spec import Axis, Flag, ScenarioSpec
 
 NAME = "rigid-flexible"
 
@@ -57,21 +58,55 @@ def plausibility(scenario: Any, rec: Any, metrics: dict[str, Any]) -> dict[str, 
             "energy_ratio": (v_end / scenario.velocity_m_s) ** 2}
 
 
-_LAWS = "impactbench.reference.laws"
+def _laws(name: str) -> tuple[str, ...]:
+    """A table of :mod:`impactbench.reference.laws` (imported when asked for)."""
+    from impactbench.reference import laws
 
-SPEC = ScenarioSpec(
+    return tuple(getattr(laws, name))
+
+
+def _all_local_laws() -> tuple[str, ...]:
+    return _laws("ALL_LOCAL_LAWS")
+
+
+def _local_laws() -> tuple[str, ...]:
+    return _laws("LOCAL_LAWS")
+
+
+def _structural_laws() -> tuple[str, ...]:
+    return _laws("STRUCTURAL_LAWS")
+
+
+@dataclass(frozen=True)
+class RigidFlexibleSpec(ScenarioSpec):
+    """The rigid flexible scenario's behaviour: each method is the module's function of
+    the same purpose (module doc)."""
+
+    @property
+    def cls(self) -> type:
+        from impactbench.reference.scenarios import RigidFlexible
+
+        return RigidFlexible
+
+    def reference_metrics(self, scenario: Any) -> dict[str, Any]:
+        return reference(scenario)
+
+    def history(self, scenario: Any) -> Any:
+        return history(scenario)
+
+    def measure(self, scenario: Any, record: Any, metrics: Any) -> dict:
+        return dict(plausibility(scenario, record, metrics))
+
+
+SPEC = RigidFlexibleSpec(
     name=NAME,
     title="Rigid–flexible",
     summary="a rigid body on a flexible body (2-DOF), event-driven reference",
-    scenario="impactbench.reference.scenarios:RigidFlexible",
-    reference=f"{__name__}:reference",
-    reference_history=f"{__name__}:history",
     metrics=METRICS,
     headline=("peak_force_n", "pulse_width_s", "impulse_ns", "impacts"),
-    axes=(Axis("local", "local", "local", choices=f"{_LAWS}:ALL_LOCAL_LAWS",
-               default=f"{_LAWS}:LOCAL_LAWS"),
-          Axis("structure", "structure", "structure", choices=f"{_LAWS}:STRUCTURAL_LAWS",
-               default=f"{_LAWS}:STRUCTURAL_LAWS"),
+    axes=(Axis("local", "local", "local", choices=_all_local_laws, default=_local_laws),
+          Axis("structure", "structure", "structure", choices=_structural_laws,
+               default=_structural_laws),
           Axis("velocity_m_s", "velocities_m_s", "v1 (m/s)", short="v")),
     table="rigid_flexible",
     flags=FLAGS,
@@ -82,6 +117,4 @@ SPEC = ScenarioSpec(
     history_unit=(1e-3, "ms"),
     figure_stem="rf",
     velocity_symbol="v1",
-    commands="impactbench.commands.rigid_flexible",
-    plausibility=f"{__name__}:plausibility",
 )

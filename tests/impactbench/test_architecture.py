@@ -2,7 +2,8 @@
 in the scenarios' own modules.
 
 The import graph is read from the source with :mod:`ast`, function-level imports included
-(``import x`` inside a function is still an arrow), over the three installed packages:
+(``import x`` inside a function is still an arrow), and so are ``"module:attr"`` strings (a
+registry entry imported by name is an arrow too), over the three installed packages:
 ``impactbench.reference`` (``reference/``), ``impactbench.engines`` (``engines/``) and the suite
 (``impactbench/``; its ``commands`` and ``cli`` on top).
 """
@@ -10,6 +11,7 @@ The import graph is read from the source with :mod:`ast`, function-level imports
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -28,14 +30,27 @@ def modules() -> dict[str, Path]:
     return out
 
 
-def import_graph() -> dict[str, set[str]]:
-    """module → the project modules it imports anywhere in its source."""
+STRING_ARROW = re.compile(r"^(impactbench(?:\.\w+)*):\w+(?:\.\w+)*$")
+"""A ``"module:attr"`` string naming a project object (what a registry loads by name)."""
+
+
+def string_arrows(tree: ast.AST) -> set[str]:
+    """The modules ``"module:attr"`` strings in ``tree`` name."""
+    return {m.group(1) for node in ast.walk(tree)
+            if isinstance(node, ast.Constant) and isinstance(node.value, str)
+            and (m := STRING_ARROW.match(node.value))}
+
+
+def import_graph(strings: bool = True) -> dict[str, set[str]]:
+    """module → the project modules it imports anywhere in its source or (``strings``) names
+    in a ``"module:attr"`` string."""
     mods = modules()
     graph = {}
     for name, path in mods.items():
         base = name if path.name == "__init__.py" else name.rpartition(".")[0]
-        found: set[str] = set()
-        for node in ast.walk(ast.parse(path.read_text())):
+        tree = ast.parse(path.read_text())
+        found: set[str] = string_arrows(tree) if strings else set()
+        for node in ast.walk(tree):
             if isinstance(node, ast.Import):
                 found.update(a.name for a in node.names)
             elif isinstance(node, ast.ImportFrom):
@@ -77,8 +92,11 @@ def test_arrows_run_one_way() -> None:
 
 def test_no_import_circles() -> None:
     """No strongly connected component of more than one module (Tarjan), function-level
-    imports included."""
-    graph = import_graph()
+    imports included. A registry's own ``"module:attr"`` strings are left out here (its
+    entries import the base class that lives beside the registry's loader: that loop is the
+    plug-in mechanism itself); :func:`test_one_string_per_registry_entry` keeps them to the
+    registries and :func:`test_arrows_run_one_way` checks their direction."""
+    graph = import_graph(strings=False)
     index: dict[str, int] = {}
     low: dict[str, int] = {}
     stack: list[str] = []
@@ -112,6 +130,26 @@ def test_no_import_circles() -> None:
     assert circles == []
 
 
+def test_a_string_arrow_the_wrong_way_would_be_found() -> None:
+    """A ``"module:attr"`` string is an arrow: one in the reference naming a suite module
+    is a wrong-way arrow, and the registries' strings are in the graph."""
+    tree = ast.parse('TARGET = "impactbench.report:build"\nNOT = "a:b"\n')
+    assert string_arrows(tree) == {"impactbench.report"}
+    assert layer("impactbench.report") > layer("impactbench.reference.hunt_crossley")
+    graph = import_graph()
+    assert "impactbench.scenarios.ball_on_plate" in graph["impactbench.scenarios"]
+    assert "impactbench.engines.mujoco_adapter" in graph["impactbench.engines.registry"]
+
+
+def test_one_string_per_registry_entry() -> None:
+    """The registries are the only places that name project objects by ``"module:attr"``
+    strings (the scenarios', the engines' and their tuning spaces), and a scenario's spec
+    holds none: its behaviour is methods."""
+    holders = {name for name, path in modules().items()
+               if string_arrows(ast.parse(path.read_text()))}
+    assert holders <= {"impactbench.scenarios", "impactbench.engines.registry"}, holders
+
+
 def test_a_circle_would_be_found() -> None:
     """The walk sees function-level imports (what a hidden circle is made of)."""
     graph = import_graph()
@@ -120,7 +158,8 @@ def test_a_circle_would_be_found() -> None:
 
 
 SCENARIO_NAMES = {"ball-on-plate", "rigid-flexible", "ball_on_plate", "rigid_flexible",
-                  "oblique"}
+                  "oblique", "cube-toss", "cube_toss"}
+"""Every built-in scenario's name (registry and table spelling); tested equal to the registry."""
 ALLOWED = {
     # the scenarios' own modules: their specs, their subcommands, their physics and solvers
     "impactbench.scenarios.ball_on_plate", "impactbench.scenarios.rigid_flexible",
@@ -129,7 +168,20 @@ ALLOWED = {
     "impactbench.reference.scenarios",
     "impactbench.scenarios.oblique", "impactbench.commands.oblique",
     "impactbench.reference.oblique_scenario", "impactbench.reference.oblique",
+    "impactbench.scenarios.cube_toss", "impactbench.commands.cube_toss",
+    "impactbench.cube_tosses.scenario", "impactbench.cube_tosses.tune",
+    "impactbench.cube_tosses.reference_model", "impactbench.commands.tune_tosses",
+    "impactbench.cube_tosses.model_modes",
 }
+
+
+def test_every_builtin_scenario_name_is_known() -> None:
+    """The name check covers every packaged scenario (a new one must be added above)."""
+    from impactbench import scenarios
+
+    for name, target in scenarios.BUILTIN.items():
+        assert name in SCENARIO_NAMES
+        assert scenarios.get(name).table in SCENARIO_NAMES, target
 
 
 def _builder_tables(tree: ast.AST) -> set[int]:

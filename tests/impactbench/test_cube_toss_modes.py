@@ -28,7 +28,7 @@ from impactbench.cube_tosses import model_modes as mm
 from impactbench.cube_tosses import reference_model
 from impactbench.cube_tosses.data import load, tosses
 from impactbench.cube_tosses.protocol import DAIR_BOX, Protocol, prepare, rotation_angle
-from impactbench.cube_tosses.scenario import replay
+from impactbench.cube_tosses.replays import replay
 
 FIT = reference_model.load_fitted()
 IMPACT = mm.corner_impact()

@@ -17,7 +17,7 @@ from conftest import require_engine
 
 from impactbench.cli import main
 from impactbench.cube_tosses import data as data_mod
-from impactbench.cube_tosses.scenario import replay
+from impactbench.cube_tosses.replays import replay
 from impactbench.cube_tosses.tune import load_tuned, tuned_path
 
 NAME = "cube-toss"

@@ -130,4 +130,4 @@ def test_extra_engines_replay_two_tosses(engine) -> None:
 @pytest.mark.parametrize("engine", ["pymunk", "box2d"])
 def test_2d_engines_are_unsupported(engine) -> None:
     out = replay(engine, "default", TRAIN3[:2])
-    assert out["status"] == "unsupported" and "2D" in out["reason"]
+    assert out["status"] == "unsupported" and "2D" in out["message"]

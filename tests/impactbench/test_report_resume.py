@@ -14,6 +14,7 @@ from pathlib import Path
 
 import pytest
 from conftest import require_engine
+from ctrl_c import interruptible_children
 
 from impactbench import publish
 from impactbench.store import Store
@@ -82,7 +83,8 @@ def test_ctrl_c_keeps_the_previous_report_and_the_rerun_resumes(tmp_path: Path) 
     assert Path("README.md") in before and stored_runs(tmp_path / "store.duckdb") == 1
 
     # 8 runs of 0.5 s on 2 workers, stored as they finish
-    second = report(slow, out, sleeper_env(tmp_path, 0.5), start_new_session=True)
+    with interruptible_children():
+        second = report(slow, out, sleeper_env(tmp_path, 0.5), start_new_session=True)
     deadline = time.monotonic() + 120
     while stored_runs(tmp_path / "store.duckdb") < 3 and time.monotonic() < deadline:
         assert second.poll() is None, second.communicate()[1]

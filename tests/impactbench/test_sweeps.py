@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from ctrl_c import interruptible_children
 from impactbench.reference import two_dof
 from impactbench.reference.scenarios import RigidFlexible
 
@@ -94,8 +95,9 @@ def test_ctrl_c_stores_what_finished_and_the_rerun_resumes(tmp_path: Path) -> No
     argv = [sys.executable, "-m", "impactbench.cli", "sweep", "rigid-flexible", "--over",
             "velocity", "--start", "0.5", "--stop", "1000", "--step", "0.02", "--workers", "0",
             "--store", str(path), "--out", str(out)]
-    proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            start_new_session=True)
+    with interruptible_children():
+        proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                text=True, start_new_session=True)
     deadline = time.monotonic() + 120
     while stored_points(path) == 0 and time.monotonic() < deadline:
         assert proc.poll() is None, proc.communicate()

@@ -365,6 +365,8 @@ def test_ctrl_c_then_the_same_tune_resumes_from_the_store(tmp_path):
     import sys
     import time
 
+    from ctrl_c import interruptible_children
+
     from impactbench.store import Store
 
     store, out = tmp_path / "s.duckdb", tmp_path / "mj.toml"
@@ -375,8 +377,9 @@ def test_ctrl_c_then_the_same_tune_resumes_from_the_store(tmp_path):
                   "--out", str(tmp_path / "plain.toml"), "--json"]
     plain_proc = subprocess.Popen(plain_argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                                   text=True)
-    proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            start_new_session=True)
+    with interruptible_children():
+        proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                text=True, start_new_session=True)
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline:
         assert proc.poll() is None, proc.communicate()

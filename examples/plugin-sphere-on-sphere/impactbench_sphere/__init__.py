@@ -39,7 +39,7 @@ from typing import Any, ClassVar
 from impactbench.engines.base import Builder
 from impactbench.reference import validation as check
 
-from impactbench.scenarios import Axis, Flag, ScenarioSpec
+from impactbench.scenarios.spec import Axis, Flag, ScenarioSpec
 
 NAME = "sphere-on-sphere"
 
@@ -162,14 +162,30 @@ def reference_problem(scenario: SphereOnSphere, ref: dict[str, Any]) -> str:
         float(ref.get("max_penetration_m", 0.0)))
 
 
-SPEC = ScenarioSpec(
+@dataclass(frozen=True)
+class SphereOnSphereSpec(ScenarioSpec):
+    """What impactbench needs of this scenario beyond its data: its dataclass, its reference
+    and the limit of its contact law (methods; every other one keeps the default)."""
+
+    @property
+    def cls(self) -> type:
+        return SphereOnSphere
+
+    def reference_metrics(self, scenario: SphereOnSphere) -> dict[str, Any]:
+        return reference(scenario)
+
+    def history(self, scenario: SphereOnSphere) -> Any:
+        return history(scenario)
+
+    def problem(self, scenario: SphereOnSphere, ref: Any) -> str:
+        return reference_problem(scenario, ref)
+
+
+SPEC = SphereOnSphereSpec(
     name=NAME,
     title="Sphere on sphere",
     summary="a steel ball on a fixed steel sphere, Hertz/Hunt–Crossley closed form (plug-in "
     "example)",
-    scenario="impactbench_sphere:SphereOnSphere",
-    reference="impactbench_sphere:reference",
-    reference_history="impactbench_sphere:history",
     metrics=("restitution", "duration_s", "peak_force_n", "max_penetration_m",
              "energy_loss_fraction"),
     headline=("restitution", "duration_s", "peak_force_n"),
@@ -188,5 +204,4 @@ SPEC = ScenarioSpec(
     native={"": "the engine's ball-on-plate mapping, on the equivalent ball"},
     figure_stem="sphere",
     velocity_symbol="V0",
-    reference_problem="impactbench_sphere:reference_problem",
 )
