@@ -20,6 +20,13 @@ defaults' objective):
   Two rows at dt = 1e-7 s (runs ten times longer), cut at ``FINE_EVALS`` evaluations.
 
 Run: ``python -m benchmarks tune`` (or this file directly).
+
+``python benchmarks/bench_tune.py cube`` measures the cube-toss fit's batches instead: one
+CMA-ES generation of PyBullet candidates (popsize 5) on the first ``CUBE_TOSSES`` training
+tosses, evaluated (a) one candidate at a time straight through ``compare`` (no store, no
+run matrix), (b) as the tuner hands it over, one ``run_jobs`` batch in this process with a
+results store, (c) the same batch on ``CUBE_WORKERS`` local Dask workers (cluster start
+included); ``same`` says whether all three give the same objectives (they must).
 """
 
 from __future__ import annotations
@@ -37,6 +44,8 @@ from impactbench.tuning.names import VARIANTS
 
 REPEATS = 5
 FINE_EVALS = 60
+CUBE_TOSSES = 40
+CUBE_WORKERS = 2
 
 
 def _best(fn, repeats: int = REPEATS) -> float:
@@ -94,5 +103,53 @@ def space_dt(engine: str) -> float:
     return get_adapter(engine).default_timestep_s(BallOnPlate(), "tuned")
 
 
+def cube() -> None:
+    """The cube-toss fit's batch paths (module doc)."""
+    import tempfile
+    from pathlib import Path
+
+    import nevergrad as ng
+    from tabulate import tabulate
+
+    import impactbench.cube_tosses.tune as tune_mod
+    from impactbench.cube_tosses import load, split
+    from impactbench.evaluate import compare
+    from impactbench.store import Store
+    from impactbench.tuning import search
+
+    engine = "pybullet"
+    ids = split(load()["toss"].unique(), "train")[:CUBE_TOSSES]
+    scenario = tune_mod.scenario_of(None, ids)
+    knobs = tune_mod.space(engine)
+    opt = ng.optimizers.registry["CMA"](parametrization=search.parametrization(
+        knobs, tune_mod.SEED), budget=20, num_workers=1)
+    first = [opt.ask()]
+    generation = first + [opt.ask() for _ in range(search.generation_left(opt))]
+    params = [tune_mod.engine_params(engine, tune_mod._plain(c.value)) for c in generation]
+    rows, objectives = [], []
+    t0 = time.perf_counter()
+    from impactbench.engines.base import RunSettings
+
+    direct = [tune_mod.evaluation_of(compare(engine, scenario, "custom",
+                                             RunSettings(params=p))[0], ids).objective
+              for p in params]
+    rows.append(["one by one, compare", time.perf_counter() - t0])
+    objectives.append(direct)
+    with tempfile.TemporaryDirectory() as folder:
+        for label, workers in (("one run_jobs batch, here", 0),
+                               (f"one run_jobs batch, {CUBE_WORKERS} Dask workers",
+                                CUBE_WORKERS)):
+            store = Store(Path(folder) / f"{workers}.duckdb")
+            t0 = time.perf_counter()
+            runs = tune_mod.replay_runs(engine, scenario, params, store=store, workers=workers)
+            rows.append([label, time.perf_counter() - t0])
+            objectives.append([tune_mod.evaluation_of(r, ids).objective for r, _ in runs])
+    same = objectives[0] == objectives[1] == objectives[2]
+    print(f"{engine}: {len(params)} candidates x {len(ids)} tosses; same = {same}")
+    print(tabulate(rows, headers=["path", "wall_s"], floatfmt=".3g"))
+
+
 if __name__ == "__main__":
-    main()
+    import sys
+
+    cube() if sys.argv[1:] == ["cube"] else main()

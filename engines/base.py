@@ -14,6 +14,9 @@ Adding an engine (a checklist, in the manner of scipy's ``OdeSolver``):
    (scenario name → the method that runs it, the customary step there and, where it differs
    from :attr:`Adapter.modes`, the modes it implements there). A scenario without a builder
    is ``unsupported`` with that reason; no adapter branches on scenario types. A builder
+   only builds: :meth:`Adapter.run` has already checked the mode, the ``custom`` keys
+   (the scenario's own subset: :attr:`Builder.parameter_keys`) and that a ``tuned`` run has
+   tuned parameters (:attr:`Builder.tuned_check`, :attr:`Adapter.tuned_parameters`). It
    builds the scenario, steps it, and records every step from a little before first
    contact until the bodies have separated: time, penetration, penetration rate, the engine's
    normal force (force sample at t_k = the force acting over the step that starts at t_k),
@@ -53,9 +56,11 @@ In ``injected`` mode the scenario's contact model (``BallOnPlate.model``, any of
 :mod:`impactbench.reference.models` except the adhesive unclipped Kelvin–Voigt, which is
 ``unsupported``) is what ``scenario.law()`` returns, so every adapter follows it.
 
-An adapter lists the modes it implements in :attr:`Adapter.modes`; :meth:`Adapter.run` turns
-any other mode into an ``unsupported`` record, and rejects unknown ``custom`` keys with a
-ValueError that lists the valid ones.
+An adapter lists the modes it implements in :attr:`Adapter.modes`; :meth:`Adapter.run` owns the
+mode prologue (as scipy's ``OdeSolver.step`` owns the bookkeeping around ``_step_impl``): it
+turns any other mode, or one the scenario's builder does not implement, into an
+``unsupported`` record, and a ``tuned`` run without tuned parameters too; it rejects unknown
+``custom`` keys, and keys of another scenario, with a one-line ValueError.
 """
 
 from __future__ import annotations
@@ -66,7 +71,8 @@ import os
 import time
 import traceback
 from abc import ABC, abstractmethod
-from dataclasses import dataclass, field
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field, replace
 from typing import Any, ClassVar
 
 # the names and the plug-in registry live in a standard-library-only module (a light CLI);
@@ -103,12 +109,23 @@ class Builder:
     run: str
     timestep_s: float
     modes: tuple[str, ...] | None = None
-    why_not: str = ""
-    """Why the modes outside ``modes`` do not run here (the ``unsupported`` message)."""
+    why_not: str | Mapping[str, str] = ""
+    """Why the modes outside ``modes`` do not run here (the ``unsupported`` message), one
+    reason for all of them or one per mode (a mode left out gets the generic reason)."""
     own_keys: bool = False
-    """The builder validates ``custom`` mode's keys itself (raising :class:`SettingsError`):
-    a scenario whose engine parameters are not the adapter's :attr:`~Adapter.parameter_keys`
-    (the cube tosses' ``board.``/``cube.`` keys)."""
+    """The builder validates ``custom`` mode's keys and ``tuned`` mode's parameters itself
+    (raising :class:`SettingsError`): a scenario whose engine parameters are not the
+    adapter's :attr:`~Adapter.parameter_keys` (the cube tosses' ``board.``/``cube.`` keys)."""
+    parameter_keys: tuple[str, ...] | None = None
+    """The ``custom`` keys this scenario takes (None: all of the adapter's
+    :attr:`~Adapter.parameter_keys`); another of the adapter's keys is a ValueError naming
+    the scenarios it applies to (a friction key given to the head-on ball)."""
+    tuned_check: Callable[[str, RunSettings], ImpactRecord | None] | None = None
+    """Whether a ``tuned`` run can go ahead, ``tuned_check(engine, settings)`` returning the
+    ``unsupported`` record or None: a scenario whose tuned parameters are its own (the
+    oblique impact's friction knobs, :func:`impactbench.engines.oblique_tuned.refused`).
+    None: the run needs tuned parameters (``settings.tuned``) and is ``unsupported`` without
+    them (:meth:`Adapter.tuned_refusal`)."""
 
 
 CUBE_TOSS_STEP_S = 1.0 / 1480.0
@@ -124,6 +141,17 @@ CUBE_TOSS_NOT_INJECTED = {
               "steps): the law would have to be a warp kernel",
 }
 """Batched engines, and why their cube-toss builders have no ``injected`` mode."""
+
+
+def cube_toss_builder(engine: str) -> Builder:
+    """The cube-toss builder of a 3D engine (:meth:`Adapter.replay_tosses`, the scenario's
+    own keys); a batched engine's has no ``injected`` mode (:data:`CUBE_TOSS_NOT_INJECTED`)."""
+    if engine in CUBE_TOSS_NOT_INJECTED:
+        return Builder("replay_tosses", CUBE_TOSS_STEP_S,
+                       modes=("default", "custom", "tuned", "native"), own_keys=True,
+                       why_not=CUBE_TOSS_NOT_INJECTED[engine])
+    return Builder("replay_tosses", CUBE_TOSS_STEP_S, own_keys=True)
+
 
 CUBE_TOSS_TWO_D = ("{} is a 2D engine (bodies move in a plane with one rotation angle): a cube "
                    "tumbling in 3D with a 3-axis spin cannot be expressed")
@@ -191,6 +219,10 @@ class Adapter(ABC):
     the ``unsupported`` message of such a run."""
     parameter_keys: ClassVar[tuple[str, ...]] = ()
     """The engine's own parameter names accepted in ``custom`` mode (``settings.params``)."""
+    tuned_parameters: ClassVar[str] = ""
+    """What ``tuned`` mode reads from a tuned-parameter file, in one line (its keys; the
+    ``unsupported`` message of a tuned run without one names it); "": any of
+    :attr:`parameter_keys`."""
     injection: ClassVar[str] = ""
     """How ``injected`` mode reaches this engine, in one line (the report shows it).
 
@@ -234,17 +266,73 @@ class Adapter(ABC):
 
     def run(self, scenario: Scenario, mode: str = "native",
             settings: RunSettings | None = None) -> ImpactRecord:
-        """Run one scenario; fills provenance (engine, version, mode, timestep_s, wall_s)."""
+        """Run one scenario; fills provenance (engine, version, mode, timestep_s, wall_s).
+
+        The mode prologue is here, so builders only build: an unknown ``custom`` key (or one
+        of another scenario's) is a ValueError; a mode the adapter or the scenario's builder
+        does not implement, an unclipped Kelvin–Voigt law to inject, or a ``tuned`` run
+        without tuned parameters (:meth:`tuned_refusal`) is an ``unsupported`` record."""
         if mode not in MODES:
             raise ValueError(f"mode = {mode!r}: must be one of {', '.join(MODES)}")
         settings = settings or RunSettings()
         found = self.builder(scenario)
         if mode == "custom" and not (found is not None and found.own_keys):
-            unknown = sorted(set(settings.params or {}) - set(self.parameter_keys))
-            if unknown:
-                valid = ", ".join(self.parameter_keys) or "(none)"
-                raise ValueError(f"param = {unknown[0]!r}: not a {self.name} parameter; "
-                                 f"valid keys: {valid}")
+            self._check_keys(scenario, found, settings.params or {})
+        refused = self._refused(scenario, mode, settings, found)
+        if refused is not None:
+            return refused
+        assert found is not None  # a missing builder is refused
+        dt = settings.timestep_s or found.timestep_s
+        if settings.timestep_s is None:
+            settings = replace(settings, timestep_s=dt)
+        t0 = time.perf_counter()
+        rec = self.tuned_refusal(found, settings) if mode == "tuned" else None
+        if rec is None:
+            rec = self._build(found, scenario, mode, settings)
+        rec.meta.update(
+            engine=self.name,
+            engine_version=self.version(),
+            mode=mode,
+            timestep_s=rec.meta.get("timestep_s", dt),  # a builder whose scenario sets it
+            wall_s=time.perf_counter() - t0,
+            **{k: v for k, v in settings.options.items() if k not in rec.meta},
+        )
+        return rec
+
+    def _build(self, found: Builder, scenario: Scenario, mode: str, settings: RunSettings
+               ) -> ImpactRecord:
+        """Call the builder: the adapter's method, or a plug-in's ``module:function``."""
+        if ":" in found.run:
+            module_name, _, attr = found.run.partition(":")
+            return getattr(importlib.import_module(module_name), attr)(self, scenario, mode,
+                                                                       settings)
+        return getattr(self, found.run)(scenario, mode, settings)
+
+    def _check_keys(self, scenario: Scenario, found: Builder | None,
+                    params: Mapping[str, Any]) -> None:
+        """A ``custom`` key the engine does not take, or one that only another scenario
+        takes (:attr:`Builder.parameter_keys`): a one-line ValueError naming the valid keys,
+        or the scenarios the key applies to."""
+        unknown = sorted(set(params) - set(self.parameter_keys))
+        if unknown:
+            valid = ", ".join(self.parameter_keys) or "(none)"
+            raise ValueError(f"param = {unknown[0]!r}: not a {self.name} parameter; "
+                             f"valid keys: {valid}")
+        if found is None or found.parameter_keys is None:
+            return
+        for key in sorted(set(params) - set(found.parameter_keys)):
+            where = " and ".join(
+                n for n, b in self.builders.items() if not b.own_keys
+                and (b.modes is None or "custom" in b.modes)
+                and (b.parameter_keys is None or key in b.parameter_keys))
+            name = getattr(scenario, "name", type(scenario).__name__)
+            raise ValueError(f"param {key} = {params[key]!r}: applies to the {where} "
+                             f"scenario only, not {name!r}")
+
+    def _refused(self, scenario: Scenario, mode: str, settings: RunSettings,
+                 found: Builder | None) -> ImpactRecord | None:
+        """The ``unsupported`` record of a mode this engine, or the scenario's builder, does
+        not run; None when the builder runs it."""
         if mode not in self.modes:
             return ImpactRecord.failed(
                 Status.UNSUPPORTED, f"{self.name} does not implement mode {mode!r} "
@@ -256,7 +344,9 @@ class Adapter(ABC):
                 f"{', '.join(self.builders) or 'none'})")
             return ImpactRecord.failed(Status.UNSUPPORTED, why, engine=self.name, mode=mode)
         if found.modes is not None and mode not in found.modes:
-            why = f"mode {mode} in {self.name}: {found.why_not}" if found.why_not else (
+            reason = (found.why_not.get(mode, "") if isinstance(found.why_not, Mapping)
+                      else found.why_not)
+            why = f"mode {mode} in {self.name}: {reason}" if reason else (
                 f"{mode} mode is implemented for "
                 f"{' and '.join(s for s, b in self.builders.items() if b.modes is None)} only")
             return ImpactRecord.failed(
@@ -267,27 +357,24 @@ class Adapter(ABC):
                 Status.UNSUPPORTED, "model 'kelvin-voigt' (unclipped) pulls the ball back "
                 "(F < 0): no engine contact can pull, and the metrics path measures contact "
                 "by F > 0; inject 'kelvin-voigt-clipped'", engine=self.name, mode=mode)
-        dt = settings.timestep_s or found.timestep_s
-        if settings.timestep_s is None:
-            from dataclasses import replace
+        return None
 
-            settings = replace(settings, timestep_s=dt)
-        t0 = time.perf_counter()
-        if ":" in found.run:
-            module_name, _, attr = found.run.partition(":")
-            rec = getattr(importlib.import_module(module_name), attr)(self, scenario, mode,
-                                                                      settings)
-        else:
-            rec = getattr(self, found.run)(scenario, mode, settings)
-        rec.meta.update(
-            engine=self.name,
-            engine_version=self.version(),
-            mode=mode,
-            timestep_s=rec.meta.get("timestep_s", dt),  # a builder whose scenario sets it
-            wall_s=time.perf_counter() - t0,
-            **{k: v for k, v in settings.options.items() if k not in rec.meta},
-        )
-        return rec
+    def tuned_refusal(self, found: Builder, settings: RunSettings) -> ImpactRecord | None:
+        """The ``unsupported`` record of a ``tuned`` run that has nothing to apply (None: it
+        can go ahead): the builder's own check (:attr:`Builder.tuned_check`), else no tuned
+        parameters; the message names what ``tuned`` mode reads
+        (:attr:`tuned_parameters`)."""
+        if found.own_keys:
+            return None
+        if found.tuned_check is not None:
+            return found.tuned_check(self.name, settings)
+        if settings.tuned:
+            return None
+        what = (f"{self.name}'s {self.tuned_parameters}" if self.tuned_parameters else
+                f"any of {self.name}'s {', '.join(self.parameter_keys) or 'parameters'}")
+        return ImpactRecord.failed(
+            Status.UNSUPPORTED, f"tuned mode needs a tuned-parameter file (settings.tuned: "
+            f"{what}), none given")
 
 
 def _disabled() -> set[str]:

@@ -79,7 +79,6 @@ from impactbench.engines.base import CUBE_TOSS_TWO_D, EngineUnavailable, RunSett
 from impactbench.engines.common import native_ball_restitution, reference_velocity
 from impactbench.reference import validation as check
 from impactbench.reference.oblique_scenario import Oblique
-from impactbench.reference.record import ImpactRecord
 from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
 
 PARAMETERS: dict[str, Any] = {
@@ -364,11 +363,9 @@ class Box2dAdapter(stepping.SteppedAdapter):
     """Box2D 2.3: rigid contacts (1 m/s restitution threshold) natively; injected forces."""
 
     name = "box2d"
-    label = "Box2D"
     parameter_keys = tuple(PARAMETERS)
-    ball_model = BallModel
-    pair_model = PairModel
-    oblique_model = ObliqueModel
+    ball_model, pair_model, oblique_model = BallModel, PairModel, ObliqueModel
+    builders = stepping.builders(oblique_tuned.refused)
     missing_builders: ClassVar[dict[str, str]] = {"cube-toss": CUBE_TOSS_TWO_D.format("Box2D")}
     injection = ("cannot: Box2D's contacts are rigid impulses with no compliance; the law is a "
                  "force on the body (no fixture) integrated by Box2D's semi-implicit Euler step"
@@ -383,12 +380,6 @@ class Box2dAdapter(stepping.SteppedAdapter):
         params, meta = parameters(scenario, mode, settings, ball)
         meta["build_constants"] = build_constants()
         return params, meta
-
-    def run_oblique(self, scenario: Oblique, mode: str, settings: RunSettings
-                    ) -> ImpactRecord:
-        if mode == "tuned":  # native plus the tuned file's friction knobs
-            return oblique_tuned.run_stepped(self, scenario, settings)
-        return super().run_oblique(scenario, mode, settings)
 
     def oblique_parameters(self, scenario: Oblique, mode: str, settings: RunSettings
                            ) -> tuple[dict[str, Any], dict[str, Any]]:
@@ -424,10 +415,7 @@ def parameters(scenario: Scenario, mode: str, settings: RunSettings, ball: bool
     else:
         native["restitution"] = 1.0
         meta["not_expressible"] = "contact stiffness k1 and the local law (rigid contacts)"
-    if mode == "tuned":
-        tuned = stepping.engine_params("tuned", settings.tuned, PARAMETERS)
-        native.update(tuned)
-        meta["tuned"] = tuned
+    stepping.apply_tuned(native, meta, mode, settings, PARAMETERS)
     meta["restitution"] = native["restitution"]
     return native, meta
 
@@ -456,17 +444,14 @@ def oblique_parameters(scenario: Oblique, mode: str, settings: RunSettings
     rigid = {"contact": "rigid", "not_comparable": stepping.RIGID_OBLIQUE_ARTEFACTS}
     threshold = float(_import_box2d().b2_velocityThreshold)
     if mode in ("default", "custom"):
-        own = stepping.engine_params("params", settings.params, PARAMETERS) \
-            if mode == "custom" else {}
+        own = stepping.user_params(mode, settings, PARAMETERS)
         params = {**defaults, "friction": mu, **own}
         facts = stepping.friction_facts(FRICTION_MODEL, FRICTION_COMBINATION,
                                         params["friction"], params["friction"],
                                         params["friction"], moment_of_inertia_kg_m2=inertia)
-        meta = {**rigid, "restitution": params["restitution"],
-                "engine_defaults": {**defaults, **facts}}
-        if mode == "custom":
-            meta["params"] = own
-        return params, meta
+        return params, {**rigid, "restitution": params["restitution"],
+                        "engine_defaults": {**defaults, **facts},
+                        **stepping.params_meta(mode, own)}
     native = {**defaults, "friction": mu}
     if mode == "injected":
         facts = stepping.friction_facts(stepping.INJECTED_FRICTION, "none", mu, mu, mu,

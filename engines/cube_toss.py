@@ -112,22 +112,6 @@ PARAM_SETS: dict[str, dict[str, dict[str, Any]]] = {
 }
 """engine → parameter-set name → engine parameters (``custom`` mode's ``param_set``)."""
 
-PARAM_SET_NOTES = {
-    "dair2022": "Acosta, Yang & Posa (RA-L 2022), fitted on all tosses (no held-out set), "
-                "applied on the board as their code did; the cube keeps the engine's defaults",
-    "dair2022x3": "dair2022 with MuJoCo's k and b multiplied by 3, as DAIR's evaluation did",
-}
-
-
-def param_set(engine: str, name: str) -> dict[str, Any]:
-    """The named parameter set of ``engine`` (ValueError naming the choices)."""
-    sets = PARAM_SETS.get(engine, {})
-    if name not in sets:
-        raise ValueError(f"param_set = {name!r}: {engine} has "
-                         f"{', '.join(sets) or 'no parameter sets'}")
-    return dict(sets[name])
-
-
 @dataclass
 class CubeEngine:
     """One engine's cube-on-board model (built by :func:`make`). Subclasses implement
@@ -240,7 +224,6 @@ def _version(dist: str) -> str:
 _BULLET_BODY_KEYS = ("lateralFriction", "contactStiffness", "contactDamping", "restitution",
                      "rollingFriction", "spinningFriction")
 _BULLET_CUBE_KEYS = ("linearDamping", "angularDamping")
-BULLET_DEFAULT_FRICTION = 0.5
 BULLET_BOARD_HALF_EXTENTS = (2.5, 2.5, 0.5)
 
 

@@ -71,15 +71,6 @@ from impactbench.reference.box_contact import GRAVITY_M_S2, Box, quat_matrix
 
 ENGINES = ("sapien", "dart", "newton", "mjx")
 
-UNSUPPORTED: dict[str, str] = {
-    "pymunk": "pymunk is a 2D engine (bodies move in a plane with one rotation angle): a cube "
-              "tumbling in 3D with a 3-axis spin cannot be expressed",
-    "box2d": "Box2D is a 2D engine (bodies move in a plane with one rotation angle): a cube "
-             "tumbling in 3D with a 3-axis spin cannot be expressed",
-}
-"""engine → why the cube tosses cannot run on it."""
-
-
 def _quat_from_matrix(r: np.ndarray) -> np.ndarray:
     from scipy.spatial.transform import Rotation
 
@@ -611,7 +602,7 @@ class MjxCube(BatchedCube, MujocoPlaneCube):
     def _build(self) -> None:
         super()._build()
         _, jax, mjx = _mjx()
-        self._jax, self._mjx_mod = jax, mjx
+        self._jax = jax
         try:
             self._mx = mjx.put_model(self._model)
         except NotImplementedError as exc:
@@ -668,5 +659,5 @@ class MjxCube(BatchedCube, MujocoPlaneCube):
 CLASSES: dict[str, type[CubeEngine]] = {"sapien": SapienCube, "dart": DartCube,
                                         "newton": NewtonCube, "mjx": MjxCube}
 
-__all__ = ["CLASSES", "ENGINES", "UNSUPPORTED", "DartCube", "MjxCube", "MujocoPlaneCube",
+__all__ = ["CLASSES", "ENGINES", "DartCube", "MjxCube", "MujocoPlaneCube",
            "NewtonCube", "SapienCube"]

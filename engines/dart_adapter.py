@@ -64,12 +64,10 @@ ball and oblique 1e-6 s, rigid–flexible 1e-5 s.
 
 from __future__ import annotations
 
-from typing import Any, ClassVar
+from typing import Any
 
 from impactbench.engines import oblique_tuned, stepping
 from impactbench.engines.base import (
-    CUBE_TOSS_STEP_S,
-    Builder,
     EngineUnavailable,
     RunSettings,
     Scenario,
@@ -77,7 +75,6 @@ from impactbench.engines.base import (
 from impactbench.engines.common import native_ball_restitution, reference_velocity
 from impactbench.reference import validation as check
 from impactbench.reference.oblique_scenario import Oblique
-from impactbench.reference.record import ImpactRecord
 from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
 
 COLLISION_DETECTORS: tuple[str, ...] = ("fcl", "dart", "bullet", "ode")
@@ -331,42 +328,6 @@ class ObliqueModel:
         return fn, ft
 
 
-class DartAdapter(stepping.SteppedAdapter):
-    """DART 6: rigid LCP contacts natively; injected laws as joint forces."""
-
-    name = "dart"
-    label = "DART"
-    parameter_keys = tuple(PARAMETERS)
-    ball_model = BallModel
-    pair_model = PairModel
-    oblique_model = ObliqueModel
-    builders: ClassVar[dict[str, Builder]] = {
-        **stepping.SteppedAdapter.builders,
-        "cube-toss": Builder("replay_tosses", CUBE_TOSS_STEP_S, own_keys=True),
-    }
-    injection = ("cannot: DART's contacts are rigid LCP impulses with no compliance; the law is "
-                 "a joint force (collision off) integrated by DART's semi-implicit Euler step; "
-                 "oblique: Coulomb friction is a joint force and torque too (no contact with "
-                 "the normal law), −s·m_s/dt clipped to ±μ·F_n")
-
-    def version(self) -> str:
-        return str(_import_dart().__version__)
-
-    def parameters(self, scenario: Scenario, mode: str, settings: RunSettings, ball: bool
-                   ) -> tuple[dict[str, Any], dict[str, Any]]:
-        return parameters(scenario, mode, settings, ball)
-
-    def oblique_parameters(self, scenario: Oblique, mode: str, settings: RunSettings
-                           ) -> tuple[dict[str, Any], dict[str, Any]]:
-        return oblique_parameters(scenario, mode, settings)
-
-    def run_oblique(self, scenario: Oblique, mode: str, settings: RunSettings
-                    ) -> ImpactRecord:
-        if mode == "tuned":  # native plus the tuned file's friction knobs
-            return oblique_tuned.run_stepped(self, scenario, settings)
-        return super().run_oblique(scenario, mode, settings)
-
-
 def parameters(scenario: Scenario, mode: str, settings: RunSettings, ball: bool
                ) -> tuple[dict[str, Any], dict[str, Any]]:
     """The complete DART parameter set for ``mode`` and the run's meta (``ball``: the
@@ -393,10 +354,7 @@ def parameters(scenario: Scenario, mode: str, settings: RunSettings, ball: bool
     else:
         native["restitution_coeff"] = 1.0
     meta["not_expressible"] = "contact stiffness and damping (DART contacts are rigid)"
-    if mode == "tuned":
-        tuned = stepping.engine_params("tuned", settings.tuned, PARAMETERS)
-        native.update(tuned)
-        meta["tuned"] = tuned
+    stepping.apply_tuned(native, meta, mode, settings, PARAMETERS)
     meta["restitution"] = native["restitution_coeff"]
     return native, meta
 
@@ -424,19 +382,16 @@ def oblique_parameters(scenario: Oblique, mode: str, settings: RunSettings
     rigid = {"contact": "rigid", "not_comparable": stepping.RIGID_OBLIQUE_ARTEFACTS}
     neutral = {"plate_restitution_coeff": 1.0}
     if mode in ("default", "custom"):
-        own = stepping.engine_params("params", settings.params, PARAMETERS) \
-            if mode == "custom" else {}
+        own = stepping.user_params(mode, settings, PARAMETERS)
         plate = neutral if mode == "custom" else \
             {"plate_restitution_coeff": defaults["restitution_coeff"]}
         params = {**defaults, **plate, "friction_coeff": mu, **own}
         f = params["friction_coeff"]
         facts = stepping.friction_facts(FRICTION_MODEL, FRICTION_COMBINATION, f, f, f,
                                         moment_of_inertia_kg_m2=inertia)
-        meta = {**rigid, "engine_defaults": {**defaults, **facts},
-                "restitution": params["restitution_coeff"] * params["plate_restitution_coeff"]}
-        if mode == "custom":
-            meta["params"] = own
-        return params, meta
+        restitution = params["restitution_coeff"] * params["plate_restitution_coeff"]
+        return params, {**rigid, "engine_defaults": {**defaults, **facts},
+                        "restitution": restitution, **stepping.params_meta(mode, own)}
     native = {**defaults, **neutral, "friction_coeff": mu}
     if mode == "injected":
         facts = stepping.friction_facts(stepping.INJECTED_FRICTION, "none", mu, mu, mu,
@@ -459,3 +414,21 @@ def oblique_parameters(scenario: Oblique, mode: str, settings: RunSettings
                     "restitution": native["restitution_coeff"], "engine_defaults": facts,
                     "not_expressible": "contact stiffness and damping (DART contacts are rigid)",
                     **tuned}
+
+
+class DartAdapter(stepping.SteppedAdapter):
+    """DART 6: rigid LCP contacts natively; injected laws as joint forces."""
+
+    name = "dart"
+    parameter_keys = tuple(PARAMETERS)
+    ball_model, pair_model, oblique_model = BallModel, PairModel, ObliqueModel
+    parameters = staticmethod(parameters)
+    oblique_parameters = staticmethod(oblique_parameters)
+    builders = stepping.builders(oblique_tuned.refused, "dart")
+    injection = ("cannot: DART's contacts are rigid LCP impulses with no compliance; the law is "
+                 "a joint force (collision off) integrated by DART's semi-implicit Euler step; "
+                 "oblique: Coulomb friction is a joint force and torque too (no contact with "
+                 "the normal law), −s·m_s/dt clipped to ±μ·F_n")
+
+    def version(self) -> str:
+        return str(_import_dart().__version__)

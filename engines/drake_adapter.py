@@ -141,13 +141,13 @@ from typing import Any, ClassVar
 import numpy as np
 from impactbench.engines import oblique_tuned
 from impactbench.engines.base import (
-    CUBE_TOSS_STEP_S,
     PIP,
     Adapter,
     Builder,
     EngineUnavailable,
     RunSettings,
     Scenario,
+    cube_toss_builder,
 )
 from impactbench.engines.common import NATIVE_REFERENCE_VELOCITY_M_S, Recorder, classify
 from impactbench.engines.oblique_common import (
@@ -850,12 +850,16 @@ class DrakeAdapter(Adapter):
         "discrete_contact_approximation")
     """What ``tuned`` mode reads (:func:`impactbench.tuned.tuned_keys`): the fitted keys of the
     tuning spaces and the discrete approximation a fit at a practical step holds fixed."""
+    tuned_parameters: ClassVar[str] = (
+        "point_stiffness_n_per_m, optional hunt_crossley_dissipation_s_per_m; a discrete "
+        "plant's discrete_contact_approximation and relaxation_time_s")
     builders: ClassVar[dict[str, Builder]] = {
         "ball-on-plate": Builder("run_ball", BALL_TIMESTEP_S),
         "rigid-flexible": Builder("run_rigid_flexible", RIGID_FLEXIBLE_TIMESTEP_S,
                                   modes=("native", "injected", "tuned")),
-        "oblique": Builder("run_oblique", OBLIQUE_TIMESTEP_S),
-        "cube-toss": Builder("replay_tosses", CUBE_TOSS_STEP_S, own_keys=True),
+        "oblique": Builder("run_oblique", OBLIQUE_TIMESTEP_S,
+                           tuned_check=oblique_tuned.refused),
+        "cube-toss": cube_toss_builder("drake"),
     }
     model_builders: ClassVar[dict[str, Callable[[Any, str, RunSettings], DrakeModel]]] = {
         "ball-on-plate": build_ball,
@@ -891,19 +895,11 @@ class DrakeAdapter(Adapter):
         return self._run_with(_run_rigid_flexible, scenario, mode, settings)
 
     def run_oblique(self, scenario: Scenario, mode: str, settings: RunSettings) -> ImpactRecord:
-        if mode == "tuned":
-            refused = oblique_tuned.refused(self.name, settings)
-            if refused is not None:
-                return refused
         return self._run_with(_run_oblique, scenario, mode, settings)
 
     def _run_with(self, run: Callable[[DrakeModel, Any, RunSettings], ImpactRecord],
                   scenario: Scenario, mode: str, settings: RunSettings) -> ImpactRecord:
-        """What every scenario shares: the tuned check, :meth:`build`, then ``run``."""
-        if mode == "tuned" and not settings.tuned:
-            return ImpactRecord.failed(
-                Status.UNSUPPORTED, "tuned mode needs tuned parameters "
-                "(point_stiffness_n_per_m, hunt_crossley_dissipation_s_per_m); none given")
+        """What every scenario shares: :meth:`build`, then ``run``."""
         model = self.build(scenario, mode, settings)
         with np.errstate(over="ignore", invalid="ignore"):  # a blow-up is a status, not noise
             return run(model, scenario, settings)

@@ -55,19 +55,15 @@ from pathlib import Path
 from typing import Any, ClassVar
 
 import numpy as np
-from impactbench.engines import oblique_tuned
 from impactbench.engines.base import (
-    CUBE_TOSS_NOT_INJECTED,
-    CUBE_TOSS_STEP_S,
     Adapter,
     Builder,
     EngineUnavailable,
     RunSettings,
+    cube_toss_builder,
 )
-from impactbench.engines.common import NATIVE_REFERENCE_VELOCITY_M_S, classify
 from impactbench.engines.mujoco_adapter import (
     BALL_TIMESTEP_S,
-    DEFAULT_TIME_CAP_S,
     GAP_STEPS,
     OBLIQUE_KEYS,
     OBLIQUE_SENSOR_WIDTH,
@@ -75,16 +71,17 @@ from impactbench.engines.mujoco_adapter import (
     PARAMETER_KEYS,
     RIGID_FLEXIBLE_TIMESTEP_S,
     SOLIMP,
+    MujocoAdapter,
+    ball_contact,
     ball_end_finder,
     ball_mjcf,
-    contact_time_scale_s,
+    ball_outcome_record,
+    ball_start,
     custom_parameters,
     drive,
-    engine_defaults,
     face_radius_m,
     hertz_duration_s,
     measured_diag_a,
-    native_ball,
     native_or_tuned,
     oblique_end_finder,
     oblique_outcome_record,
@@ -95,7 +92,6 @@ from impactbench.engines.mujoco_adapter import (
     rigid_flexible_record,
     set_contact,
 )
-from impactbench.engines.oblique_common import reject_keys
 from impactbench.reference.models import KelvinVoigt
 from impactbench.reference.record import ImpactRecord, Status
 from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
@@ -132,17 +128,24 @@ def _no_control(mx: Any, dx: Any, p: Any) -> tuple[Any, Any]:
     return mx, dx
 
 
-def _secant_control(mx: Any, dx: Any, p: Any) -> tuple[Any, Any]:
-    """Direct solref of the injected law at the step's start, p = (c, n, b, d0, A): secant
-    stiffness c·x^(n−1) and damping c·b·xⁿ + d0 (N/m, N·s/m), each times A."""
+def _secant_solref(p: Any, x: Any) -> Any:
+    """Direct solref of the injected law at penetration x (m), p = (c, n, b, d0, A, …):
+    secant stiffness c·x^(n−1) and damping c·b·xⁿ + d0 (N/m, N·s/m), each times A; (0, 0)
+    out of contact."""
     jnp = _mjx()[1].numpy
     c, n, b, d0, a = p[0], p[1], p[2], p[3], p[4]
-    x = -dx.qpos[0]
     xp = jnp.maximum(x, 0.0)
     inside = x > 0.0
     k = jnp.where(inside, c * xp ** (n - 1.0), 0.0)
     d = jnp.where(inside, k * xp * b + d0, 0.0)
-    solref = jnp.stack([-k * a, -d * a])
+    return jnp.stack([-k * a, -d * a])
+
+
+def _secant_control(mx: Any, dx: Any, p: Any) -> tuple[Any, Any]:
+    """The injected law's direct solref (:func:`_secant_solref`) at the step's start on
+    every geom, p = (c, n, b, d0, A) (slide joint: the penetration is −q)."""
+    jnp = _mjx()[1].numpy
+    solref = _secant_solref(p, -dx.qpos[0])
     return mx.replace(geom_solref=jnp.broadcast_to(solref, mx.geom_solref.shape)), dx
 
 
@@ -156,9 +159,12 @@ CONTROLS = {"none": _no_control, "secant": _secant_control,
 """Per-step changes applied inside the scan before each ``mjx.step``."""
 
 
-@functools.lru_cache(maxsize=1)
-def _compiled_scan() -> Any:
-    """``scan(mx, dx, p, length, control) → (dx, (qpos, qvel, force))``, jitted."""
+@functools.lru_cache(maxsize=2)
+def _compiled_scan(sensor_width: int) -> Any:
+    """``scan(mx, dx, p, length, control) → (dx, (qpos, qvel, force))``, jitted; the force
+    per step is the contact sensor's first value (the normal force), or with
+    ``sensor_width`` its first that many (the oblique impact's force and contact frame,
+    :data:`~impactbench.engines.mujoco_adapter.OBLIQUE_SENSOR_WIDTH`)."""
     _, jax, mjx = _mjx()
 
     def scan(mx: Any, dx: Any, p: Any, length: int, control: str) -> Any:
@@ -168,7 +174,9 @@ def _compiled_scan() -> Any:
             mx_k, dx = change(mx, dx, p)
             pre = (dx.qpos, dx.qvel)
             dx = mjx.step(mx_k, dx)
-            return dx, (*pre, dx.sensordata[0])  # contact sensor of the step just taken
+            # the contact sensor of the step just taken
+            force = dx.sensordata[:sensor_width] if sensor_width else dx.sensordata[0]
+            return dx, (*pre, force)
 
         return jax.lax.scan(body, dx, None, length=length)
 
@@ -200,8 +208,11 @@ class _MjxSim:
         # would otherwise differ from the scan's carry)
         self.dx = _compiled_forward()(self.mx, mjx.put_data(self.model, self.data))
 
+    sensor_width: ClassVar[int] = 0
+    """How many of the contact sensor's values a step keeps (:func:`_compiled_scan`)."""
+
     def step_chunk(self, n: int) -> None:
-        scan = _compiled_scan()
+        scan = _compiled_scan(self.sensor_width)
         for _ in range(max(1, math.ceil(n / self.length))):
             self.dx, (q, v, f) = scan(self.mx, self.dx, self.params, self.length, self.control)
             self.chunks.append((np.asarray(q), np.asarray(v), np.asarray(f)))
@@ -245,19 +256,10 @@ def run_ball(s: BallOnPlate, mode: str, settings: RunSettings) -> ImpactRecord:
     out_of_box = mode in ("default", "custom")
     integrator = str(user.get("integrator", settings.options.get("integrator", "Euler")))
     model, data, a = _ball_model(s, dt, integrator, out_of_box)
-    v0, m = s.velocity_m_s, s.mass_kg
     meta: dict[str, Any] = {"integrator": integrator, "efc_diagA": a, "chunk_steps": BALL_CHUNK}
-    t_est = hertz_duration_s(s, v0)
     control, params = "none", np.zeros(5)
-    if out_of_box:
-        meta["engine_defaults"] = engine_defaults(model)
-        if "solref" in user or "solimp" in user:
-            set_contact(model, tuple(user.get("solref", model.geom_solref[1])),
-                         tuple(user.get("solimp", model.geom_solimp[1])))
-        meta.update(params=user, solref=[float(v) for v in model.geom_solref[1]],
-                    solimp=[float(v) for v in model.geom_solimp[1]])
-        t_est = max(t_est, contact_time_scale_s(meta["solref"], a, m, dt))
-    elif mode == "injected":
+    if mode == "injected":
+        t_est = hertz_duration_s(s, s.velocity_m_s)
         injected = injected_parameters(s.law(), a)
         if injected is None:
             return ImpactRecord.failed(
@@ -267,44 +269,16 @@ def run_ball(s: BallOnPlate, mode: str, settings: RunSettings) -> ImpactRecord:
         set_contact(model, (0.0, 0.0), SOLIMP)
         meta.update(law=s.model, solimp=list(SOLIMP))
     else:
-        v_ref = float(settings.options.get("reference_velocity_m_s",
-                                           NATIVE_REFERENCE_VELOCITY_M_S))
-        k = d = 0.0
-        if mode == "native":
-            sd = native_ball(s.replace(velocity_m_s=v_ref), v_ref)
-            k, d = sd.stiffness_n_per_m, sd.damping_ns_per_m
-            t_est = sd.duration_s(m)
-            meta.update(stiffness_n_per_m=k, damping_ns_per_m=d, reference_velocity_m_s=v_ref)
-        meta.update(native_or_tuned(model, mode, settings, (-k * a, -d * a)))
-    gap = GAP_STEPS * v0 * dt
-    data.qpos[0], data.qvel[0] = gap, -v0
-    cap = max(20.0 * t_est, DEFAULT_TIME_CAP_S) if out_of_box else 20.0 * t_est
-    max_time = settings.max_time_s or gap / v0 + cap
-    n_max = max(math.ceil(max_time / dt), math.ceil(GAP_STEPS) + 16)
-    first = math.ceil(GAP_STEPS) + math.ceil(t_est / dt) + 2
-    chunk = max(BALL_CHUNK, math.ceil(0.05 * t_est / dt))
+        t_est = ball_contact(s, mode, settings, model, dt, a, user, meta)
+    gap, n_max, first, chunk = ball_start(s, mode, settings, data, dt, t_est, BALL_CHUNK)
     sim = _MjxSim(model, data, control, params, BALL_CHUNK)
     out = drive(sim, n_max, first, chunk, ball_end_finder())
-    x, rate = -out.qpos[:, 0], -out.qvel[:, 0]
-    t = np.arange(x.size) * dt - gap / v0
     meta.update(steps=sim.steps, stepping="lax.scan")
-    rec = ImpactRecord(t, x, rate, out.force_n, rate, np.zeros_like(x), mass_1_kg=m,
-                       mass_2_kg=math.inf, meta=meta)
-    final = 0.5 * m * rate[-1] ** 2 if x.size else math.nan
-    return classify(rec, initial_kinetic_j=0.5 * m * v0 * v0, final_kinetic_j=final,
-                    tunneled=bool(x.size and x[-1] > s.radius_m and rate[-1] >= 0.0),
-                    timed_out=out.timed_out)
+    return ball_outcome_record(s, out, dt, gap, meta)
 
 
 def run_rigid_flexible(s: RigidFlexible, mode: str, settings: RunSettings) -> ImpactRecord:
-    """Rigid–flexible 2-DOF impact in MJX; see the module docstring."""
-    if mode == "injected":
-        return ImpactRecord.failed(
-            Status.UNSUPPORTED, "mjx: injected rigid–flexible needs the local law's memory "
-            "updated between steps, which a compiled scan cannot call")
-    if mode in ("default", "custom"):
-        return ImpactRecord.failed(
-            Status.UNSUPPORTED, f"{mode} mode is implemented for ball-on-plate only (as MuJoCo)")
+    """Rigid–flexible 2-DOF impact in MJX (native and tuned); see the module docstring."""
     mujoco = _mjx()[0]
     dt = float(settings.timestep_s or RIGID_FLEXIBLE_TIMESTEP_S)
     model = mujoco.MjModel.from_xml_string(rigid_flexible_mjcf(s, dt))
@@ -360,7 +334,7 @@ def ball_batch(s: BallOnPlate, solrefs: Sequence[Sequence[float]], timestep_s: f
 def _batched_scan() -> Any:
     _, jax, _ = _mjx()
     jnp = jax.numpy
-    scan = _compiled_scan()
+    scan = _compiled_scan(0)
 
     def one(mx: Any, dx: Any, solref: Any, steps: int) -> Any:
         mx = mx.replace(geom_solref=jnp.broadcast_to(solref, mx.geom_solref.shape))
@@ -381,53 +355,21 @@ noslip solver; it would ignore the setting)."""
 
 
 def _pair_secant_control(mx: Any, dx: Any, p: Any) -> tuple[Any, Any]:
-    """The oblique injected law at the step's start, written into the contact pair's solref;
-    p = (c, n, b, d0, A, R) as :func:`_secant_control` plus the radius (free joint: the
-    penetration is R − z)."""
-    jnp = _mjx()[1].numpy
-    c, n, b, d0, a, r = p[0], p[1], p[2], p[3], p[4], p[5]
-    x = r - dx.qpos[2]
-    xp = jnp.maximum(x, 0.0)
-    inside = x > 0.0
-    k = jnp.where(inside, c * xp ** (n - 1.0), 0.0)
-    d = jnp.where(inside, k * xp * b + d0, 0.0)
-    solref = jnp.stack([-k * a, -d * a])
+    """The oblique injected law at the step's start (:func:`_secant_solref`), written into
+    the contact pair's solref; p = (c, n, b, d0, A, R) (free joint: the penetration is
+    R − z)."""
+    solref = _secant_solref(p, p[5] - dx.qpos[2])
     return mx.replace(pair_solref=mx.pair_solref.at[0].set(solref)), dx
 
 
 CONTROLS["pair_secant"] = _pair_secant_control
 
 
-@functools.lru_cache(maxsize=1)
-def _compiled_oblique_scan() -> Any:
-    """As :func:`_compiled_scan`, keeping the contact sensor's 9 values per step (force and
-    contact frame: :data:`~impactbench.engines.mujoco_adapter.OBLIQUE_SENSOR_WIDTH`)."""
-    _, jax, mjx = _mjx()
-
-    def scan(mx: Any, dx: Any, p: Any, length: int, control: str) -> Any:
-        change = CONTROLS[control]
-
-        def body(dx: Any, _: Any) -> Any:
-            mx_k, dx = change(mx, dx, p)
-            pre = (dx.qpos, dx.qvel)
-            dx = mjx.step(mx_k, dx)
-            return dx, (*pre, dx.sensordata[:OBLIQUE_SENSOR_WIDTH])
-
-        return jax.lax.scan(body, dx, None, length=length)
-
-    return jax.jit(scan, static_argnames=("length", "control"))
-
-
 @dataclass
 class _MjxObliqueSim(_MjxSim):
     """:class:`_MjxSim` keeping the whole contact sensor (a 2-D force array)."""
 
-    def step_chunk(self, n: int) -> None:
-        scan = _compiled_oblique_scan()
-        for _ in range(max(1, math.ceil(n / self.length))):
-            self.dx, (q, v, f) = scan(self.mx, self.dx, self.params, self.length, self.control)
-            self.chunks.append((np.asarray(q), np.asarray(v), np.asarray(f)))
-            self.steps += self.length
+    sensor_width: ClassVar[int] = OBLIQUE_SENSOR_WIDTH
 
 
 def run_oblique(s: Any, mode: str, settings: RunSettings) -> ImpactRecord:
@@ -467,44 +409,22 @@ class MjxAdapter(Adapter):
                  "direct solreffriction)")
     modes = ("native", "injected", "tuned", "default", "custom")
     parameter_keys = PARAMETER_KEYS + MJX_OBLIQUE_KEYS
-    # every mode reaches both builders: run_rigid_flexible gives its own reasons for the
-    # rigid–flexible modes MJX does not run (injected, default, custom)
+    tuned_parameters = MujocoAdapter.tuned_parameters
     builders: ClassVar[dict[str, Builder]] = {
-        "ball-on-plate": Builder("run_ball", BALL_TIMESTEP_S),
-        "rigid-flexible": Builder("run_rigid_flexible", RIGID_FLEXIBLE_TIMESTEP_S),
-        "oblique": Builder("run_oblique", OBLIQUE_TIMESTEP_S),
-        "cube-toss": Builder("replay_tosses", CUBE_TOSS_STEP_S,
-                             modes=("default", "custom", "tuned", "native"), own_keys=True,
-                             why_not=CUBE_TOSS_NOT_INJECTED["mjx"]),
+        **MujocoAdapter.builders,
+        "rigid-flexible": Builder(
+            "run_rigid_flexible", RIGID_FLEXIBLE_TIMESTEP_S, modes=("native", "tuned"),
+            why_not={"injected": "rigid–flexible needs the local law's memory updated "
+                                 "between steps, which a compiled scan cannot call"}),
+        "cube-toss": cube_toss_builder("mjx"),
     }
+    # builders only build (Adapter.run has checked the mode, the keys and the tuned file)
+    run_ball = staticmethod(run_ball)
+    run_rigid_flexible = staticmethod(run_rigid_flexible)
+    run_oblique = staticmethod(run_oblique)
 
     def version(self) -> str:
         from importlib.metadata import version
 
         mujoco, jax, _ = _mjx()
         return f"{version('mujoco-mjx')} (mujoco {mujoco.__version__}, jax {jax.__version__})"
-
-    def run_ball(self, scenario: BallOnPlate, mode: str, settings: RunSettings) -> ImpactRecord:
-        if mode == "tuned" and settings.tuned is None:
-            return _no_tuned_file()
-        if mode == "custom":
-            reject_keys(settings.params, OBLIQUE_KEYS, scenario.name)
-        return run_ball(scenario, mode, settings)
-
-    def run_oblique(self, scenario: Any, mode: str, settings: RunSettings) -> ImpactRecord:
-        if mode == "tuned":
-            refused = oblique_tuned.refused(self.name, settings)
-            if refused is not None:
-                return refused
-        return run_oblique(scenario, mode, settings)
-
-    def run_rigid_flexible(self, scenario: RigidFlexible, mode: str, settings: RunSettings
-                           ) -> ImpactRecord:
-        if mode == "tuned" and settings.tuned is None:
-            return _no_tuned_file()
-        return run_rigid_flexible(scenario, mode, settings)
-
-
-def _no_tuned_file() -> ImpactRecord:
-    return ImpactRecord.failed(
-        Status.UNSUPPORTED, "tuned mode needs a tuned-parameter file (none given)")

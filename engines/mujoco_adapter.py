@@ -131,11 +131,11 @@ from typing import Any, ClassVar, Protocol
 import numpy as np
 from impactbench.engines import oblique_tuned
 from impactbench.engines.base import (
-    CUBE_TOSS_STEP_S,
     Adapter,
     Builder,
     EngineUnavailable,
     RunSettings,
+    cube_toss_builder,
 )
 from impactbench.engines.common import (
     NATIVE_REFERENCE_VELOCITY_M_S,
@@ -151,7 +151,6 @@ from impactbench.engines.oblique_common import (
     friction_relaxation_rate,
     native_normal,
     record,
-    reject_keys,
     start,
 )
 from impactbench.reference import validation as check
@@ -432,24 +431,39 @@ def drive(sim: Stepper, n_max: int, first: int, chunk: int, find_end: EndFinder)
         n = max(1, min(chunk, n_max - sim.steps))
 
 
-def ball_end_finder() -> EndFinder:
-    """End of a ball impact (qpos[:, 0] = the gap): the first sample after first touch with
-    zero force, the ball moving away and the surfaces apart."""
+def _after_touch(touch: list[int], f: np.ndarray, start: int) -> int | None:
+    """Where an end search starts: the later of ``start`` and first touch (the first sample
+    with a normal force ``f`` > 0, found once and kept in ``touch``); None before it."""
+    if not touch:
+        touched = np.flatnonzero(f[start:] > 0.0)
+        if touched.size == 0:
+            return None
+        touch.append(start + int(touched[0]))
+    return max(start, touch[0])
+
+
+def _away_finder(axis: int, apart: float, force_column: int | None) -> EndFinder:
+    """The first sample after first touch with zero normal force, the body moving away
+    (``v[:, axis]`` > 0) and apart (``q[:, axis]`` > ``apart``); the force is ``f``, or its
+    column ``force_column``."""
     touch: list[int] = []
 
     def find_end(q: np.ndarray, v: np.ndarray, f: np.ndarray, start: int) -> int | None:
-        if not touch:
-            touched = np.flatnonzero(f[start:] > 0.0)
-            if touched.size == 0:
-                return None
-            touch.append(start + int(touched[0]))
-        lo = max(start, touch[0])
-        # zero force, moving away, surfaces apart (a faded Hunt–Crossley force can be 0 in
-        # round-off while the surfaces still overlap: that contact lasts until x = 0)
-        away = np.flatnonzero((f[lo:] <= 0.0) & (v[lo:, 0] > 0.0) & (q[lo:, 0] > 0.0))
+        fn = f if force_column is None else f[:, force_column]
+        lo = _after_touch(touch, fn, start)
+        if lo is None:
+            return None
+        away = np.flatnonzero((fn[lo:] <= 0.0) & (v[lo:, axis] > 0.0) & (q[lo:, axis] > apart))
         return lo + int(away[0]) if away.size else None
 
     return find_end
+
+
+def ball_end_finder() -> EndFinder:
+    """End of a ball impact (qpos[:, 0] = the gap): the first sample after first touch with
+    zero force, the ball moving away and the surfaces apart (a faded Hunt–Crossley force can
+    be 0 in round-off while the surfaces still overlap: that contact lasts until x = 0)."""
+    return _away_finder(0, 0.0, None)
 
 
 def rigid_flexible_end_finder(s: RigidFlexible, structure: Any,
@@ -468,14 +482,11 @@ def rigid_flexible_end_finder(s: RigidFlexible, structure: Any,
             over = np.flatnonzero(e2 > structure.collapse_energy)
             if over.size:
                 collapsed.append(start + int(over[0]))
-        if not touch:
-            touched = np.flatnonzero(f[start:] > 0.0)
-            if touched.size == 0:
-                return None
-            touch.append(start + int(touched[0]))
         # within one free flight the predicate is monotone, and it was false where the
         # previous chunk ended, so searching from the new samples on is enough
-        lo = max(start, touch[0])
+        lo = _after_touch(touch, f, start)
+        if lo is None:
+            return None
         free = (f[lo:] <= 0.0) & (x1[lo:] < x2[lo:])
         sep = _first_separated(free, lambda i: no_further_contact(
             x1[lo + i], u1[lo + i], x2[lo + i], u2[lo + i], s.m2_kg, structure))
@@ -545,19 +556,11 @@ def run_ball(s: BallOnPlate, mode: str, settings: RunSettings) -> ImpactRecord:
         "integrator", INTEGRATOR)))
     model, data = _new_model(ball_mjcf(s, dt, integrator, engine_defaults=out_of_box))
     a = measured_diag_a(model, data, (-1e-9,))
-    v0, m = s.velocity_m_s, s.mass_kg
+    v0 = s.velocity_m_s
     meta: dict[str, Any] = {"integrator": integrator, "efc_diagA": a}
-    t_est = hertz_duration_s(s, v0)
     hook = None
-    if out_of_box:
-        meta["engine_defaults"] = engine_defaults(model)
-        if "solref" in user or "solimp" in user:
-            set_contact(model, tuple(user.get("solref", model.geom_solref[1])),
-                         tuple(user.get("solimp", model.geom_solimp[1])))
-        meta.update(params=user, solref=[float(v) for v in model.geom_solref[1]],
-                    solimp=[float(v) for v in model.geom_solimp[1]])
-        t_est = max(t_est, contact_time_scale_s(meta["solref"], a, m, dt))
-    elif mode == "injected":
+    if mode == "injected":
+        t_est = hertz_duration_s(s, v0)
         solref = _enable_override(model)
         law = s.law()  # the scenario's contact model (Hunt–Crossley family or Kelvin–Voigt)
 
@@ -571,29 +574,73 @@ def run_ball(s: BallOnPlate, mode: str, settings: RunSettings) -> ImpactRecord:
 
         meta.update(law=s.model, solimp=list(SOLIMP))
     else:
-        v_ref = float(settings.options.get("reference_velocity_m_s",
-                                           NATIVE_REFERENCE_VELOCITY_M_S))
-        if mode == "native":
-            sd = native_ball(s.replace(velocity_m_s=v_ref), v_ref)
-            k, d = sd.stiffness_n_per_m, sd.damping_ns_per_m
-            t_est = sd.duration_s(m)  # a linear contact's duration does not depend on V0
-            meta.update(stiffness_n_per_m=k, damping_ns_per_m=d, reference_velocity_m_s=v_ref)
-        else:
-            k = d = 0.0
-        meta.update(native_or_tuned(model, mode, settings, (-k * a, -d * a)))
-    gap = GAP_STEPS * v0 * dt
-    data.qpos[0], data.qvel[0] = gap, -v0
-    cap = max(20.0 * t_est, DEFAULT_TIME_CAP_S) if out_of_box else 20.0 * t_est
-    max_time = settings.max_time_s or gap / v0 + cap
-    n_max = max(math.ceil(max_time / dt), math.ceil(GAP_STEPS) + 16)
-    first = math.ceil(GAP_STEPS) + math.ceil(t_est / dt) + 2
-    chunk = max(8, math.ceil(0.05 * t_est / dt))
-
+        t_est = ball_contact(s, mode, settings, model, dt, a, user, meta)
+    gap, n_max, first, chunk = ball_start(s, mode, settings, data, dt, t_est, 8)
     sim = _Sim(model, data, hook)
     out = drive(sim, n_max, first, chunk, ball_end_finder())
+    meta.update(steps=sim.steps, stepping="python loop" if hook else "rollout")
+    return ball_outcome_record(s, out, dt, gap, meta)
+
+
+def ball_contact(s: BallOnPlate, mode: str, settings: RunSettings, model: Any, dt: float,
+                 a: float, user: dict[str, Any], meta: dict[str, Any]) -> float:
+    """Set the ball's contact on ``model`` for a mode other than ``injected`` and record it in
+    ``meta`` (MuJoCo's and MJX's): ``default``/``custom`` MuJoCo's own, plus the user's
+    solref/solimp; ``native`` the clipped spring–damper matched at V_ref; ``tuned`` the
+    tuned solref/solimp. Returns the contact duration (s) the run is planned with."""
+    m = s.mass_kg
+    t_est = hertz_duration_s(s, s.velocity_m_s)
+    if mode in ("default", "custom"):
+        meta["engine_defaults"] = engine_defaults(model)
+        if "solref" in user or "solimp" in user:
+            set_contact(model, tuple(user.get("solref", model.geom_solref[1])),
+                         tuple(user.get("solimp", model.geom_solimp[1])))
+        meta.update(params=user, solref=[float(v) for v in model.geom_solref[1]],
+                    solimp=[float(v) for v in model.geom_solimp[1]])
+        return max(t_est, contact_time_scale_s(meta["solref"], a, m, dt))
+    v_ref = float(settings.options.get("reference_velocity_m_s", NATIVE_REFERENCE_VELOCITY_M_S))
+    k = d = 0.0
+    if mode == "native":
+        sd = native_ball(s.replace(velocity_m_s=v_ref), v_ref)
+        k, d = sd.stiffness_n_per_m, sd.damping_ns_per_m
+        t_est = sd.duration_s(m)  # a linear contact's duration does not depend on V0
+        meta.update(stiffness_n_per_m=k, damping_ns_per_m=d, reference_velocity_m_s=v_ref)
+    meta.update(native_or_tuned(model, mode, settings, (-k * a, -d * a)))
+    return t_est
+
+
+def drive_plan(settings: RunSettings, dt: float, flight_s: float, t_est: float,
+               min_chunk: int, min_cap_s: float = 0.0) -> tuple[int, int, int]:
+    """How a ball's impact is driven (MuJoCo's, MJX's and Newton's), from the free flight to
+    first touch and the contact duration ``t_est`` (s): (the step cap: ``max_time_s``, else
+    the flight and 20 contact durations but at least ``min_cap_s``; the first step the end is
+    looked for at; the chunk)."""
+    max_time = settings.max_time_s or flight_s + max(20.0 * t_est, min_cap_s)
+    n_max = max(math.ceil(max_time / dt), math.ceil(GAP_STEPS) + 16)
+    first = math.ceil(GAP_STEPS) + math.ceil(t_est / dt) + 2
+    return n_max, first, max(min_chunk, math.ceil(0.05 * t_est / dt))
+
+
+def ball_start(s: BallOnPlate, mode: str, settings: RunSettings, data: Any, dt: float,
+               t_est: float, min_chunk: int) -> tuple[float, int, int, int]:
+    """Put the ball :data:`GAP_STEPS` steps above the plate at −V0 into ``data`` and plan the
+    drive (:func:`drive_plan`; ``default``/``custom``: at least
+    :data:`DEFAULT_TIME_CAP_S`) (MuJoCo's and MJX's): (the gap (m), the step cap, the first
+    step the end is looked for at, the chunk)."""
+    v0 = s.velocity_m_s
+    gap = GAP_STEPS * v0 * dt
+    data.qpos[0], data.qvel[0] = gap, -v0
+    min_cap = DEFAULT_TIME_CAP_S if mode in ("default", "custom") else 0.0
+    return gap, *drive_plan(settings, dt, gap / v0, t_est, min_chunk, min_cap)
+
+
+def ball_outcome_record(s: BallOnPlate, out: _Outcome, dt: float, gap: float,
+                        meta: dict[str, Any]) -> ImpactRecord:
+    """The ball's record of a driven run (slide joint: qpos = the gap), classified, and
+    ``diverged`` on an instability MuJoCo reported (MuJoCo's and MJX's)."""
+    v0, m = s.velocity_m_s, s.mass_kg
     x, rate = -out.qpos[:, 0], -out.qvel[:, 0]
     t = np.arange(x.size) * dt - gap / v0
-    meta.update(steps=sim.steps, stepping="python loop" if hook else "rollout")
     rec = ImpactRecord(t, x, rate, out.force_n, rate, np.zeros_like(x), mass_1_kg=m,
                        mass_2_kg=math.inf, meta=meta)
     final = 0.5 * m * rate[-1] ** 2 if x.size else math.nan
@@ -957,20 +1004,7 @@ def oblique_end_finder(radius_m: float) -> EndFinder:
     """End of an oblique run (free joint: qpos[2] = z of the centre, qvel[2] = ż, the force
     array's column 0 = the normal force): the first sample after first touch with zero normal
     force, the ball moving away and apart from the plate (z > R)."""
-    touch: list[int] = []
-
-    def find_end(q: np.ndarray, v: np.ndarray, f: np.ndarray, start: int) -> int | None:
-        fn = f[:, 0]
-        if not touch:
-            touched = np.flatnonzero(fn[start:] > 0.0)
-            if touched.size == 0:
-                return None
-            touch.append(start + int(touched[0]))
-        lo = max(start, touch[0])
-        away = np.flatnonzero((fn[lo:] <= 0.0) & (v[lo:, 2] > 0.0) & (q[lo:, 2] > radius_m))
-        return lo + int(away[0]) if away.size else None
-
-    return find_end
+    return _away_finder(2, radius_m, 0)
 
 
 def oblique_forces(f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -1058,12 +1092,8 @@ def oblique_start(s: Any, mode: str, settings: RunSettings, meta: dict[str, Any]
     data.qpos[:7] = (0.0, 0.0, s.radius_m + st.gap_m, 1.0, 0.0, 0.0, 0.0)
     data.qvel[:] = (st.tangential_velocity_m_s, 0.0, -st.normal_velocity_m_s, 0.0,
                     st.spin_rad_s, 0.0)
-    out_of_box = mode in ("default", "custom")
-    cap = max(20.0 * t_est, DEFAULT_TIME_CAP_S) if out_of_box else 20.0 * t_est
-    max_time = settings.max_time_s or st.flight_s + cap
-    n_max = max(math.ceil(max_time / dt), math.ceil(GAP_STEPS) + 16)
-    first = math.ceil(GAP_STEPS) + math.ceil(t_est / dt) + 2
-    return n_max, first, max(min_chunk, math.ceil(0.05 * t_est / dt))
+    min_cap = DEFAULT_TIME_CAP_S if mode in ("default", "custom") else 0.0
+    return drive_plan(settings, dt, st.flight_s, t_est, min_chunk, min_cap)
 
 
 def run_oblique(s: Any, mode: str, settings: RunSettings) -> ImpactRecord:
@@ -1095,7 +1125,8 @@ def run_oblique(s: Any, mode: str, settings: RunSettings) -> ImpactRecord:
 
 
 class MujocoAdapter(Adapter):
-    """MuJoCo (pip ``mujoco``): ball-on-plate and rigid–flexible, all three modes."""
+    """MuJoCo (pip ``mujoco``): every scenario in every mode (rigid–flexible: native,
+    injected and tuned)."""
 
     name = "mujoco"
     pip = "pip install mujoco"
@@ -1106,38 +1137,18 @@ class MujocoAdapter(Adapter):
                  "oblique: Coulomb friction through MuJoCo's elliptic cone, its friction rows "
                  "a hard velocity constraint (impratio 1e4, direct solreffriction relaxing the "
                  "slip within 1/20 of the contact)")
+    tuned_parameters = "solref (2 numbers), optional solimp (5 numbers)"
     builders: ClassVar[dict[str, Builder]] = {
-        "ball-on-plate": Builder("run_ball", BALL_TIMESTEP_S),
+        "ball-on-plate": Builder("run_ball", BALL_TIMESTEP_S, parameter_keys=PARAMETER_KEYS),
         "rigid-flexible": Builder("run_rigid_flexible", RIGID_FLEXIBLE_TIMESTEP_S,
                                   modes=("native", "injected", "tuned")),
-        "oblique": Builder("run_oblique", OBLIQUE_TIMESTEP_S),
-        "cube-toss": Builder("replay_tosses", CUBE_TOSS_STEP_S, own_keys=True),
+        "oblique": Builder("run_oblique", OBLIQUE_TIMESTEP_S, tuned_check=oblique_tuned.refused),
+        "cube-toss": cube_toss_builder("mujoco"),
     }
+    # builders only build (Adapter.run has checked the mode, the keys and the tuned file)
+    run_ball = staticmethod(run_ball)
+    run_rigid_flexible = staticmethod(run_rigid_flexible)
+    run_oblique = staticmethod(run_oblique)
 
     def version(self) -> str:
         return str(_mujoco().__version__)
-
-    def run_ball(self, scenario: BallOnPlate, mode: str, settings: RunSettings) -> ImpactRecord:
-        if mode == "tuned" and settings.tuned is None:
-            return _no_tuned_file()
-        if mode == "custom":
-            reject_keys(settings.params, OBLIQUE_KEYS, scenario.name)
-        return run_ball(scenario, mode, settings)
-
-    def run_oblique(self, scenario: Any, mode: str, settings: RunSettings) -> ImpactRecord:
-        if mode == "tuned":
-            refused = oblique_tuned.refused(self.name, settings)
-            if refused is not None:
-                return refused
-        return run_oblique(scenario, mode, settings)
-
-    def run_rigid_flexible(self, scenario: RigidFlexible, mode: str, settings: RunSettings
-                           ) -> ImpactRecord:
-        if mode == "tuned" and settings.tuned is None:
-            return _no_tuned_file()
-        return run_rigid_flexible(scenario, mode, settings)
-
-
-def _no_tuned_file() -> ImpactRecord:
-    return ImpactRecord.failed(
-        Status.UNSUPPORTED, "tuned mode needs a tuned-parameter file (none given)")

@@ -87,29 +87,30 @@ from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 import numpy as np
 from impactbench.engines import oblique_common, oblique_tuned
 from impactbench.engines.base import (
-    CUBE_TOSS_NOT_INJECTED,
-    CUBE_TOSS_STEP_S,
     Adapter,
     Builder,
     EngineUnavailable,
     RunSettings,
+    cube_toss_builder,
 )
 from impactbench.engines.common import (
     NATIVE_REFERENCE_VELOCITY_M_S,
     SpringDamper,
-    classify,
     stderr_without,
 )
 from impactbench.engines.mujoco_adapter import (
     GAP_STEPS,
     ball_end_finder,
+    ball_outcome_record,
     drive,
+    drive_plan,
     face_radius_m,
     hertz_duration_s,
     rigid_flexible_end_finder,
@@ -117,7 +118,7 @@ from impactbench.engines.mujoco_adapter import (
 )
 from impactbench.reference import validation as check
 from impactbench.reference.oblique_scenario import Oblique
-from impactbench.reference.record import ImpactRecord, Status
+from impactbench.reference.record import ImpactRecord
 from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
 from scipy import optimize
 
@@ -467,6 +468,16 @@ def _capture(wp: Any, step: Any) -> Any:
 # --------------------------------------------------------------------------- scenarios
 
 
+def _ball_secant(law: Any) -> Callable[[list[float], list[float]], float]:
+    """The injected contact's ke at the step's start state (q[0] = the gap, so x = −q[0]):
+    the law's secant F(x, ẋ)/x (N/m), kd = 0; 0 out of contact."""
+    def secant(q: list[float], qd: list[float]) -> float:
+        x = -q[0]
+        return law.force(x, -qd[0]) / x if x > 0.0 else 0.0
+
+    return secant
+
+
 def run_ball(s: BallOnPlate, mode: str, settings: RunSettings, *,
              graphs: bool = True) -> ImpactRecord:
     """Ball-on-plate in Newton; see the module docstring. ``graphs=False``: the step-by-step
@@ -477,13 +488,8 @@ def run_ball(s: BallOnPlate, mode: str, settings: RunSettings, *,
     t_est = hertz_duration_s(s, v0)
     secant = None
     if mode == "injected":
-        law = s.law()
         values = {"ke": 0.0, "kd": 0.0, "kf": 0.0, "mu": 0.0}
-
-        def secant(q: list[float], qd: list[float]) -> float:
-            x = -q[0]  # ke·x = F(x, ẋ) at the start state; kd = 0
-            return law.force(x, -qd[0]) / x if x > 0.0 else 0.0
-
+        secant = _ball_secant(s.law())
         meta.update(law=s.model)
     else:
         native = (0.0, 0.0)
@@ -505,20 +511,9 @@ def run_ball(s: BallOnPlate, mode: str, settings: RunSettings, *,
     gap = GAP_STEPS * v0 * dt
     sim = NewtonSim(ball_model(s, values), dt, (gap,), (-v0,), force, secant=secant,
                     graphs=graphs)
-    max_time = settings.max_time_s or gap / v0 + 20.0 * t_est
-    n_max = max(math.ceil(max_time / dt), math.ceil(GAP_STEPS) + 16)
-    first = math.ceil(GAP_STEPS) + math.ceil(t_est / dt) + 2
-    chunk = max(8, math.ceil(0.05 * t_est / dt))
-    out = drive(sim, n_max, first, chunk, ball_end_finder())
-    x, rate = -out.qpos[:, 0], -out.qvel[:, 0]
-    t = np.arange(x.size) * dt - gap / v0
+    out = drive(sim, *drive_plan(settings, dt, gap / v0, t_est, 8), ball_end_finder())
     meta.update(steps=sim.steps, stepping=sim.stepping)
-    rec = ImpactRecord(t, x, rate, out.force_n, rate, np.zeros_like(x), mass_1_kg=m,
-                       mass_2_kg=math.inf, meta=meta)
-    final = 0.5 * m * rate[-1] ** 2 if x.size else math.nan
-    return classify(rec, initial_kinetic_j=0.5 * m * v0 * v0, final_kinetic_j=final,
-                    tunneled=bool(x.size and x[-1] > s.radius_m and rate[-1] >= 0.0),
-                    timed_out=out.timed_out)
+    return ball_outcome_record(s, out, dt, gap, meta)
 
 
 def run_rigid_flexible(s: RigidFlexible, mode: str, settings: RunSettings, *,
@@ -658,13 +653,8 @@ def run_oblique(s: Oblique, mode: str, settings: RunSettings, *,
     t_est = hertz_duration_s(normal, v0)
     secant = None
     if mode == "injected":
-        law = normal.law()
         values = {"ke": 0.0, "kd": 0.0, "kf": deadbeat_kf(s, dt), "mu": s.friction}
-
-        def secant(q: list[float], qd: list[float]) -> float:
-            x = -q[0]  # ke·x = F(x, ẋ) at the start state; kd = 0
-            return law.force(x, -qd[0]) / x if x > 0.0 else 0.0
-
+        secant = _ball_secant(normal.law())
         meta.update(law=s.model, kf=values["kf"], mu=values["mu"],
                     kf_rule="m_s/dt (deadbeat: ideal Coulomb for the step)")
     else:
@@ -691,11 +681,7 @@ def run_oblique(s: Oblique, mode: str, settings: RunSettings, *,
             shape_material_kf=[float(v) for v in built.shape_material_kf.numpy()])
     sim = NewtonSim(built, dt, (gap, 0.0, 0.0), (-v0, v_t, s.spin_rad_s),
                     force, secant=secant, graphs=graphs)
-    max_time = settings.max_time_s or gap / v0 + 20.0 * t_est
-    n_max = max(math.ceil(max_time / dt), math.ceil(GAP_STEPS) + 16)
-    first = math.ceil(GAP_STEPS) + math.ceil(t_est / dt) + 2
-    chunk = max(8, math.ceil(0.05 * t_est / dt))
-    out = drive(sim, n_max, first, chunk, ball_end_finder())
+    out = drive(sim, *drive_plan(settings, dt, gap / v0, t_est, 8), ball_end_finder())
     x, rate = -out.qpos[:, 0], -out.qvel[:, 0]
     vt, spin = out.qvel[:, 1], out.qvel[:, 2]
     ft = np.zeros_like(x)
@@ -724,39 +710,19 @@ class NewtonAdapter(Adapter):
                  "Coulomb for the step)")
     modes = ("native", "injected", "tuned", "default", "custom")
     parameter_keys = PARAMETER_KEYS
+    tuned_parameters = "ke, optional kd"
     builders: ClassVar[dict[str, Builder]] = {
         "ball-on-plate": Builder("run_ball", BALL_TIMESTEP_S),
         "rigid-flexible": Builder("run_rigid_flexible", RIGID_FLEXIBLE_TIMESTEP_S),
-        "oblique": Builder("run_oblique", BALL_TIMESTEP_S),
-        "cube-toss": Builder("replay_tosses", CUBE_TOSS_STEP_S,
-                             modes=("default", "custom", "tuned", "native"), own_keys=True,
-                             why_not=CUBE_TOSS_NOT_INJECTED["newton"]),
+        "oblique": Builder("run_oblique", BALL_TIMESTEP_S,
+                           tuned_check=oblique_tuned.refused),
+        "cube-toss": cube_toss_builder("newton"),
     }
+    # builders only build (Adapter.run has checked the mode, the keys and the tuned file)
+    run_ball = staticmethod(run_ball)
+    run_rigid_flexible = staticmethod(run_rigid_flexible)
+    run_oblique = staticmethod(run_oblique)
 
     def version(self) -> str:
         wp, newton = _newton()
         return f"{newton.__version__} (warp {wp.__version__})"
-
-    def run_ball(self, scenario: BallOnPlate, mode: str, settings: RunSettings) -> ImpactRecord:
-        if mode == "tuned" and settings.tuned is None:
-            return _no_tuned_file()
-        return run_ball(scenario, mode, settings)
-
-    def run_rigid_flexible(self, scenario: RigidFlexible, mode: str, settings: RunSettings
-                           ) -> ImpactRecord:
-        if mode == "tuned" and settings.tuned is None:
-            return _no_tuned_file()
-        return run_rigid_flexible(scenario, mode, settings)
-
-    def run_oblique(self, scenario: Oblique, mode: str, settings: RunSettings
-                    ) -> ImpactRecord:
-        if mode == "tuned":
-            refused = oblique_tuned.refused(self.name, settings)
-            if refused is not None:
-                return refused
-        return run_oblique(scenario, mode, settings)
-
-
-def _no_tuned_file() -> ImpactRecord:
-    return ImpactRecord.failed(
-        Status.UNSUPPORTED, "tuned mode needs a tuned-parameter file (none given)")

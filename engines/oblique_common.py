@@ -50,8 +50,6 @@ GAP_STEPS = 2.5
 COMBINATIONS = ("product", "max", "min", "average", "harmonic")
 """How engines combine the two bodies' friction coefficients into the pair's μ: Bullet
 multiplies, MuJoCo takes the larger, Drake the harmonic mean 2ab/(a + b)."""
-TUNED_UNSUPPORTED = ("tuned oblique: no friction parameters are fitted yet (no tuning space "
-                     "for the oblique scenario); run native, injected, default or custom")
 FRICTION_RELAXATION_PER_CONTACT = 20.0
 """An injected velocity-level Coulomb friction that cannot be rigid in one step relaxes the
 slip at this many times the inverse contact duration (MuJoCo's elliptic cone), so the stick
@@ -134,19 +132,6 @@ def finish(rec: ImpactRecord, s: Oblique, *, tunneled: bool = False,
             a is None or np.all(np.isfinite(a)) for a in tangential):
         rec.status, rec.message = Status.DIVERGED, "non-finite tangential state"
     return rec
-
-
-def unsupported_tuned(**meta: Any) -> ImpactRecord:
-    """``tuned`` on the oblique scenario: ``unsupported`` with the reason."""
-    return ImpactRecord.failed(Status.UNSUPPORTED, TUNED_UNSUPPORTED, **meta)
-
-
-def reject_keys(params: dict[str, Any] | None, keys: tuple[str, ...], scenario: str) -> None:
-    """A ``custom`` key that only the oblique scenario uses, given to another scenario, is a
-    one-line ValueError (it would otherwise be silently ignored)."""
-    for key in sorted(set(params or {}) & set(keys)):
-        raise ValueError(f"param {key} = {params[key]!r}: applies to the oblique scenario "
-                         f"only, not {scenario!r}")
 
 
 def native_normal(s: Oblique, reference_velocity_m_s: float) -> SpringDamper:
@@ -246,7 +231,6 @@ __all__ = [
     "PLANAR",
     "REGULARISATION_STEPS",
     "SPIN_FACTOR",
-    "TUNED_UNSUPPORTED",
     "Start",
     "combined",
     "coulomb_force",
@@ -259,8 +243,6 @@ __all__ = [
     "neutral_plate",
     "normal_duration_s",
     "record",
-    "reject_keys",
     "shape_unsupported",
     "start",
-    "unsupported_tuned",
 ]

@@ -3,12 +3,14 @@ normal contact, μ from the scenario) with its FRICTION-RELATED parameters repla
 fitted against the rigid reference over an angle sweep at one timestep
 (``impactbench tune --scenario oblique``, :mod:`impactbench.tuning.oblique`).
 
-:data:`SPACES` is the one statement of what a fit moves, per engine, in the engine's own
-keys (what its ``custom`` mode spells them, or its API's name where ``custom`` has none): the
-scale (``log``, ``linear`` or a ``choice``), the bounds (absolute, or multiples of the
-scenario's μ or of the start value) and the start, which is the native run's own value — so a
-tuned run at the start values is the native run, and a fit that keeps its best evaluation is
-never worse than native on its objective.
+:data:`MUJOCO`, :data:`PYBULLET`, … (one tuple per engine, named by the engine's
+:class:`~impactbench.engines.registry.EngineSpec` under ``spaces["friction"]``; :data:`SPACES`
+reads them from the specs) state what a fit moves, in the engine's own keys (what its
+``custom`` mode spells them, or its API's name where ``custom`` has none): the scale (``log``,
+``linear`` or a ``choice``), the bounds (absolute, or multiples of the scenario's μ or of the
+start value) and the start, which is the native run's own value — so a tuned run at the start
+values is the native run, and a fit that keeps its best evaluation is never worse than native
+on its objective.
 
 The adapters read a tuned file's ``[parameters]`` through :func:`refused` (no parameters, or
 keys of another scenario's file: ``unsupported`` with the reason) and :func:`friction` (the
@@ -20,10 +22,11 @@ to them yet (it still returns ``unsupported`` for ``tuned``).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
 from typing import Any
 
+from impactbench.engines import registry
 from impactbench.reference import validation as check
 from impactbench.reference.record import ImpactRecord, Status
 
@@ -114,7 +117,7 @@ def _newton_kf(scenario: Any, dt: float | None) -> float:
     return slip_mass_kg(scenario) / dt
 
 
-_MUJOCO = (
+MUJOCO = (
     Knob("cone", "choice", start="pyramidal", choices=("pyramidal", "elliptic"),
          meaning="MuJoCo's friction cone (option cone; native: its default pyramidal)"),
     Knob("impratio", "log", 1.0, 1e4, start=1.0,
@@ -123,55 +126,76 @@ _MUJOCO = (
     _mu("the geoms' sliding friction (both geoms; MuJoCo takes the larger: the pair's μ)",
         "friction"),
 )
+"""MuJoCo's and MJX's knobs. Left out: ``solreffriction`` (it needs an explicit ``<pair>``;
+the elliptic cone with a large ``impratio`` already sticks to 1e-4)."""
+PYBULLET = (
+    Knob("frictionAnchor", "choice", start=0, choices=(0, 1),
+         meaning="changeDynamics frictionAnchor on the ball: keep the contact point where "
+                 "it was created (native: Bullet's default, off)"),
+    _mu("changeDynamics lateralFriction on the ball (the plate's is 1; Bullet multiplies: "
+        "the pair's μ)", "lateralFriction"),
+)
+DRAKE = (
+    _mu("CoulombFriction(μ, μ) of both geometries (proximity property material/"
+        "coulomb_friction, static = dynamic; Drake's pair rule 2ab/(a + b) gives μ)",
+        "coulomb_friction"),
+    Knob("stiction_tolerance", "log", 1e-6, 1e-2, start=1e-4,
+         meaning="MultibodyPlant.set_stiction_tolerance (m/s): the regularised Stribeck "
+                 "friction rises to μ·F_n over this slip speed (native: Drake's 1e-4)"),
+)
+SAPIEN = (
+    _mu("PhysX material static friction (both materials; the pair averages)",
+        "static_friction"),
+    _mu("PhysX material dynamic friction (both materials; the pair averages)",
+        "dynamic_friction"),
+)
+"""Left out: ``enable_friction_every_iteration`` (measured: the same objective to 1e-9 either
+way on the paper's ball)."""
+DART = (
+    _mu("DynamicsAspect friction_coeff of both shapes (DART takes the smaller)",
+        "friction_coeff"),
+)
+NEWTON = (
+    _mu("ShapeConfig mu of both shapes (Newton averages)", "mu"),
+    Knob("kf", "log", 1e-3, 1.0, per="start", start=_newton_kf,
+         meaning="ShapeConfig kf (N·s/m): F_t = −kf·v_slip capped at μ·F_n; start the "
+                 "deadbeat m_s/dt, the stiffest that does not overshoot the stick (above "
+                 "it the slip alternates in sign each step, beyond 2·m_s/dt it diverges)"),
+)
+PYMUNK = (
+    _mu("the ball shape's friction (the plate's is 1; Chipmunk multiplies: the pair's μ)",
+        "friction"),
+)
+BOX2D = (
+    _mu("both fixtures' friction (b2MixFriction √(μ·μ) = μ)", "friction"),
+)
 
-SPACES: dict[str, tuple[Knob, ...]] = {
-    "mujoco": _MUJOCO,
-    "mjx": _MUJOCO,
-    "pybullet": (
-        Knob("frictionAnchor", "choice", start=0, choices=(0, 1),
-             meaning="changeDynamics frictionAnchor on the ball: keep the contact point where "
-                     "it was created (native: Bullet's default, off)"),
-        _mu("changeDynamics lateralFriction on the ball (the plate's is 1; Bullet multiplies: "
-            "the pair's μ)", "lateralFriction"),
-    ),
-    "drake": (
-        _mu("CoulombFriction(μ, μ) of both geometries (proximity property material/"
-            "coulomb_friction, static = dynamic; Drake's pair rule 2ab/(a + b) gives μ)",
-            "coulomb_friction"),
-        Knob("stiction_tolerance", "log", 1e-6, 1e-2, start=1e-4,
-             meaning="MultibodyPlant.set_stiction_tolerance (m/s): the regularised Stribeck "
-                     "friction rises to μ·F_n over this slip speed (native: Drake's 1e-4)"),
-    ),
-    "sapien": (
-        _mu("PhysX material static friction (both materials; the pair averages)",
-            "static_friction"),
-        _mu("PhysX material dynamic friction (both materials; the pair averages)",
-            "dynamic_friction"),
-    ),
-    "dart": (
-        _mu("DynamicsAspect friction_coeff of both shapes (DART takes the smaller)",
-            "friction_coeff"),
-    ),
-    "newton": (
-        _mu("ShapeConfig mu of both shapes (Newton averages)", "mu"),
-        Knob("kf", "log", 1e-3, 1.0, per="start", start=_newton_kf,
-             meaning="ShapeConfig kf (N·s/m): F_t = −kf·v_slip capped at μ·F_n; start the "
-                     "deadbeat m_s/dt, the stiffest that does not overshoot the stick (above "
-                     "it the slip alternates in sign each step, beyond 2·m_s/dt it diverges)"),
-    ),
-    "pymunk": (
-        _mu("the ball shape's friction (the plate's is 1; Chipmunk multiplies: the pair's μ)",
-            "friction"),
-    ),
-    "box2d": (
-        _mu("both fixtures' friction (b2MixFriction √(μ·μ) = μ)", "friction"),
-    ),
-}
-"""Engine → the knobs of its oblique ``tuned`` mode (module doc). The 2D engines' (pymunk,
-Box2D) are stated for the fitting code; their adapters do not read them yet. Left out:
-SAPIEN's ``enable_friction_every_iteration`` (measured: the same objective to 1e-9 either
-way on the paper's ball), MuJoCo's ``solreffriction`` (it needs an explicit ``<pair>``; the
-elliptic cone with a large ``impratio`` already sticks to 1e-4)."""
+FIT = "friction"
+"""The fit these knobs serve: an engine's :class:`~impactbench.engines.registry.EngineSpec`
+names its tuple above under this key of ``spaces`` (the one place per engine)."""
+
+
+class _Spaces(Mapping[str, tuple[Knob, ...]]):
+    """engine → the knobs of its oblique ``tuned`` mode, read from each registered engine's
+    spec (``spaces["friction"]``) at each access: a plug-in engine brings its own."""
+
+    def __getitem__(self, engine: str) -> tuple[Knob, ...]:
+        found = registry.tuning_space(engine, FIT)
+        if found is None:
+            raise KeyError(engine)
+        return tuple(found)
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(registry.with_space(FIT))
+
+    def __len__(self) -> int:
+        return len(registry.with_space(FIT))
+
+
+SPACES: Mapping[str, tuple[Knob, ...]] = _Spaces()
+"""Engine → the knobs of its oblique ``tuned`` mode (module doc), from the engines' specs. The
+2D engines' (pymunk, Box2D) are stated for the fitting code; their adapters do not read them
+yet."""
 
 
 def knobs(engine: str) -> tuple[Knob, ...]:
@@ -254,5 +278,6 @@ def run_stepped(adapter: Any, scenario: Any, settings: Any,
     return (run or stepping.run_oblique)(model, scenario, dt, settings.max_time_s, info)
 
 
-__all__ = ["SCALES", "SPACES", "Knob", "friction", "knobs", "meta", "refused", "run_stepped",
-           "start_values", "tuned_keys"]
+__all__ = ["BOX2D", "DART", "DRAKE", "FIT", "MUJOCO", "NEWTON", "PYBULLET", "PYMUNK",
+           "SAPIEN", "SCALES", "SPACES", "Knob", "friction", "knobs", "meta", "refused",
+           "run_stepped", "start_values", "tuned_keys"]

@@ -140,12 +140,12 @@ from typing import Any, ClassVar
 
 from impactbench.engines import oblique_tuned
 from impactbench.engines.base import (
-    CUBE_TOSS_STEP_S,
     Adapter,
     Builder,
     EngineUnavailable,
     RunSettings,
     Scenario,
+    cube_toss_builder,
 )
 from impactbench.engines.common import (
     NATIVE_REFERENCE_VELOCITY_M_S,
@@ -162,7 +162,6 @@ from impactbench.engines.oblique_common import (
     native_normal,
     neutral_plate,
     record,
-    reject_keys,
     start,
 )
 from impactbench.reference import validation as check
@@ -443,28 +442,23 @@ class PybulletAdapter(Adapter):
                  "scheduled each step, applied by Bullet's implicit (backward-Euler) contact "
                  "step; oblique: with Bullet's own rigid Coulomb friction (lateral friction "
                  "rows clamped at μ times the normal impulse)")
+    tuned_parameters = "contact_stiffness, optional contact_damping"
     builders: ClassVar[dict[str, Builder]] = {
-        "ball-on-plate": Builder("run_ball", BALL_DEFAULT_DT_S),
+        "ball-on-plate": Builder("run_ball", BALL_DEFAULT_DT_S, parameter_keys=PARAMETER_KEYS),
         "rigid-flexible": Builder("run_rigid_flexible", RF_DEFAULT_DT_S,
                                   modes=("native", "injected", "tuned")),
-        "oblique": Builder("run_oblique", OBLIQUE_DT_S),
-        "cube-toss": Builder("replay_tosses", CUBE_TOSS_STEP_S, own_keys=True),
+        "oblique": Builder("run_oblique", OBLIQUE_DT_S, tuned_check=oblique_tuned.refused),
+        "cube-toss": cube_toss_builder("pybullet"),
     }
 
     def version(self) -> str:
         return _version()
 
     def run_ball(self, scenario: BallOnPlate, mode: str, settings: RunSettings) -> ImpactRecord:
-        if mode == "custom":
-            reject_keys(settings.params, OBLIQUE_KEYS, scenario.name)
         return self._run_with(_run_ball, scenario, mode, settings)
 
     def run_oblique(self, scenario: Scenario, mode: str, settings: RunSettings
                     ) -> ImpactRecord:
-        if mode == "tuned":
-            refused = oblique_tuned.refused(self.name, settings)
-            if refused is not None:
-                return refused
         return self._run_with(_run_oblique, scenario, mode, settings)
 
     def run_rigid_flexible(self, scenario: RigidFlexible, mode: str, settings: RunSettings
@@ -473,13 +467,9 @@ class PybulletAdapter(Adapter):
 
     def _run_with(self, run: Callable[..., ImpactRecord], scenario: Scenario, mode: str,
                   settings: RunSettings) -> ImpactRecord:
-        """What every scenario shares: the injection option, the tuned check, the import."""
+        """What every scenario shares: the injection option, the import."""
         injection = check.one_of("injection", settings.options.get("injection", "secant"),
                                  INJECTIONS)
-        if mode == "tuned" and settings.tuned is None:
-            return ImpactRecord.failed(
-                Status.UNSUPPORTED, "tuned mode needs tuned parameters (contact_stiffness, "
-                "contact_damping); none were given")
         p = _import_engine()
         dt = float(settings.timestep_s or self.default_timestep_s(scenario, mode))
         return run(p, scenario, mode, settings, dt, injection)
@@ -704,27 +694,18 @@ def _run_oblique(p: Any, s: Any, mode: str, settings: RunSettings, dt: float,
     meta["engine_defaults"] = {**(world.defaults if out_of_box is not None else {}),
                                **world.friction_facts(anchor)}
     rows: list[tuple[float, ...]] = []
+    inject = _Injection(world, law, injection, dt, m) if injected else None
+    end = _BallEnd(beyond)
     try:
         ball, plate, cid = world.ball, world.plate, world.cid
         get_pos, get_vel = p.getBasePositionAndOrientation, p.getBaseVelocity
-        contacts, step, set_contact = p.getContactPoints, p.stepSimulation, world.set_contact
-        touched = timed_out = tunneled = False
-        scheduled = False
+        contacts, step = p.getContactPoints, p.stepSimulation
         for i in range(n_max):
             x = radius - get_pos(ball, physicsClientId=cid)[0][2]
             lin, ang = get_vel(ball, physicsClientId=cid)
             v = -lin[2]
-            if injected and x > 0.0:
-                if injection == "explicit":
-                    target = law.force(x, v)
-                    x_end = x + dt * (v - target * dt / m)
-                    set_contact(target / x_end if x_end > 0.0 and target > 0.0 else 0.0, 0.0)
-                else:
-                    set_contact(*spring_damper(law, x))  # F = k·x + d·ẋ at this x
-                scheduled = True
-            elif scheduled:
-                set_contact(0.0, 0.0)
-                scheduled = False
+            if inject is not None:
+                inject(x, v)
             step(physicsClientId=cid)
             normal = tangential = 0.0
             for cp in contacts(ball, plate, physicsClientId=cid):
@@ -732,22 +713,17 @@ def _run_oblique(p: Any, s: Any, mode: str, settings: RunSettings, dt: float,
                 # the lateral friction Bullet reports acts on body B (the plate): negate
                 tangential -= cp[10] * cp[11][0] + cp[12] * cp[13][0]
             rows.append((i * dt - FLIGHT_STEPS * dt, x, v, normal, lin[0], ang[1], tangential))
-            if normal > 0.0:
-                touched = True
-            elif touched and v < 0.0 and x <= 0.0:
-                break
-            if x > beyond or not math.isfinite(x):
-                tunneled = x > beyond
+            if end.ended(normal, x, v):
                 break
         else:
-            timed_out = True
+            end.timed_out = True
         x_end = radius - get_pos(ball, physicsClientId=cid)[0][2]
     finally:
         world.close()
     cols = list(zip(*rows, strict=True)) if rows else [()] * 7
     rec = record(s, *cols, meta=meta)
-    return finish(rec, s, tunneled=tunneled or x_end > beyond,
-                  timed_out=timed_out and not tunneled)
+    return finish(rec, s, tunneled=end.tunneled or x_end > beyond,
+                  timed_out=end.timed_out and not end.tunneled)
 
 
 def _tuned_pair(tuned: dict[str, Any]) -> tuple[float, float]:
@@ -780,6 +756,56 @@ def _native_pair(scenario: BallOnPlate, v_ref: float) -> tuple[float, float]:
     return sd.stiffness_n_per_m, sd.damping_ns_per_m
 
 
+class _Injection:
+    """Injected mode's pair contact, set before each step from the start state (x, ẋ):
+    ``secant`` the law's spring–damper k, d at x (F = k·x + d·ẋ); ``explicit`` the
+    stiffness F/x_end that lands the step on the law's force F, x_end the penetration the
+    step reaches under F and gravity (``g_dt`` = g·dt, m/s); none again once the ball is
+    out of contact."""
+
+    def __init__(self, world: Any, law: Any, injection: str, dt: float, m: float,
+                 g_dt: float = 0.0) -> None:
+        self.set_contact, self.law = world.set_contact, law
+        self.explicit = injection == "explicit"
+        self.dt, self.m, self.g_dt = dt, m, g_dt
+        self.scheduled = False
+
+    def __call__(self, x: float, v: float) -> None:
+        if x > 0.0:
+            if self.explicit:
+                dt = self.dt
+                target = self.law.force(x, v)
+                x_end = x + dt * (v + self.g_dt - target * dt / self.m)
+                self.set_contact(target / x_end if x_end > 0.0 and target > 0.0 else 0.0, 0.0)
+            else:
+                self.set_contact(*spring_damper(self.law, x))  # F = k·x + d·ẋ at this x
+            self.scheduled = True
+        elif self.scheduled:
+            self.set_contact(0.0, 0.0)
+            self.scheduled = False
+
+
+class _BallEnd:
+    """When a ball run stops: after a step without force once it has touched, with the ball
+    moving away and clear of the plate (x ≤ 0); or with its centre past ``beyond`` (m:
+    ``tunneled``) or not finite. ``timed_out`` is set by the caller at the step cap."""
+
+    def __init__(self, beyond: float) -> None:
+        self.beyond = beyond
+        self.touched = self.tunneled = self.timed_out = False
+
+    def ended(self, force: float, x: float, v: float) -> bool:
+        """After a step with normal force ``force`` (N) from penetration x (m), rate v (m/s)."""
+        if force > 0.0:
+            self.touched = True
+        elif self.touched and v < 0.0 and x <= 0.0:
+            return True
+        if x > self.beyond or not math.isfinite(x):
+            self.tunneled = x > self.beyond
+            return True
+        return False
+
+
 def _run_ball(p: Any, s: BallOnPlate, mode: str, settings: RunSettings, dt: float,
               injection: str) -> ImpactRecord:
     """Record the ball's impact; see the module docstring for the physics."""
@@ -797,52 +823,38 @@ def _run_ball(p: Any, s: BallOnPlate, mode: str, settings: RunSettings, dt: floa
     world = BallWorld(p, s, dt, k0, d0, out_of_box)
     if out_of_box is not None:
         meta["engine_defaults"] = world.defaults
+    inject = _Injection(world, law, injection, dt, m, g_dt) if injected else None
+    end = _BallEnd(beyond)
     try:
         ball, plate, cid = world.ball, world.plate, world.cid
         get_pos, get_vel = p.getBasePositionAndOrientation, p.getBaseVelocity
-        contacts, step, set_contact = p.getContactPoints, p.stepSimulation, world.set_contact
-        touched = timed_out = tunneled = False
-        scheduled = False
+        contacts, step = p.getContactPoints, p.stepSimulation
         loop_start = time.perf_counter()
         for i in range(n_max):
             x = radius - get_pos(ball, physicsClientId=cid)[0][2]
             v = -get_vel(ball, physicsClientId=cid)[0][2]
-            if injected and x > 0.0:
-                if injection == "explicit":
-                    target = law.force(x, v)
-                    x_end = x + dt * (v + g_dt - target * dt / m)
-                    set_contact(target / x_end if x_end > 0.0 and target > 0.0 else 0.0, 0.0)
-                else:
-                    set_contact(*spring_damper(law, x))  # F = k·x + d·ẋ at this x
-                scheduled = True
-            elif scheduled:
-                set_contact(0.0, 0.0)
-                scheduled = False
+            if inject is not None:
+                inject(x, v)
             step(physicsClientId=cid)
             force = 0.0
             for cp in contacts(ball, plate, physicsClientId=cid):
                 force += cp[9]
             rec.append(i * dt, x, v, force, v)
-            if force > 0.0:
-                touched = True
-            elif touched and v < 0.0 and x <= 0.0:
-                break
-            if x > beyond or not math.isfinite(x):
-                tunneled = x > beyond
+            if end.ended(force, x, v):
                 break
         else:
-            timed_out = True
+            end.timed_out = True
         meta["loop_wall_s"] = time.perf_counter() - loop_start
         x_end = radius - get_pos(ball, physicsClientId=cid)[0][2]
         v_end = -get_vel(ball, physicsClientId=cid)[0][2]
     finally:
         world.close()
     out = rec.record(m, math.inf, **meta)
-    tunneled = tunneled or x_end > beyond
+    tunneled = end.tunneled or x_end > beyond
     return classify(out, initial_kinetic_j=0.5 * m * (s.velocity_m_s**2 + 2 * s.gravity_m_s2
                                                       * world.gap_m),
                     final_kinetic_j=0.5 * m * v_end**2, tunneled=tunneled,
-                    timed_out=timed_out and not tunneled)
+                    timed_out=end.timed_out and not tunneled)
 
 
 def _run_flex(p: Any, s: RigidFlexible, mode: str, settings: RunSettings, dt: float,

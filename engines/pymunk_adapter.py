@@ -152,9 +152,8 @@ from impactbench.engines.base import (
 )
 from impactbench.engines.common import NATIVE_REFERENCE_VELOCITY_M_S, classify
 from impactbench.reference import validation as check
-from impactbench.reference.laws import no_further_contact
 from impactbench.reference.oblique_scenario import Oblique
-from impactbench.reference.record import ImpactRecord, Status
+from impactbench.reference.record import ImpactRecord
 from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
 
 INJECTIONS: tuple[str, ...] = ("penalty", "restitution")
@@ -205,6 +204,34 @@ def _iterations(settings: RunSettings) -> int:
     return it
 
 
+SPACE_KEYS = ("collision_slop", "collision_bias", "iterations", "damping")
+"""The ``custom`` keys that are the space's attributes."""
+
+
+def _defaults(space: Any, ball: Any, plate: Any, friction: bool = False) -> dict[str, Any]:
+    """pymunk's out-of-the-box contact settings, read from a fresh space and shapes (the
+    shapes' elasticity and, with ``friction``, friction; the space's :data:`SPACE_KEYS`)."""
+    out = {"elasticity": ball.elasticity, "plate_elasticity": plate.elasticity}
+    if friction:
+        out.update(friction=ball.friction, plate_friction=plate.friction)
+    return {**out, **{key: getattr(space, key) for key in SPACE_KEYS}}
+
+
+def _set_contact(space: Any, ball: Any, plate: Any, elasticity: float,
+                 out_of_box: dict[str, Any] | None) -> None:
+    """The pair's elasticity on the ball, the plate's 1 (Chipmunk multiplies them): the run's
+    ``elasticity``, or out of the box the user's (``out_of_box``, with its space keys) over
+    pymunk's defaults."""
+    if out_of_box is None:
+        ball.elasticity, plate.elasticity = elasticity, 1.0
+        return
+    for key in SPACE_KEYS:
+        if key in out_of_box:
+            setattr(space, key, out_of_box[key])
+    if "elasticity" in out_of_box:
+        ball.elasticity, plate.elasticity = out_of_box["elasticity"], 1.0
+
+
 class BallModel:
     """The ball-on-plate space, with its contact handler installed.
 
@@ -239,19 +266,9 @@ class BallModel:
         half = 10.0 * radius
         h = THICK_PLATE_RADIUS_M
         plate = pymunk.Segment(space.static_body, (-half, -h), (half, -h), h)
-        if out_of_box is None:
-            ball.elasticity, plate.elasticity = elasticity, 1.0
-        else:
-            self.defaults = {"elasticity": ball.elasticity,
-                             "plate_elasticity": plate.elasticity,
-                             "collision_slop": space.collision_slop,
-                             "collision_bias": space.collision_bias,
-                             "iterations": space.iterations, "damping": space.damping}
-            for key in ("collision_slop", "collision_bias", "iterations", "damping"):
-                if key in out_of_box:
-                    setattr(space, key, out_of_box[key])
-            if "elasticity" in out_of_box:
-                ball.elasticity, plate.elasticity = out_of_box["elasticity"], 1.0
+        if out_of_box is not None:
+            self.defaults = _defaults(space, ball, plate)
+        _set_contact(space, ball, plate, elasticity, out_of_box)
         ball.friction = plate.friction = 0.0
         self.out_of_box = out_of_box is not None
         self.beyond_m = radius + THICK_PLATE_RADIUS_M  # tunnelled: past the plate's core
@@ -402,20 +419,9 @@ class ObliqueModel:
         ball = pymunk.Circle(body, radius)
         h = THICK_PLATE_RADIUS_M
         plate = pymunk.Segment(space.static_body, (-10.0, -h), (10.0, -h), h)
-        if out_of_box is None:
-            ball.elasticity, plate.elasticity = elasticity, 1.0
-        else:
-            self.defaults = {"elasticity": ball.elasticity,
-                             "plate_elasticity": plate.elasticity,
-                             "friction": ball.friction, "plate_friction": plate.friction,
-                             "collision_slop": space.collision_slop,
-                             "collision_bias": space.collision_bias,
-                             "iterations": space.iterations, "damping": space.damping}
-            for key in ("collision_slop", "collision_bias", "iterations", "damping"):
-                if key in out_of_box:
-                    setattr(space, key, out_of_box[key])
-            if "elasticity" in out_of_box:
-                ball.elasticity, plate.elasticity = out_of_box["elasticity"], 1.0
+        if out_of_box is not None:
+            self.defaults = _defaults(space, ball, plate, friction=True)
+        _set_contact(space, ball, plate, elasticity, out_of_box)
         ball.friction, plate.friction = friction, 1.0
         self.out_of_box = out_of_box is not None
         self.beyond_m = radius + THICK_PLATE_RADIUS_M
@@ -470,11 +476,13 @@ class PymunkAdapter(Adapter):
                  "oblique: Coulomb friction is a force and torque too, −s·m_s/dt clipped to "
                  "±μ·F_n (options injection = restitution: pymunk's own rigid contact and "
                  "Coulomb friction, with the law's restitution)")
+    tuned_parameters = "elasticity"
     builders: ClassVar[dict[str, Builder]] = {
-        "ball-on-plate": Builder("run_ball", 1e-6),
+        "ball-on-plate": Builder("run_ball", 1e-6, parameter_keys=tuple(
+            k for k in PARAMETER_KEYS if k not in OBLIQUE_KEYS)),
         "rigid-flexible": Builder("run_rigid_flexible", 1e-5,
                                   modes=("native", "injected", "tuned")),
-        "oblique": Builder("run_oblique", 1e-6),
+        "oblique": Builder("run_oblique", 1e-6, tuned_check=oblique_tuned.refused),
     }
     missing_builders: ClassVar[dict[str, str]] = {"cube-toss": CUBE_TOSS_TWO_D.format("pymunk")}
 
@@ -491,21 +499,13 @@ class PymunkAdapter(Adapter):
 
     def run_oblique(self, scenario: Oblique, mode: str, settings: RunSettings
                     ) -> ImpactRecord:
-        if mode == "tuned":
-            refused = oblique_tuned.refused(self.name, settings)
-            if refused is not None:
-                return refused
         return self._run_with(oblique_model, run_oblique, scenario, mode, settings)
 
     def _run_with(self, build: Callable[..., tuple[Any, dict[str, Any]]],
                   run: Callable[[Any, RunSettings, dict[str, Any]], ImpactRecord],
                   scenario: Scenario, mode: str, settings: RunSettings) -> ImpactRecord:
-        """What every scenario shares: the tuned check, the step and the solver iterations,
-        then ``build(scenario, mode, settings, dt, iterations)`` and ``run``."""
-        if mode == "tuned" and settings.tuned is None:
-            return ImpactRecord.failed(
-                Status.UNSUPPORTED, "tuned mode needs settings.tuned = {'elasticity': e} "
-                "(no tuned-parameter file given)")
+        """What every scenario shares: the step and the solver iterations, then
+        ``build(scenario, mode, settings, dt, iterations)`` and ``run``."""
         dt = float(settings.timestep_s)  # Adapter.run fills the default
         iterations = _iterations(settings)
         model, meta = build(scenario, mode, settings, dt, iterations)
@@ -517,12 +517,9 @@ def _tuned_elasticity(settings: RunSettings) -> float:
     return check.non_negative("tuned.elasticity", value)
 
 
-RIGID_BALL_ARTEFACTS: dict[str, str] = dict.fromkeys(
-    ("duration_s", "peak_force_n", "max_penetration_m", "energy_loss_fraction"),
-    "a rigid contact is a one-step impulse: no duration, force or penetration")
-RIGID_RF_ARTEFACTS: dict[str, str] = dict.fromkeys(
-    ("peak_force_n", "pulse_width_s", "contact_time_s"),
-    "a rigid contact is a one-step impulse: no contact stiffness k1, force or duration")
+RIGID_BALL_ARTEFACTS = stepping.RIGID_BALL_ARTEFACTS
+RIGID_RF_ARTEFACTS = stepping.RIGID_RF_ARTEFACTS
+"""``meta["not_comparable"]`` of a rigid (one-step impulse) contact: the stepped engines'."""
 
 
 @lru_cache(maxsize=256)
@@ -556,7 +553,6 @@ def ball_model(scenario: BallOnPlate, mode: str, settings: RunSettings, dt: floa
                iterations: int, measure: bool = True) -> tuple[BallModel, dict[str, Any]]:
     """Build the ball space for ``mode``; returns it and the meta of its parameters."""
     if mode in ("default", "custom"):
-        oblique_common.reject_keys(settings.params, OBLIQUE_KEYS, scenario.name)
         params = custom_parameters(settings.params or {}) if mode == "custom" else {}
         model = BallModel(scenario, "rigid", dt, measure=measure, out_of_box=params)
         return model, {"contact": "rigid", "params": params,
@@ -645,6 +641,44 @@ def _columns(flat: list[float], width: int) -> np.ndarray:
     return np.array(flat, dtype=float).reshape(-1, width).T
 
 
+def _step_cap(model: BallModel | ObliqueModel, settings: RunSettings, v0: float) -> int:
+    """A ball run's step cap: ``max_time_s``, else the free flight and
+    :data:`BALL_TIME_CAP_S` (out of the box :data:`OUT_OF_BOX_TIME_CAP_S`), at least
+    :data:`MIN_CAP_STEPS` steps; ``v0`` the approach speed (m/s)."""
+    dt = model.dt
+    cap_s = settings.max_time_s or (model.gap_m / v0 + max(
+        OUT_OF_BOX_TIME_CAP_S if model.out_of_box else BALL_TIME_CAP_S, MIN_CAP_STEPS * dt))
+    return max(1, math.ceil(cap_s / dt))
+
+
+class _LetGo:
+    """When a ball run stops: :data:`TAIL_STEPS` steps after the ball has let go (a step
+    without force after touch, the ball moving away and clear of the plate, or out of the box
+    at rest on it: an inelastic rigid contact may leave it there, overlapping), or at once
+    when its centre passes the plate's surface or core (``tunneled``)."""
+
+    def __init__(self, model: BallModel | ObliqueModel) -> None:
+        self.beyond_m, self.rests = model.beyond_m, model.out_of_box
+        self.touched = self.tunneled = False
+        self.tail = -1
+
+    def ended(self, f: float, x: float, v: float) -> bool:
+        """After a step with normal force ``f`` (N) that left penetration x (m), rate v (m/s)."""
+        if f > 0.0:
+            self.touched = True
+        elif self.tail > 0:
+            self.tail -= 1
+            if self.tail == 0:
+                return True
+        elif self.touched and self.tail < 0 and ((v < 0.0 and x <= 0.0)
+                                                 or (self.rests and v <= 0.0)):
+            self.tail = TAIL_STEPS
+        if x > self.beyond_m:
+            self.tunneled = True
+            return True
+        return False
+
+
 def run_ball(model: BallModel, settings: RunSettings, meta: dict[str, Any]) -> ImpactRecord:
     """Step the ball from its gap until it has let go (or tunnels, diverges, times out).
 
@@ -655,18 +689,15 @@ def run_ball(model: BallModel, settings: RunSettings, meta: dict[str, Any]) -> I
     """
     sc, dt = model.scenario, model.dt
     radius, v0 = sc.radius_m, sc.velocity_m_s
-    cap_s = settings.max_time_s or (model.gap_m / v0 + max(
-        OUT_OF_BOX_TIME_CAP_S if model.out_of_box else BALL_TIME_CAP_S, MIN_CAP_STEPS * dt))
-    rests = model.out_of_box  # an inelastic rigid contact may leave the ball at rest, overlapping
-    n_max = max(1, math.ceil(cap_s / dt))
+    n_max = _step_cap(model, settings, v0)
+    end = _LetGo(model)
     step = model.space.step
     position, velocity, handle = _readers(model.body)
     impulsive = model.contact != "penalty"
     x, v = -model.gap_m, v0
     flat = [] if impulsive else [x, v, 0.0]
     push = flat.extend
-    touched = tunneled = nonfinite = False
-    tail = -1
+    nonfinite = False
     for _ in range(n_max):
         model.force_n = 0.0
         step(dt)
@@ -678,16 +709,7 @@ def run_ball(model: BallModel, settings: RunSettings, meta: dict[str, Any]) -> I
             x = radius - position(handle).y
             push((x, v, f))
         v = -velocity(handle).y
-        if f > 0.0:
-            touched = True
-        elif tail > 0:
-            tail -= 1
-            if tail == 0:
-                break
-        elif touched and tail < 0 and ((v < 0.0 and x <= 0.0) or (rests and v <= 0.0)):
-            tail = TAIL_STEPS
-        if x > model.beyond_m:  # the centre passed the plate's surface (or core)
-            tunneled = True
+        if end.ended(f, x, v):
             break
         if not (math.isfinite(x) and math.isfinite(v)):
             nonfinite = True
@@ -696,13 +718,13 @@ def run_ball(model: BallModel, settings: RunSettings, meta: dict[str, Any]) -> I
         push((x, v, 0.0))
     xs, vs, fs = _columns(flat, 3)
     steps = xs.size - 1
-    timed_out = steps == n_max and tail != 0 and not (tunneled or nonfinite)
+    timed_out = steps == n_max and end.tail != 0 and not (end.tunneled or nonfinite)
     out = ImpactRecord(np.arange(xs.size) * dt, xs, vs, fs, vs, np.zeros_like(vs),
                        mass_1_kg=sc.mass_kg, meta=dict(meta, steps=steps))
     vx, vy = model.body.velocity
     return classify(out, initial_kinetic_j=0.5 * sc.mass_kg * v0 * v0,
                     final_kinetic_j=0.5 * sc.mass_kg * (vx * vx + vy * vy),
-                    tunneled=tunneled, timed_out=timed_out)
+                    tunneled=end.tunneled, timed_out=timed_out)
 
 
 def run_rigid_flexible(model: RigidFlexibleModel, settings: RunSettings,
@@ -716,10 +738,7 @@ def run_rigid_flexible(model: RigidFlexibleModel, settings: RunSettings,
     set (``contact_threshold()``, 0 for the rigid contact). Recording as in :func:`run_ball`.
     """
     sc, dt = model.scenario, model.dt
-    m1, m2, structure = sc.m1_kg, sc.m2_kg, model.structure
-    collapse_energy = structure.collapse_energy
-    softening = collapse_energy < math.inf
-    threshold = getattr(model.law, "contact_threshold", None)
+    end = stepping.PairEnd(sc, model.structure, getattr(model.law, "contact_threshold", None))
     cap_s = settings.max_time_s or sc.max_time_s
     n_max = max(1, math.ceil(cap_s / dt))
     step = model.space.step
@@ -730,7 +749,7 @@ def run_rigid_flexible(model: RigidFlexibleModel, settings: RunSettings,
     x1, x2, v1, v2 = -model.gap_m, 0.0, sc.velocity_m_s, 0.0
     flat = [] if impulsive else [x1, x2, 0.0, v1, v2]
     push = flat.extend
-    done = collapsed = nonfinite = False
+    nonfinite = False
     for _ in range(n_max):
         model.force_n = 0.0
         step(dt)
@@ -746,28 +765,15 @@ def run_rigid_flexible(model: RigidFlexibleModel, settings: RunSettings,
         if not (math.isfinite(x1) and math.isfinite(x2) and math.isfinite(v1 + v2)):
             nonfinite = True
             break
-        if f > 0.0:
-            if softening and 0.5 * m2 * v2 * v2 + structure.potential(x2) > collapse_energy:
-                collapsed = True  # flagged; the run goes on until body 2 escapes
-        elif v1 <= 0.0 or collapsed:
-            p = threshold() if threshold is not None else 0.0
-            if no_further_contact(x1 - p, v1, x2, v2, m2, structure):
-                done = True
-                break
+        if end.ended(f, x1, v1, x2, v2):
+            break
     if impulsive:
         push((x1, x2, 0.0, v1, v2))
     x1s, x2s, fs, v1s, v2s = _columns(flat, 5)
     out = ImpactRecord(np.arange(fs.size) * dt, x1s - x2s, v1s - v2s, fs, v1s, v2s,
-                       mass_1_kg=m1, mass_2_kg=m2, displacement_2_m=x2s,
+                       mass_1_kg=sc.m1_kg, mass_2_kg=sc.m2_kg, displacement_2_m=x2s,
                        meta=dict(meta, steps=fs.size - 1))
-    initial = 0.5 * m1 * sc.velocity_m_s**2
-    final = 0.5 * m1 * v1 * v1 + 0.5 * m2 * v2 * v2 + structure.potential(x2)
-    out = classify(out, initial_kinetic_j=initial, final_kinetic_j=final,
-                   timed_out=not (done or collapsed or nonfinite))
-    if collapsed and out.status in (Status.OK, Status.MAX_TIME):
-        out.status = Status.STRUCTURE_COLLAPSED
-        out.message = "body 2's energy passed the softening potential's peak k2²/(4β)"
-    return out
+    return end.outcome(out, v1, v2, x2, nonfinite)
 
 
 FRICTION_MODEL = ("Coulomb in the rigid velocity-level contact (Chipmunk's sequential "
@@ -845,17 +851,14 @@ def run_oblique(model: ObliqueModel, settings: RunSettings, meta: dict[str, Any]
     friction impulse / dt for a rigid contact, the injected Coulomb force for the penalty)."""
     sc, dt = model.scenario, model.dt
     v0 = sc.normal_velocity_m_s
-    cap_s = settings.max_time_s or (model.gap_m / v0 + max(
-        OUT_OF_BOX_TIME_CAP_S if model.out_of_box else BALL_TIME_CAP_S, MIN_CAP_STEPS * dt))
-    rests = model.out_of_box
-    n_max = max(1, math.ceil(cap_s / dt))
+    n_max = _step_cap(model, settings, v0)
+    end = _LetGo(model)
     step, state = model.space.step, model.state
     impulsive = model.contact != "penalty"
     x, v, vt, w = -model.gap_m, v0, sc.tangential_velocity_m_s, sc.spin_rad_s
     flat = [] if impulsive else [x, v, 0.0, vt, w, 0.0]
     push = flat.extend
-    touched = tunneled = nonfinite = False
-    tail = -1
+    nonfinite = False
     for _ in range(n_max):
         model.force_n = model.force_t = 0.0
         step(dt)
@@ -867,16 +870,7 @@ def run_oblique(model: ObliqueModel, settings: RunSettings, meta: dict[str, Any]
             x = state()[0]
             push((x, v, f, vt, w, ft))
             _, v, vt, w = state()
-        if f > 0.0:
-            touched = True
-        elif tail > 0:
-            tail -= 1
-            if tail == 0:
-                break
-        elif touched and tail < 0 and ((v < 0.0 and x <= 0.0) or (rests and v <= 0.0)):
-            tail = TAIL_STEPS
-        if x > model.beyond_m:
-            tunneled = True
+        if end.ended(f, x, v):
             break
         if not all(map(math.isfinite, (x, v, vt, w))):
             nonfinite = True
@@ -885,7 +879,7 @@ def run_oblique(model: ObliqueModel, settings: RunSettings, meta: dict[str, Any]
         push((x, v, 0.0, vt, w, 0.0))
     xs, vs, fs, vts, ws, fts = _columns(flat, 6)
     steps = xs.size - 1
-    timed_out = steps == n_max and tail != 0 and not (tunneled or nonfinite)
+    timed_out = steps == n_max and end.tail != 0 and not (end.tunneled or nonfinite)
     out = oblique_common.record(sc, np.arange(xs.size) * dt, xs, vs, fs, vts, ws, fts,
                                 {**meta, "steps": steps, oblique_common.PLANAR: True})
-    return oblique_common.finish(out, sc, tunneled=tunneled, timed_out=timed_out)
+    return oblique_common.finish(out, sc, tunneled=end.tunneled, timed_out=timed_out)

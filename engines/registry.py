@@ -3,10 +3,11 @@
 An engine is its adapter module plus one spec here: the adapter's entry point
 (``"module:Class"``, imported only when the engine is used), the pip command and extra that
 install it, the distribution whose version results record, its tuning parameterisations
-(``"module:function"`` building a tuning space, imported only by ``tune``), the steps its
-users customarily run it at and its colour in every figure. Everything else that needs an
-engine's facts — the CLI's choices, the store's versions, the tests' skips, the tuner, the
-plots — reads them from here (:func:`spec`), never from a table keyed by engine name.
+(``"module:function"`` building a tuning space, imported only by ``tune``) and its other fits'
+knobs (``spaces``), the steps its users customarily run it at and its colour in every figure.
+Everything else that needs an engine's facts — the CLI's choices, the store's versions, the
+tests' skips, the tuner, the plots — reads them from here (:func:`spec`), never from a table
+keyed by engine name.
 
 Kept apart from :mod:`impactbench.engines.base` (which needs numpy for the records) so that the
 command line can build its parser, with engine and mode choices, without importing numpy or
@@ -81,7 +82,13 @@ class EngineSpec:
         module: the top-level module it is imported as (tests skip on it; version checks
             make sure that module comes from ``distribution``).
         tuning: ``{parameterisation: "module:function"}`` (the first is the default): the
-            function builds the tuning space, ``f(scenario, variant, timestep_s, **options)``.
+            function builds the contact fit's space (the ball's, ``impactbench tune``),
+            ``f(scenario, variant, timestep_s, **options)``.
+        spaces: ``{fit: "module:attr"}``: the knobs of its other fits, by the fit's name
+            (:data:`FITS`: ``friction``, the oblique impact's friction knobs; ``tosses``, the
+            cube tosses' contact knobs), each read by that fit's module
+            (:func:`tuning_space`). With ``tuning``, every tuning space of the engine is
+            reached from here, in one place per engine.
         customary_timesteps_s: the steps its users run it at (s), for "at your timestep".
         color: its colour in every figure (a matplotlib colour); "" for
             :func:`fallback_color` (see :attr:`plot_color`).
@@ -94,6 +101,7 @@ class EngineSpec:
     distribution: str = ""
     module: str = ""
     tuning: tuple[tuple[str, str], ...] = ()
+    spaces: tuple[tuple[str, str], ...] = ()
     customary_timesteps_s: tuple[float, ...] = ()
     color: str = ""
 
@@ -110,43 +118,64 @@ class EngineSpec:
 
 _TUNE = "impactbench.tuning.spaces"
 _MORE = "impactbench.tuning.spaces_extras"
+_FRICTION = "impactbench.engines.oblique_tuned"
+_TOSSES = "impactbench.cube_tosses.spaces"
+
+FITS: dict[str, str] = {
+    "friction": "the oblique impact's friction knobs (impactbench.tuning.oblique)",
+    "tosses": "the cube tosses' contact knobs (impactbench.cube_tosses.tune)",
+}
+"""The fits whose knobs an :class:`EngineSpec` lists in ``spaces`` (besides ``tuning``)."""
+
+
+def _spaces(const: str, friction: bool = True, tosses: bool = True
+            ) -> tuple[tuple[str, str], ...]:
+    """The ``spaces`` entries of an engine whose knobs are ``const`` in each fit's module."""
+    return ((("friction", f"{_FRICTION}:{const}"),) if friction else ()) + (
+        (("tosses", f"{_TOSSES}:{const}"),) if tosses else ())
+
 
 BUILTIN: tuple[EngineSpec, ...] = (
     EngineSpec("mujoco", "impactbench.engines.mujoco_adapter:MujocoAdapter",
                "pip install mujoco", "mujoco", "mujoco", "mujoco",
                (("solref+solimp", f"{_TUNE}:mujoco_space"), ("solref", f"{_TUNE}:mujoco_space")),
-               (2e-3, 1e-3), color="tab:blue"),
+               _spaces("MUJOCO"), (2e-3, 1e-3), color="tab:blue"),
     EngineSpec("pybullet", "impactbench.engines.pybullet_adapter:PybulletAdapter",
                "pip install pybullet", "pybullet", "pybullet", "pybullet",
-               (("stiffness+damping", f"{_TUNE}:pybullet_space"),), (1 / 240,),
+               (("stiffness+damping", f"{_TUNE}:pybullet_space"),), _spaces("PYBULLET"),
+               (1 / 240,),
                color="tab:orange"),
     EngineSpec("pymunk", "impactbench.engines.pymunk_adapter:PymunkAdapter",
                "pip install pymunk", "pymunk", "pymunk", "pymunk",
                (("elasticity", f"{_TUNE}:pymunk_space"),
-                ("restitution-law", f"{_TUNE}:pymunk_space")), (1 / 60, 1e-3),
+                ("restitution-law", f"{_TUNE}:pymunk_space")),
+               _spaces("PYMUNK", tosses=False), (1 / 60, 1e-3),
                color="tab:green"),
     EngineSpec("drake", "impactbench.engines.drake_adapter:DrakeAdapter",
                "pip install drake", "drake", "drake", "pydrake",
                (("stiffness+dissipation", f"{_TUNE}:drake_space"),
-                ("stiffness+relaxation", f"{_TUNE}:drake_relaxation_space")), (1e-3,),
+                ("stiffness+relaxation", f"{_TUNE}:drake_relaxation_space")),
+               _spaces("DRAKE"), (1e-3,),
                color="tab:red"),
     EngineSpec("sapien", "impactbench.engines.sapien_adapter:SapienAdapter",
                "pip install sapien", "sapien", "sapien", "sapien",
                (("compliant-stiffness", f"{_MORE}:sapien_space"),
-                ("restitution", f"{_MORE}:sapien_space")), color="tab:purple"),
+                ("restitution", f"{_MORE}:sapien_space")), _spaces("SAPIEN"),
+               color="tab:purple"),
     EngineSpec("dart", "impactbench.engines.dart_adapter:DartAdapter",
                "pip install dartpy", "dart", "dartpy", "dartpy",
-               (("restitution", f"{_MORE}:dart_space"),), color="tab:brown"),
+               (("restitution", f"{_MORE}:dart_space"),), _spaces("DART"), color="tab:brown"),
     EngineSpec("box2d", "impactbench.engines.box2d_adapter:Box2dAdapter",
                "pip install box2d", "box2d", "box2d", "Box2D",
-               (("restitution", f"{_MORE}:box2d_space"),), color="tab:pink"),
+               (("restitution", f"{_MORE}:box2d_space"),), _spaces("BOX2D", tosses=False),
+               color="tab:pink"),
     EngineSpec("mjx", "impactbench.engines.mjx_adapter:MjxAdapter",
                "pip install mujoco-mjx jax", "mjx", "mujoco-mjx", "mujoco.mjx",
                (("solref+solimp", f"{_TUNE}:mujoco_space"), ("solref", f"{_TUNE}:mujoco_space")),
-               color="tab:cyan"),
+               _spaces("MUJOCO"), color="tab:cyan"),
     EngineSpec("newton", "impactbench.engines.newton_adapter:NewtonAdapter",
                "pip install newton", "newton", "newton", "newton",
-               (("ke+kd", f"{_MORE}:newton_space"),), color="tab:olive"),
+               (("ke+kd", f"{_MORE}:newton_space"),), _spaces("NEWTON"), color="tab:olive"),
 )
 """The packaged engines, in the report's order (colours: matplotlib's tab10, one each)."""
 
@@ -278,6 +307,25 @@ def spec(name: str) -> EngineSpec:
     if plugin is not None and registry[name] == f"{PLUGIN_ADAPTERS}:{name}":
         return plugin
     return EngineSpec(name, registry[name], f"pip install {name}")
+
+
+def tuning_space(name: str, fit: str) -> object | None:
+    """The knobs of engine ``name``'s fit ``fit`` (:data:`FITS`): its spec's ``spaces``
+    entry, imported (None when the engine has none, or is not registered)."""
+    import importlib
+
+    if name not in _registry():
+        return None
+    target = dict(spec(name).spaces).get(fit)
+    if target is None:
+        return None
+    module, _, attr = target.partition(":")
+    return getattr(importlib.import_module(module), attr)
+
+
+def with_space(fit: str) -> tuple[str, ...]:
+    """The registered engines whose spec has knobs for ``fit``, in the registry's order."""
+    return tuple(name for name in _registry() if fit in dict(spec(name).spaces))
 
 
 def is_builtin(name: str) -> bool:

@@ -83,12 +83,10 @@ from __future__ import annotations
 
 import warnings
 from contextlib import contextmanager
-from typing import Any, ClassVar
+from typing import Any
 
 from impactbench.engines import oblique_tuned, stepping
 from impactbench.engines.base import (
-    CUBE_TOSS_STEP_S,
-    Builder,
     EngineUnavailable,
     RunSettings,
     Scenario,
@@ -100,7 +98,6 @@ from impactbench.engines.common import (
 )
 from impactbench.reference import validation as check
 from impactbench.reference.oblique_scenario import Oblique
-from impactbench.reference.record import ImpactRecord
 from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
 
 PARAMETERS: dict[str, Any] = {
@@ -424,43 +421,6 @@ class ObliqueModel:
         return fn, self.mass * (float(self.body.linear_velocity[0]) - v_t) / self.dt
 
 
-class SapienAdapter(stepping.SteppedAdapter):
-    """PhysX 5 (SAPIEN 3): compliant (undamped) or rigid contacts; injected laws as forces."""
-
-    name = "sapien"
-    label = "SAPIEN"
-    parameter_keys = tuple(PARAMETERS)
-    ball_model = BallModel
-    pair_model = PairModel
-    oblique_model = ObliqueModel
-    builders: ClassVar[dict[str, Builder]] = {
-        **stepping.SteppedAdapter.builders,
-        "cube-toss": Builder("replay_tosses", CUBE_TOSS_STEP_S, own_keys=True),
-    }
-    injection = ("cannot: PhysX's compliant contact is an undamped spring (no damping to "
-                 "schedule); the law is an external force (collision off) integrated by PhysX's "
-                 "semi-implicit Euler step; oblique: Coulomb friction is a force and torque "
-                 "too (no contact with the normal law), −s·m_s/dt clipped to ±μ·F_n")
-
-    def version(self) -> str:
-        sapien, _ = _import_sapien()
-        return f"{sapien.__version__} (PhysX {_physx_version()})"
-
-    def parameters(self, scenario: Scenario, mode: str, settings: RunSettings, ball: bool
-                   ) -> tuple[dict[str, Any], dict[str, Any]]:
-        return parameters(scenario, mode, settings, ball)
-
-    def oblique_parameters(self, scenario: Oblique, mode: str, settings: RunSettings
-                           ) -> tuple[dict[str, Any], dict[str, Any]]:
-        return oblique_parameters(scenario, mode, settings)
-
-    def run_oblique(self, scenario: Oblique, mode: str, settings: RunSettings
-                    ) -> ImpactRecord:
-        if mode == "tuned":  # native plus the tuned file's friction knobs
-            return oblique_tuned.run_stepped(self, scenario, settings)
-        return super().run_oblique(scenario, mode, settings)
-
-
 def _physx_version() -> str:
     _, px = _import_sapien()
     return str(getattr(px, "version", lambda: "?")())
@@ -500,10 +460,7 @@ def parameters(scenario: Scenario, mode: str, settings: RunSettings, ball: bool
         native["restitution"] = -scenario.k1_n_per_m
         if scenario.local != "linear":
             meta["not_expressible"] = f"the {scenario.local} local law (no contact memory)"
-    if mode == "tuned":
-        tuned = stepping.engine_params("tuned", settings.tuned, PARAMETERS)
-        native.update(tuned)
-        meta["tuned"] = tuned
+    stepping.apply_tuned(native, meta, mode, settings, PARAMETERS)
     meta.update(contact=_kind(native), restitution=native["restitution"],
                 bounce_threshold=native["bounce_threshold"], **_artefacts(native, ball))
     return native, meta
@@ -551,16 +508,13 @@ def oblique_parameters(scenario: Oblique, mode: str, settings: RunSettings
     friction = {"static_friction": mu, "dynamic_friction": mu}
     inertia = scenario.moment_of_inertia_kg_m2
     if mode in ("default", "custom"):
-        own = stepping.engine_params("params", settings.params, PARAMETERS) \
-            if mode == "custom" else {}
+        own = stepping.user_params(mode, settings, PARAMETERS)
         params = {**defaults, **friction, **own}
         facts = _facts(params, params["static_friction"], moment_of_inertia_kg_m2=inertia)
-        meta = {"contact": _kind(params), "restitution": params["restitution"],
-                "bounce_threshold": params["bounce_threshold"],
-                "engine_defaults": {**defaults, **facts}, **_oblique_artefacts(params)}
-        if mode == "custom":
-            meta["params"] = own
-        return params, meta
+        return params, {"contact": _kind(params), "restitution": params["restitution"],
+                        "bounce_threshold": params["bounce_threshold"],
+                        "engine_defaults": {**defaults, **facts}, **_oblique_artefacts(params),
+                        **stepping.params_meta(mode, own)}
     native = {**defaults, **friction, **ROTATION_FREE, "sleep_threshold": 0.0}
     if mode == "injected":
         facts = _facts(native, mu, stepping.INJECTED_FRICTION, "none",
@@ -593,3 +547,22 @@ def _oblique_artefacts(params: dict[str, Any]) -> dict[str, Any]:
     if _kind(params) == "compliant":
         return {}
     return {"not_comparable": stepping.RIGID_OBLIQUE_ARTEFACTS}
+
+
+class SapienAdapter(stepping.SteppedAdapter):
+    """PhysX 5 (SAPIEN 3): compliant (undamped) or rigid contacts; injected laws as forces."""
+
+    name = "sapien"
+    parameter_keys = tuple(PARAMETERS)
+    ball_model, pair_model, oblique_model = BallModel, PairModel, ObliqueModel
+    parameters = staticmethod(parameters)
+    oblique_parameters = staticmethod(oblique_parameters)
+    builders = stepping.builders(oblique_tuned.refused, "sapien")
+    injection = ("cannot: PhysX's compliant contact is an undamped spring (no damping to "
+                 "schedule); the law is an external force (collision off) integrated by PhysX's "
+                 "semi-implicit Euler step; oblique: Coulomb friction is a force and torque "
+                 "too (no contact with the normal law), −s·m_s/dt clipped to ±μ·F_n")
+
+    def version(self) -> str:
+        sapien, _ = _import_sapien()
+        return f"{sapien.__version__} (PhysX {_physx_version()})"

@@ -39,7 +39,13 @@ from typing import Any, ClassVar, Protocol
 
 import numpy as np
 from impactbench.engines import oblique_common
-from impactbench.engines.base import Adapter, Builder, RunSettings, Scenario
+from impactbench.engines.base import (
+    Adapter,
+    Builder,
+    RunSettings,
+    Scenario,
+    cube_toss_builder,
+)
 from impactbench.engines.common import Recorder, classify
 from impactbench.reference.laws import StructuralLaw, no_further_contact
 from impactbench.reference.oblique_scenario import Oblique
@@ -112,6 +118,28 @@ def engine_params(prefix: str, values: dict[str, Any] | None,
                              f"{', '.join(validators)}")
         out[key] = validators[key](f"{prefix}.{key}", value)
     return out
+
+
+def user_params(mode: str, settings: RunSettings, validators: dict[str, Callable[[str, Any], Any]]
+                ) -> dict[str, Any]:
+    """``custom`` mode's engine parameters, validated (:func:`engine_params`); none for any
+    other mode."""
+    return engine_params("params", settings.params, validators) if mode == "custom" else {}
+
+
+def params_meta(mode: str, own: dict[str, Any]) -> dict[str, Any]:
+    """What a run's meta records of the user's parameters: ``params`` in ``custom`` mode."""
+    return {"params": own} if mode == "custom" else {}
+
+
+def apply_tuned(native: dict[str, Any], meta: dict[str, Any], mode: str, settings: RunSettings,
+                validators: dict[str, Callable[[str, Any], Any]]) -> None:
+    """``tuned`` mode: the tuned parameters (validated, :func:`engine_params`) over the
+    native set, and recorded in ``meta["tuned"]``; nothing in any other mode."""
+    if mode == "tuned":
+        tuned = engine_params("tuned", settings.tuned, validators)
+        native.update(tuned)
+        meta["tuned"] = tuned
 
 
 class SteppedModel(Protocol):
@@ -197,9 +225,8 @@ def run_ball(model: SteppedModel, scenario: BallOnPlate, dt: float, max_time_s: 
                     tunneled=tunneled, timed_out=k == n_max and tail != 0 and not nonfinite)
 
 
-def run_pair(model: SteppedModel, scenario: RigidFlexible, dt: float, max_time_s: float | None,
-             meta: dict, contact_threshold=None) -> ImpactRecord:
-    """Step the 2-DOF model until no further contact is possible, collapse, or the time cap.
+class PairEnd:
+    """The end rules of a 2-DOF run, checked after every step (:func:`run_pair`'s, pymunk's).
 
     No further contact: ``no_further_contact(x1 − p, …)`` with p the injected local law's
     permanent set (``contact_threshold()``; 0 for an engine contact): body 2 bounded in its
@@ -208,15 +235,53 @@ def run_pair(model: SteppedModel, scenario: RigidFlexible, dt: float, max_time_s
     k2²/(4β) during a contact — the reference's rule; it is flagged and the run goes on until
     body 2 has escaped, so the metrics cover the whole contact as the reference's do.
     """
-    m1, m2 = scenario.m1_kg, scenario.m2_kg
-    structure: StructuralLaw = scenario.structural_law()
-    collapse_energy = structure.collapse_energy
-    softening = collapse_energy < math.inf
+
+    def __init__(self, scenario: RigidFlexible, structure: StructuralLaw,
+                 contact_threshold: Callable[[], float] | None = None) -> None:
+        self.scenario, self.structure, self.threshold = scenario, structure, contact_threshold
+        self.m2 = scenario.m2_kg
+        self.collapse_energy = structure.collapse_energy
+        self.softening = self.collapse_energy < math.inf
+        self.collapsed = self.done = False
+
+    def ended(self, f: float, x1: float, v1: float, x2: float, v2: float) -> bool:
+        """After a step with contact force ``f`` (N) that left body 1 at x1, v1 and body 2 at
+        x2, v2 (m, m/s): flag a collapse; True once no further contact is possible."""
+        if f > 0.0:
+            if self.softening and (0.5 * self.m2 * v2 * v2 + self.structure.potential(x2)
+                                   > self.collapse_energy):
+                self.collapsed = True  # flagged; the run goes on until body 2 escapes
+        elif v1 <= 0.0 or self.collapsed:
+            p = self.threshold() if self.threshold is not None else 0.0
+            self.done = no_further_contact(x1 - p, v1, x2, v2, self.m2, self.structure)
+        return self.done
+
+    def outcome(self, out: ImpactRecord, v1: float, v2: float, x2: float, nonfinite: bool
+                ) -> ImpactRecord:
+        """Classify the run's record (energy in: body 1's ½·m1·V²; out: both bodies' kinetic
+        energy and the structure's potential at the end, J); ``structure_collapsed`` when a
+        collapse was flagged; ``max_time`` when it neither ended nor collapsed."""
+        s = self.scenario
+        initial = 0.5 * s.m1_kg * s.velocity_m_s**2
+        final = 0.5 * s.m1_kg * v1 * v1 + 0.5 * self.m2 * v2 * v2 + self.structure.potential(x2)
+        out = classify(out, initial_kinetic_j=initial, final_kinetic_j=final,
+                       timed_out=not (self.done or self.collapsed or nonfinite))
+        if self.collapsed and out.status in (Status.OK, Status.MAX_TIME):
+            out.status = Status.STRUCTURE_COLLAPSED
+            out.message = "body 2's energy passed the softening potential's peak k2²/(4β)"
+        return out
+
+
+def run_pair(model: SteppedModel, scenario: RigidFlexible, dt: float, max_time_s: float | None,
+             meta: dict, contact_threshold: Callable[[], float] | None = None) -> ImpactRecord:
+    """Step the 2-DOF model until no further contact is possible, collapse, or the time cap
+    (:class:`PairEnd`)."""
+    end = PairEnd(scenario, scenario.structural_law(), contact_threshold)
     n_max = max(1, math.ceil((max_time_s or scenario.max_time_s) / dt))
     rec = Recorder()
     x1, v1, x2, v2 = model.state()
     impulsive = getattr(model, "impulsive", False)
-    done = collapsed = nonfinite = False
+    nonfinite = False
     k = 0
     while k < n_max:
         f = model.step()
@@ -229,24 +294,11 @@ def run_pair(model: SteppedModel, scenario: RigidFlexible, dt: float, max_time_s
         if not all(map(math.isfinite, (x1, v1, x2, v2, f))):
             nonfinite = True
             break
-        if f > 0.0:
-            if softening and 0.5 * m2 * v2 * v2 + structure.potential(x2) > collapse_energy:
-                collapsed = True  # flagged; the run goes on until body 2 escapes
-        elif v1 <= 0.0 or collapsed:
-            p = contact_threshold() if contact_threshold is not None else 0.0
-            if no_further_contact(x1 - p, v1, x2, v2, m2, structure):
-                done = True
-                break
+        if end.ended(f, x1, v1, x2, v2):
+            break
     rec.append(k * dt, x1 - x2, v1 - v2, 0.0, v1, v2, x2)
-    out = rec.record(m1, m2, with_displacement_2=True, **meta, steps=k)
-    initial = 0.5 * m1 * scenario.velocity_m_s**2
-    final = 0.5 * m1 * v1 * v1 + 0.5 * m2 * v2 * v2 + structure.potential(x2)
-    out = classify(out, initial_kinetic_j=initial, final_kinetic_j=final,
-                   timed_out=not (done or collapsed or nonfinite))
-    if collapsed and out.status in (Status.OK, Status.MAX_TIME):
-        out.status = Status.STRUCTURE_COLLAPSED
-        out.message = "body 2's energy passed the softening potential's peak k2²/(4β)"
-    return out
+    out = rec.record(scenario.m1_kg, scenario.m2_kg, with_displacement_2=True, **meta, steps=k)
+    return end.outcome(out, v1, v2, x2, nonfinite)
 
 
 def slip_mass_kg(scenario: Oblique) -> float:
@@ -382,21 +434,21 @@ def run_oblique(model: ObliqueModel, scenario: Oblique, dt: float, max_time_s: f
 
 
 class SteppedAdapter(Adapter):
-    """An adapter whose engine runs through :func:`run_ball` / :func:`run_pair`.
+    """An adapter whose engine runs through :func:`run_ball` / :func:`run_pair` /
+    :func:`run_oblique`.
 
-    Subclasses set ``label`` (the engine's display name), ``ball_model`` and ``pair_model``
-    (model classes taking ``(scenario, params, dt, law)``, ``law`` None for the engine's own
-    contact) and implement :meth:`parameters`. Injected mode hands the models the scenario's
-    law (the ball's contact model, or the 2-DOF local law) to apply as a force.
+    Subclasses set ``builders`` (:func:`builders`), ``ball_model``, ``pair_model`` (model
+    classes taking ``(scenario, params, dt, law)``, ``law`` None for the engine's own
+    contact) and ``oblique_model``, and implement :meth:`parameters` and
+    :meth:`oblique_parameters` (an engine module's functions can serve as they are:
+    ``parameters = staticmethod(parameters)``). Injected mode hands the models the
+    scenario's law (the ball's contact model, or the 2-DOF local law) to apply as a force.
+    The builders only build: :meth:`Adapter.run` has checked the mode and the tuned
+    parameters (``tuned`` reads any of :attr:`~Adapter.parameter_keys`; oblique: the
+    friction knobs of :mod:`impactbench.engines.oblique_tuned`).
     """
 
     modes = ("native", "injected", "tuned", "default", "custom")
-    builders: ClassVar[dict[str, Builder]] = {
-        "ball-on-plate": Builder("run_ball", 1e-6),
-        "rigid-flexible": Builder("run_pair", 1e-5),
-        "oblique": Builder("run_oblique", OBLIQUE_TIMESTEP_S),
-    }
-    label: ClassVar[str]
     ball_model: ClassVar[Callable[..., SteppedModel]]
     pair_model: ClassVar[Callable[..., SteppedModel]]
     oblique_model: ClassVar[Callable[..., ObliqueModel]]
@@ -410,9 +462,6 @@ class SteppedAdapter(Adapter):
         ball-on-plate scenario, else the rigid–flexible pair)."""
 
     def run_ball(self, scenario: BallOnPlate, mode: str, settings: RunSettings) -> ImpactRecord:
-        refused = self._refused(mode, settings)
-        if refused is not None:
-            return refused
         dt = float(settings.timestep_s)
         params, meta = self.parameters(scenario, mode, settings, ball=True)
         law = scenario.law() if mode == "injected" else None
@@ -421,9 +470,6 @@ class SteppedAdapter(Adapter):
 
     def run_pair(self, scenario: RigidFlexible, mode: str, settings: RunSettings
                  ) -> ImpactRecord:
-        refused = self._refused(mode, settings)
-        if refused is not None:
-            return refused
         dt = float(settings.timestep_s)
         params, meta = self.parameters(scenario, mode, settings, ball=False)
         law = scenario.local_law() if mode == "injected" else None
@@ -431,26 +477,37 @@ class SteppedAdapter(Adapter):
         threshold = getattr(law, "contact_threshold", None)
         return run_pair(model, scenario, dt, settings.max_time_s, meta, threshold)
 
+    @abstractmethod
     def oblique_parameters(self, scenario: Oblique, mode: str, settings: RunSettings
                            ) -> tuple[dict[str, Any], dict[str, Any]]:
-        """The complete engine parameter set of the oblique impact for ``mode`` (native,
-        injected, default, custom) and the run's meta."""
-        raise NotImplementedError
+        """The complete engine parameter set of the oblique impact for ``mode`` (``tuned``:
+        native with the tuned file's friction knobs) and the run's meta."""
 
     def run_oblique(self, scenario: Oblique, mode: str, settings: RunSettings
                     ) -> ImpactRecord:
-        if mode == "tuned":
-            return oblique_common.unsupported_tuned()
         dt = float(settings.timestep_s)
         params, meta = self.oblique_parameters(scenario, mode, settings)
         contact = CoulombContact(scenario, dt) if mode == "injected" else None
         model = self.oblique_model(scenario, params, dt, contact)
         return run_oblique(model, scenario, dt, settings.max_time_s, meta)
 
-    def _refused(self, mode: str, settings: RunSettings) -> ImpactRecord | None:
-        """``unsupported`` for tuned mode without tuned parameters (every scenario)."""
-        if mode == "tuned" and settings.tuned is None:
-            return ImpactRecord.failed(
-                Status.UNSUPPORTED, f"tuned mode needs settings.tuned ({self.label} parameter "
-                f"names: {', '.join(self.parameter_keys)}; no tuned-parameter file given)")
-        return None
+
+TunedCheck = Callable[[str, RunSettings], ImpactRecord | None]
+"""A builder's ``tuned`` check (:attr:`~impactbench.engines.base.Builder.tuned_check`)."""
+
+
+def builders(oblique_tuned_check: TunedCheck, engine_3d: str | None = None
+             ) -> dict[str, Builder]:
+    """A stepped engine's :attr:`~impactbench.engines.base.Adapter.builders`: the ball, the
+    2-DOF pair and the oblique impact, whose ``tuned`` runs ``oblique_tuned_check`` decides
+    (:func:`impactbench.engines.oblique_tuned.refused`, which imports this module, so the
+    adapter passes it in); a 3D engine (``engine_3d``, its name) adds the cube tosses."""
+    stepped_builders = {
+        "ball-on-plate": Builder("run_ball", 1e-6),
+        "rigid-flexible": Builder("run_pair", 1e-5),
+        "oblique": Builder("run_oblique", OBLIQUE_TIMESTEP_S, tuned_check=oblique_tuned_check),
+    }
+    if engine_3d is None:
+        return stepped_builders
+    cube_builders = {"cube-toss": cube_toss_builder(engine_3d)}
+    return {**stepped_builders, **cube_builders}

@@ -372,216 +372,194 @@ def _default_timestep(engine: str, mode: str, scenario: Any) -> float | None:
         return None
 
 
+class _GateError(ValueError):
+    """A bad value in one ``[[gate]]``: ``keys`` locate it (its line)."""
+
+    def __init__(self, keys: tuple[str, ...], exc: ValueError) -> None:
+        super().__init__(str(exc))
+        self.keys = keys
+
+
+def _field(key: str, parse: Callable[[], Any]) -> Any:
+    """``parse()``, its ValueError tagged with the gate key it is about."""
+    try:
+        return parse()
+    except _GateError:
+        raise
+    except ValueError as exc:
+        raise _GateError((key,), exc) from None
+
+
 def _expand_gate(n: int, gate: Mapping[str, Any], defaults: Mapping[str, float],
                  where: Callable[..., int], base: Path = Path()) -> list[Check]:
     """Validate one ``[[gate]]`` table and expand it into checks (``base``: the gate file's
-    folder, which a ``tuned_file`` is relative to)."""
+    folder, which a ``tuned_file`` is relative to). One expander for every scenario: a
+    measured one (the cube tosses) has no axes, takes a published ``param_set`` and judges
+    absolute errors (module doc, "Data gates")."""
+    try:
+        return _expand(gate, defaults, base, where("gate", n), n)
+    except _GateError as exc:
+        raise ValueError(f"line {where('gate', n, *exc.keys)}: gate {n}: {exc}") from None
+
+
+def _expand(gate: Mapping[str, Any], defaults: Mapping[str, float], base: Path, line: int,
+            n: int) -> list[Check]:
     from impactbench.config import did_you_mean
 
-    def fail(key: tuple[str, ...], exc: ValueError) -> ValueError:
-        return ValueError(f"line {where('gate', n, *key)}: gate {n}: {exc}")
-
-    if gate.get("scenario") in scenarios.names() and scenarios.get(gate["scenario"]).measured:
-        return _expand_data_gate(n, gate, defaults, where)
-    keys = gate_keys()
+    measured = gate.get("scenario") in scenarios.names() and \
+        scenarios.get(gate["scenario"]).measured
+    keys = DATA_KEYS if measured else gate_keys()
     for key in gate:
         if key not in keys:
-            raise fail((key,), ValueError(
-                f"key {key!r}: unknown{did_you_mean(key, keys)}; must be one of "
+            what = " for a data scenario" if measured else ""
+            raise _GateError((key,), ValueError(
+                f"key {key!r}: unknown{what}{did_you_mean(key, keys)}; must be one of "
                 f"{', '.join(keys)}"))
     for key in ("engine", "mode", "scenario", "tolerance"):
         if key not in gate:
-            raise fail((), ValueError(f"{key}: missing (required in every [[gate]])"))
-    try:
-        engines = _names(gate["engine"], "engine", ENGINES)
-    except ValueError as exc:
-        raise fail(("engine",), exc) from None
-    try:
-        modes = _names(gate["mode"], "mode", MODES)
-    except ValueError as exc:
-        raise fail(("mode",), exc) from None
-    try:
-        scenario = check.one_of("scenario", gate["scenario"], scenarios.names())
-    except ValueError as exc:
-        raise fail(("scenario",), exc) from None
-    spec = scenarios.get(scenario)
-    timesteps: list[float | None] = [None]
-    try:
-        if "timesteps_s" in gate:
-            timesteps = list(_numbers(gate["timesteps_s"], "timesteps_s"))
-    except ValueError as exc:
-        raise fail(("timesteps_s",), exc) from None
-    own = {a.name if a.categorical else a.config_key for a in spec.axes}
-    for key in gate:
-        if key not in FIXED_KEYS and key not in own:
-            raise fail((key,), ValueError(f"{key} = {gate[key]!r}: not an axis of {scenario} "
-                                          f"(its axes: {', '.join(sorted(own))})"))
-    axis_values: list[tuple[str, list[Any]]] = []
-    for a in spec.axes:
-        key = a.name if a.categorical else a.config_key
-        try:
-            if a.categorical:
-                values = _names(gate.get(key, a.defaults()[0]), key, a.allowed())
-            elif key in gate:
-                values = _numbers(gate[key], key, a.zero)
-            elif a.name == "velocity_m_s":
-                values = list(spec.gate_velocities_m_s)
-            else:
-                raise ValueError(f"{key}: missing (required for {scenario})")
-        except ValueError as exc:
-            raise fail((key,), exc) from None
-        axis_values.append((a.name, values))
-    params: tuple[tuple[str, float], ...] = ()
-    if "parameters" in gate:
-        try:
-            params = _parameters(gate["parameters"], spec)
-        except ValueError as exc:
-            raise fail(("parameters",), exc) from None
-    engine_params: tuple[tuple[str, Any], ...] = ()
-    if "params" in gate:
-        try:
-            engine_params = _engine_params(gate["params"], engines, modes)
-        except ValueError as exc:
-            raise fail(("params",), exc) from None
-    elif "custom" in modes:
-        raise fail(("mode",), ValueError(
-            "mode = 'custom': needs params, the engine parameters to run (e.g. params = "
-            "{solref = [0.02, 1.0]}); without them custom is the engine's defaults, mode "
-            "default"))
+            raise _GateError((), ValueError(f"{key}: missing (required in every [[gate]])"))
+    engines = _field("engine", lambda: _names(gate["engine"], "engine", ENGINES))
+    modes = _field("mode", lambda: _names(gate["mode"], "mode", MODES))
+    name = _field("scenario", lambda: check.one_of("scenario", gate["scenario"],
+                                                    scenarios.names()))
+    spec = scenarios.get(name)
+    timesteps: list[float | None] = _field("timesteps_s", lambda: list(
+        _numbers(gate["timesteps_s"], "timesteps_s")) if "timesteps_s" in gate else [None])
+    points = _gate_points(gate, spec)
+    params = _field("parameters", lambda: _parameters(gate["parameters"], spec)
+                    if "parameters" in gate else ())
+    settings = _gate_settings(gate, spec, engines, modes)
     tuned_file = ""
     if "tuned_file" in gate:
-        try:
-            tuned_file, fitted_dt = _tuned_file(gate["tuned_file"], engines, modes, base)
-            if "timesteps_s" not in gate and fitted_dt is not None:
-                timesteps = [fitted_dt]  # the step the file was fitted for
-            elif fitted_dt is not None and any(
-                    dt is None or abs(dt - fitted_dt) > 1e-9 * fitted_dt for dt in timesteps):
-                raise ValueError(f"tuned_file = {gate['tuned_file']!r}: fitted at "
-                                 f"timestep_s = {fitted_dt:g}; the gate's timesteps_s = "
-                                 f"{timesteps}: it applies only at its own step")
-        except ValueError as exc:
-            raise fail(("tuned_file",), exc) from None
-    margins = dict(defaults)
-    for key in DEFAULT_KEYS:
-        if key in gate:
-            try:
-                margins[key] = check.non_negative(key, gate[key])
-            except ValueError as exc:
-                raise fail((key,), exc) from None
-    tolerance = gate["tolerance"]
-    if not isinstance(tolerance, dict) or not tolerance:
-        raise fail(("tolerance",), ValueError(
-            "tolerance: must be a non-empty table of metric = tolerated |relative error|"))
-    metrics = spec.metrics
-    tol: dict[str, float] = {}
-    for metric, value in tolerance.items():
-        try:
-            check.one_of("tolerance key", metric, metrics)
-            tol[metric] = check.non_negative(f"tolerance.{metric}", value)
-        except ValueError as exc:
-            raise fail(("tolerance", metric), exc) from None
-    line = where("gate", n)
+        tuned_file, fitted_dt = _field("tuned_file", lambda: _tuned_file(
+            gate["tuned_file"], engines, modes, base))
+        timesteps = _field("tuned_file", lambda: _fitted_steps(gate, timesteps, fitted_dt))
+    margins = {**defaults, **{k: _field(k, lambda k=k: check.non_negative(k, gate[k]))
+                              for k in DEFAULT_KEYS if k in gate}}
+    tol = _gate_tolerance(gate["tolerance"], spec)
     out = []
-    import itertools
-
-    names = [a for a, _ in axis_values]
-    points = [tuple(zip(names, combo, strict=True))
-              for combo in itertools.product(*(v for _, v in axis_values))]
     for engine in engines:
         for mode in modes:
             # the user's settings go with the modes that use them
-            user = engine_params if mode in SETTINGS_MODES and not (
+            user = settings if mode in SETTINGS_MODES and not (
                 mode == "tuned" and tuned_file) else ()
             own_file = tuned_file if mode == "tuned" else ""
             for point in points:
                 for dt in timesteps:
-                    run = RunKey(engine, scenario, point, mode, dt, params, user, own_file)
-                    if dt is None:
+                    run = RunKey(engine, spec.name, point, mode, dt, params, user, own_file)
+                    if dt is None and not spec.owns_timestep:
                         dt = _default_timestep(engine, mode, run.build_scenario())
-                        run = RunKey(engine, scenario, point, mode, dt, params, user, own_file)
+                        run = RunKey(engine, spec.name, point, mode, dt, params, user, own_file)
                     out.extend(Check(run, m, t, margins["baseline_margin"],
                                      margins["baseline_floor"], n, line)
                                for m, t in tol.items())
     return out
 
 
-DATA_KEYS = ("engine", "mode", "scenario", "param_set", "params", "tolerance",
-             "baseline_margin", "baseline_floor")
-"""The keys of a data gate's ``[[gate]]`` (module doc, "Data gates")."""
+def _gate_points(gate: Mapping[str, Any], spec: scenarios.ScenarioSpec) -> list[tuple]:
+    """The points a gate runs: every combination of its axes' values (the scenario's gate
+    velocities when it names none); ``[()]`` for a scenario without axes."""
+    import itertools
 
-
-def _expand_data_gate(n: int, gate: Mapping[str, Any], defaults: Mapping[str, float],
-                      where: Callable[..., int]) -> list[Check]:
-    """Validate one data gate (a scenario without axes: its points are recorded trials) and
-    expand it into checks: one run per engine and mode of the scenario as it comes (the test
-    split); a published set is checked against the engines' (``engine_parameters``)."""
-    from impactbench.config import did_you_mean, frozen_params
-
-    def fail(key: tuple[str, ...], exc: ValueError) -> ValueError:
-        return ValueError(f"line {where('gate', n, *key)}: gate {n}: {exc}")
-
+    own = {a.name if a.categorical else a.config_key for a in spec.axes}
+    fixed = set(FIXED_KEYS) | set(DATA_KEYS)
     for key in gate:
-        if key not in DATA_KEYS:
-            raise fail((key,), ValueError(
-                f"key {key!r}: unknown for a data scenario{did_you_mean(key, DATA_KEYS)}; "
-                f"must be one of {', '.join(DATA_KEYS)}"))
-    for key in ("engine", "mode", "tolerance"):
-        if key not in gate:
-            raise fail((), ValueError(f"{key}: missing (required in every [[gate]])"))
-    spec = scenarios.get(gate["scenario"])
-    try:
-        engines = _names(gate["engine"], "engine", ENGINES)
-    except ValueError as exc:
-        raise fail(("engine",), exc) from None
-    try:
-        modes = _names(gate["mode"], "mode", MODES)
-    except ValueError as exc:
-        raise fail(("mode",), exc) from None
+        if (key not in fixed or key == "velocities_m_s") and key not in own:
+            raise _GateError((key,), ValueError(
+                f"{key} = {gate[key]!r}: not an axis of {spec.name} (its axes: "
+                f"{', '.join(sorted(own)) or 'none'})"))
+    axis_values: list[tuple[str, list[Any]]] = []
+    for a in spec.axes:
+        key = a.name if a.categorical else a.config_key
+        if a.categorical:
+            values = _field(key, lambda a=a, key=key: _names(
+                gate.get(key, a.defaults()[0]), key, a.allowed()))
+        elif key in gate:
+            values = _field(key, lambda a=a, key=key: _numbers(gate[key], key, a.zero))
+        elif a.name == "velocity_m_s":
+            values = list(spec.gate_velocities_m_s)
+        else:
+            raise _GateError((key,), ValueError(f"{key}: missing (required for {spec.name})"))
+        axis_values.append((a.name, values))
+    names = [a for a, _ in axis_values]
+    return [tuple(zip(names, combo, strict=True))
+            for combo in itertools.product(*(v for _, v in axis_values))]
+
+
+def _gate_settings(gate: Mapping[str, Any], spec: scenarios.ScenarioSpec, engines: list[str],
+                   modes: list[str]) -> tuple[tuple[str, Any], ...]:
+    """A gate's engine settings: ``params`` (the engine's own keys) and, for a measured
+    scenario, a published ``param_set``; checked against each engine without running it."""
+    from impactbench.config import frozen_params
+
+    if not spec.measured:
+        if "params" in gate:
+            return _field("params", lambda: _engine_params(gate["params"], engines, modes))
+        if "custom" in modes:
+            raise _GateError(("mode",), ValueError(
+                "mode = 'custom': needs params, the engine parameters to run (e.g. params = "
+                "{solref = [0.02, 1.0]}); without them custom is the engine's defaults, mode "
+                "default"))
+        return ()
     param_set = gate.get("param_set")
     if param_set is not None and not isinstance(param_set, str):
-        raise fail(("param_set",), ValueError(f"param_set = {param_set!r}: must be a name"))
+        raise _GateError(("param_set",), ValueError(
+            f"param_set = {param_set!r}: must be a name"))
     params = gate.get("params", {})
     if not isinstance(params, dict):
-        raise fail(("params",), ValueError(f"params = {params!r}: must be a table of the "
-                                           "builder's engine parameters"))
-    scenario = spec.build()
-    if "custom" in modes and param_set is None and not params:
-        raise fail(("mode",), ValueError(
+        raise _GateError(("params",), ValueError(
+            f"params = {params!r}: must be a table of the builder's engine parameters"))
+    given = {**params, **({"param_set": param_set} if param_set is not None else {})}
+    if "custom" in modes and not given:
+        raise _GateError(("mode",), ValueError(
             "mode = 'custom': needs param_set (a published set) or params (the engine's "
             "board./cube. keys)"))
-    given = {**params, **({"param_set": param_set} if param_set is not None else {})}
-    for engine in engines:  # the settings must be the engine's (no engine imported)
-        for mode in modes if given else ():
+    scenario = spec.build()
+    for engine in engines if given else ():  # the engine's own (no engine imported)
+        for mode in modes:
             try:
                 scenario.engine_parameters(engine, mode, given, {"checked": True})
             except ValueError as exc:
                 key = "param_set" if param_set is not None else "params"
-                raise fail((key,), ValueError(f"{engine} {mode}: {exc}")) from None
-    tolerance = gate["tolerance"]
+                raise _GateError((key,), ValueError(f"{engine} {mode}: {exc}")) from None
+    return frozen_params(given)
+
+
+def _fitted_steps(gate: Mapping[str, Any], timesteps: list[float | None],
+                  fitted_dt: float | None) -> list[float | None]:
+    """The steps of a gate with a tuned file: the one it was fitted at unless the gate names
+    steps, which must then be that one."""
+    if "timesteps_s" not in gate and fitted_dt is not None:
+        return [fitted_dt]  # the step the file was fitted for
+    if fitted_dt is not None and any(dt is None or abs(dt - fitted_dt) > 1e-9 * fitted_dt
+                                     for dt in timesteps):
+        raise ValueError(f"tuned_file = {gate['tuned_file']!r}: fitted at timestep_s = "
+                         f"{fitted_dt:g}; the gate's timesteps_s = {timesteps}: it applies "
+                         "only at its own step")
+    return timesteps
+
+
+def _gate_tolerance(tolerance: Any, spec: scenarios.ScenarioSpec) -> dict[str, float]:
+    """A gate's ``tolerance`` table: metric → the largest |relative error| that passes (a
+    measured scenario's: the largest absolute error against the measurement)."""
     if not isinstance(tolerance, dict) or not tolerance:
-        raise fail(("tolerance",), ValueError(
-            "tolerance: must be a non-empty table of metric = tolerated value (an absolute "
-            "error against the measurement)"))
+        what = ("tolerated value (an absolute error against the measurement)" if spec.measured
+                else "tolerated |relative error|")
+        raise _GateError(("tolerance",), ValueError(
+            f"tolerance: must be a non-empty table of metric = {what}"))
     tol: dict[str, float] = {}
     for metric, value in tolerance.items():
         try:
             check.one_of("tolerance key", metric, spec.metrics)
             tol[metric] = check.non_negative(f"tolerance.{metric}", value)
         except ValueError as exc:
-            raise fail(("tolerance", metric), exc) from None
-    margins = dict(defaults)
-    for key in DEFAULT_KEYS:
-        if key in gate:
-            try:
-                margins[key] = check.non_negative(key, gate[key])
-            except ValueError as exc:
-                raise fail((key,), exc) from None
-    settings = frozen_params({**({"param_set": param_set} if param_set is not None else {}),
-                              **params})
-    line = where("gate", n)
-    return [Check(RunKey(engine, spec.name, (), mode, None, (), settings, ""), metric, t,
-                  margins["baseline_margin"], margins["baseline_floor"], n, line)
-            for engine in engines for mode in modes for metric, t in tol.items()]
+            raise _GateError(("tolerance", metric), exc) from None
+    return tol
+
+
+DATA_KEYS = ("engine", "mode", "scenario", "param_set", "params", "tolerance",
+             "baseline_margin", "baseline_floor")
+"""The keys of a data gate's ``[[gate]]`` (module doc, "Data gates")."""
 
 
 def parse_gates(text: str, path: str | Path = "<gates>") -> GateFile:

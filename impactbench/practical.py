@@ -18,8 +18,6 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-TITLE = "At practical timesteps"
-
 
 def _rows(df: pd.DataFrame) -> pd.DataFrame:
     return df[(df.study == "practical") & (df.metric == "restitution")].copy()
@@ -205,8 +203,6 @@ def section(ctx) -> dict[str, object] | None:
 
 
 # ----------------------------------------------------------------------------- at your timestep
-
-YOUR_TIMESTEP = "At your timestep"
 
 
 def _groups(results: list) -> dict[tuple, list]:

@@ -325,6 +325,36 @@ def _stamp() -> str:
     return time.strftime("%Y%m%dT%H%M%S")
 
 
+class _Interruptible:
+    """A DuckDB connection whose calls hand an interrupt on as one: DuckDB turns a
+    KeyboardInterrupt raised while a query runs (Ctrl-C, or SIGTERM/SIGHUP, which the command
+    line routes the same way) into ``RuntimeError("Query interrupted")``, which neither the
+    store's nor the command line's Ctrl-C path would see (measured with duckdb 2.0.1: 5 of 60
+    to 33 of 100 signals at random instants of back-to-back writes)."""
+
+    def __init__(self, con: Any) -> None:
+        self._con = con
+
+    def __getattr__(self, name: str) -> Any:
+        attr = getattr(self._con, name)
+        return _interruptible(attr) if callable(attr) else attr
+
+
+def _interruptible(function: Any) -> Any:
+    """``function`` with DuckDB's ``RuntimeError("Query interrupted")`` raised as the
+    KeyboardInterrupt it was (:class:`_Interruptible`)."""
+
+    def call(*args: Any, **kwargs: Any) -> Any:
+        try:
+            return function(*args, **kwargs)
+        except RuntimeError as exc:
+            if "interrupted" in str(exc).lower():
+                raise KeyboardInterrupt from None
+            raise
+
+    return call
+
+
 class Store:
     """A DuckDB results file. ``get`` and ``put`` open it briefly (one process at a time)."""
 
@@ -348,7 +378,8 @@ class Store:
         t0 = time.monotonic()
         while True:
             try:
-                return duckdb.connect(str(self.path), read_only=read_only)
+                return _Interruptible(_interruptible(duckdb.connect)(str(self.path),
+                                                                    read_only=read_only))
             except duckdb.IOException as exc:
                 text = _first_line(exc)
                 if "lock" not in text.lower():
@@ -556,7 +587,7 @@ class Store:
         with self._reader("runs") as con:
             if con is None:
                 return {}
-            wanted = pa.table({"run_key": pa.array(keys, pa.string())})  # noqa: F841
+            con.register("wanted", pa.table({"run_key": pa.array(keys, pa.string())}))
             rows = con.execute("SELECT r.run_key, run FROM runs r JOIN wanted USING (run_key)"
                                ).fetchall()
             hist_rows = con.execute(
@@ -590,7 +621,7 @@ class Store:
         with self._reader("sweep_points") as con:
             if con is None:
                 return pd.DataFrame(columns=columns)
-            wanted = pa.table({"value": pa.array(list(values), pa.float64())})  # noqa: F841
+            con.register("wanted", pa.table({"value": pa.array(list(values), pa.float64())}))
             return con.execute(
                 f"SELECT DISTINCT {', '.join(columns)} FROM sweep_points "
                 "JOIN wanted USING (value) WHERE base_key = ?", [key]).df()
@@ -614,6 +645,7 @@ class Store:
     def _put_points(self, points: Any) -> int:
         con = self._connect()
         try:
+            con.register("points", points)
             con.execute("INSERT OR REPLACE INTO sweep_points BY NAME SELECT * FROM points")
         finally:
             con.close()
@@ -687,17 +719,17 @@ class Store:
     def _put(self, rows: list[dict], runs: list[dict], hist: list[dict]) -> int:
         import pyarrow as pa
 
-        results_table = pa.Table.from_pylist(rows)  # noqa: F841  (read by DuckDB by name)
         con = self._connect()
         try:
             con.execute("BEGIN")
+            con.register("results_table", pa.Table.from_pylist(rows))
             con.execute("INSERT OR REPLACE INTO results BY NAME SELECT * FROM results_table")
-            runs_table = pa.Table.from_pylist(runs)  # noqa: F841
+            con.register("runs_table", pa.Table.from_pylist(runs))
             con.execute("INSERT OR REPLACE INTO runs BY NAME SELECT * FROM runs_table")
             if hist:
-                histories_table = pa.Table.from_pylist(  # noqa: F841
+                con.register("histories_table", pa.Table.from_pylist(
                     hist, schema=pa.schema([("run_key", pa.string())]
-                                           + [(k, pa.list_(pa.float64())) for k in HISTORY_KEYS]))
+                                           + [(k, pa.list_(pa.float64())) for k in HISTORY_KEYS])))
                 con.execute("INSERT OR REPLACE INTO histories BY NAME "
                             "SELECT * FROM histories_table")
             con.execute("COMMIT")

@@ -16,7 +16,9 @@
 - finished chunks are stored as they arrive: a law combination once all its chunks are
   in, and everything at least every :data:`FLUSH_EVERY_S`; a chunk whose worker dies twice
   gives ``crashed`` points (not stored), never a lost sweep;
-- Ctrl-C stores what finished and raises :class:`impactbench.matrix.Interrupted`.
+- Ctrl-C stores what finished and raises :class:`impactbench.matrix.Interrupted`, at once
+  even inside a chunk solved here (the chunk runs in a thread of its own; the compiled kernel
+  releases the GIL).
 """
 
 from __future__ import annotations
@@ -61,6 +63,7 @@ def rigid_flexible(base: Any, over: str, values: Any, combos: Any = None, *,
     import pandas as pd
 
     from impactbench import store as store_mod
+    from impactbench.cliutil import interruptible
     from impactbench.cluster import Runner
     from impactbench.matrix import Interrupted
     from impactbench.reference import two_dof
@@ -148,9 +151,9 @@ def rigid_flexible(base: Any, over: str, values: Any, combos: Any = None, *,
             dispatched = runner.dispatched
             per_point = 0.0
             for task in todo[:2]:  # here: the first loads the kernel, the second is timed
-                t0 = time.thread_time()  # CPU time: deaf to other processes' load
-                finished(task, two_dof.sweep_block(task))
-                per_point = (time.thread_time() - t0) / len(task[2])
+                block, cpu_s = interruptible(_timed_block, two_dof.sweep_block, task)
+                finished(task, block)
+                per_point = cpu_s / len(task[2])
             rest = todo[2:]
             estimate = per_point * sum(len(t[2]) for t in rest)
             threads = _threads(runner)
@@ -171,6 +174,14 @@ def rigid_flexible(base: Any, over: str, values: Any, combos: Any = None, *,
                        solved, where)
 
 
+def _timed_block(solve: Callable[[Any], Any], task: Any) -> tuple[Any, float]:
+    """``solve(task)`` and the CPU time (s) it took on its thread (deaf to other processes'
+    load, and measured where it runs: the chunk solves in a thread of its own)."""
+    t0 = time.thread_time()
+    block = solve(task)
+    return block, time.thread_time() - t0
+
+
 def _threads(runner: Any) -> int:
     """Threads for the chunks solved here: one with ``workers = 0`` (in this process, as it
     always was), else as many as the runner would start workers (one per core available)."""
@@ -185,10 +196,14 @@ def _solve_here(solve: Callable[[Any], Any], tasks: list, finished: Callable[[An
                 threads: int) -> None:
     """``finished(task, solve(task))`` for every task, in order, solved in this process on
     ``threads`` threads (the compiled kernel releases the GIL; no process to start, nothing
-    to pickle). Ctrl-C drops the chunks not started and propagates at once."""
+    to pickle). Ctrl-C drops the chunks not started and propagates at once, also inside a
+    chunk (each solves in a thread of its own, :func:`impactbench.cliutil.interruptible`:
+    a chunk of points at the kernel's step budget takes minutes)."""
     if threads <= 1 or len(tasks) <= 1:
+        from impactbench.cliutil import interruptible
+
         for task in tasks:
-            finished(task, solve(task))
+            finished(task, interruptible(solve, task))
         return
     from concurrent.futures import ThreadPoolExecutor
 

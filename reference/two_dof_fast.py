@@ -18,6 +18,9 @@ F2 = k2·x2 − β·x2³ (β = 0: linear). Differences from the reference path, 
   an event or a located velocity reversal inside a contact; impulse = m1·(v1(0) − v1(end))
   (body 1 feels F1 only); contact edges are event times.
 
+- at most :data:`MAX_STEPS` steps per impact (then status max_time, ``steps`` saying why);
+  the reference path has its own budget.
+
 ``tests/reference/test_two_dof.py`` shows it equals ``metrics.compute(simulate(...))``.
 Without numba the kernel runs as plain Python (correct, slow).
 
@@ -94,12 +97,13 @@ _START, _END, _YIELD, _TURN, _REJOIN, _FAIL, _COLLAPSE, _DONE = range(8)
 _MAX_EVENTS = 100_000
 MAX_STEPS = 3_000_000
 """Step budget of one impact (steps of ``STEP_RAD`` of the fastest mode: 3e5 rad, ~5e4
-periods of it): 1e7 steps took 11–14 s here (2 shared cores), so ~4 s. The most any test or
-figure sweep takes is 3.1e5 (measured: the rigid-wall limit k2 = 1e13 N/m; the crosscheck's
-random corners ≤ 3e4, the figures' grids less). A body 2 1e12 times lighter than body 1
-(its mode √((k1+k2)/m2) 1e6 times the contact's √(k1/m1)) needs ~1e8 per contact: the run
-stops with status max_time (``steps`` = MAX_STEPS says why) instead of computing for
-minutes, or for ever at m2 = 1e-30 kg."""
+periods of it): 1.6–4 s here (measured; 1e7 steps took 11–14 s on 2 shared cores). The
+most any test or figure sweep takes is 3.1e5 (measured: the rigid-wall limit k2 = 1e13 N/m;
+the crosscheck's random corners ≤ 3e4, the figures' grids less). At m2 = 1e-12 kg (body 2
+1e13 times lighter than body 1, its mode √((k1+k2)/m2) 4.5e6 times the contact's √(k1/m1))
+one contact needs ~2e8 (ω·T/STEP_RAD; it ran 100 s before this budget): the run stops with
+status max_time (``steps`` = MAX_STEPS says why) instead, and at m2 = 1e-30 kg, where it
+ran for ever."""
 
 
 @njit(cache=True, error_model="numpy")

@@ -60,12 +60,10 @@ def add_flags(parser: argparse.ArgumentParser) -> None:
 
 def scenario_from_args(args: argparse.Namespace, **overrides: Any) -> Any:
     """Build and validate the scenario from parsed flags (``overrides`` win)."""
-    from impactbench.scenarios import load
-
     spec = _spec()
     fields = set(spec.cls.field_names())
     values = {k: v for k, v in vars(args).items() if k in fields and v is not None}
-    values = load(spec.from_args)(args, values)
+    values = spec.from_args(args, values)  # a method of the spec (scenarios/spec.py)
     values.update(overrides)
     return spec.cls(**values)
 

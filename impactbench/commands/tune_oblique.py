@@ -45,8 +45,8 @@ def _refuse_ball_options(args: argparse.Namespace) -> None:
     why = {"parameters": "the oblique knobs are the engine's friction keys, all fitted",
            "param": "the oblique fit holds nothing fixed",
            "plot": "the oblique fit prints its residuals (use --json for the numbers)",
-           "optimizer": "the oblique fit's search is its own (Sobol scan and Nelder-Mead, "
-                        "seeded)",
+           "optimizer": "the oblique fit uses the one tuner's Nelder-Mead (a seeded Sobol "
+                        "scan, then scipy's Nelder-Mead)",
            "solref-form": "MuJoCo's oblique knobs are cone, impratio and friction",
            "budget-s": "the oblique fit's budget is --max-evals (deterministic)",
            "angle-deg": "the fit sweeps --angles"}

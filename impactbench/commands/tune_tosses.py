@@ -6,8 +6,9 @@ on the held-out test tosses beside the engine out of the box and its published p
 (``dair2022``, …), the fitted parameters in the engine's own keys, and the file written
 (``--out FILE``, else ``tuned_<engine>_cube_toss.toml``; ``--write-default`` the packaged
 ``impactbench/data/tuned/cube_toss/<engine>.toml`` that ``run --mode tuned`` and the report
-read). Every evaluation is cached (``$IMPACTBENCH_TUNE_CACHE``), so a rerun, or a longer
-``--budget``, evaluates only what it has not seen.
+read). Every evaluation is a stored run in the results store (``--store``, default
+``$IMPACTBENCH_STORE``), so a rerun, or a longer ``--budget``, evaluates only what it has not
+seen; ``--workers N`` runs each generation's candidates on N Dask workers.
 """
 
 from __future__ import annotations
@@ -33,14 +34,15 @@ def _out_path(args: argparse.Namespace) -> Path:
     return args.out or Path(f"tuned_{args.engine}_cube_toss.toml")
 
 
-def _reference_sets(engine: str, protocol: Any) -> dict[str, dict[str, Any]]:
+def _reference_sets(engine: str, protocol: Any, store: Any, workers: int | None,
+                    scheduler: str | None) -> dict[str, dict[str, Any]]:
     """The engine out of the box and its published parameter sets, scored on the held-out
-    test tosses (what the fit is compared with; cached as the fit's evaluations are)."""
+    test tosses (what the fit is compared with; stored runs, as the fit's evaluations are)."""
     import impactbench.engines.cube_toss as engines_mod
-    from impactbench.cube_tosses.tune import EvalCache, default_cache_path, score_params
+    from impactbench.cube_tosses.tune import score_params
 
-    cache = EvalCache(default_cache_path())
-    return {name: score_params(engine, params, None, "test", protocol, cache)
+    return {name: score_params(engine, params, None, "test", protocol, store,
+                               workers=workers, scheduler=scheduler)
             for name, params in {"default": {},
                                  **engines_mod.PARAM_SETS.get(engine, {})}.items()}
 
@@ -56,11 +58,13 @@ def _row(name: str, summary: dict[str, Any] | None) -> dict[str, Any]:
 
 def main(args: argparse.Namespace) -> int:
     """The cube-toss branch of ``impactbench tune`` (called by :mod:`.tune`)."""
+    from impactbench.cliutil import check_workers
     from impactbench.cube_tosses import tune as tune_mod
     from impactbench.cube_tosses.scenario import protocol_of
     from impactbench.flags import scenario_from_args
     from impactbench.publish import check_file_target
     from impactbench.reference import validation as check
+    from impactbench.store import Store, default_path
 
     check.one_of("engine", args.engine, tuple(tune_mod.SPACES))
     budget = args.max_evals if args.max_evals is not None else DEFAULT_BUDGET
@@ -79,7 +83,9 @@ def main(args: argparse.Namespace) -> int:
                          "training-toss ids)")
     out_file = _out_path(args)
     check_file_target(out_file, "out")  # before minutes of fitting, not after
+    check_workers(args.workers)
     protocol = protocol_of(scenario)
+    store = Store(args.store or default_path())
 
     def progress(done: int, total: int, objective: float, best: float) -> None:
         if not args.json:
@@ -88,9 +94,10 @@ def main(args: argparse.Namespace) -> int:
 
     with stdout_to_stderr():
         fit = tune_mod.tune(args.engine, budget, seed=args.seed, protocol=protocol,
-                            tosses=tosses,
-                            optimizer=args.optimizer, progress=progress)
-        refs = _reference_sets(args.engine, protocol)
+                            tosses=tosses, optimizer=args.optimizer, store=store,
+                            fresh=args.fresh, workers=args.workers, scheduler=args.scheduler,
+                            progress=progress)
+        refs = _reference_sets(args.engine, protocol, store, args.workers, args.scheduler)
     if not args.json:
         print(file=sys.stderr)
     path = tune_mod.write_tuned(fit, out_file, {k: {"test": v} for k, v in refs.items()})
@@ -107,7 +114,7 @@ def main(args: argparse.Namespace) -> int:
         return 0
     print(f"impactbench tune: {fit.engine} {fit.engine_version} fitted to the cube tosses "
           f"(training split, {len(fit.train_ids)} tosses; {fit.optimizer}, {fit.evaluations} "
-          f"evaluations, {fit.cache_hits} from the cache, seed {fit.seed}, "
+          f"evaluations, {fit.cache_hits} from the store, seed {fit.seed}, "
           f"{fit.wall_time_s:.0f} s)")
     print(f"objective (mean position error / width, training tosses): "
           f"start {fit.objective_start:.4f} -> tuned {fit.objective:.4f}")

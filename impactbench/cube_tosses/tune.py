@@ -1,10 +1,12 @@
 """Fitting an engine's contact parameters to the cube tosses, on the training split only.
 
-``tune(engine, budget)`` searches the engine's parameter space (:data:`SPACES`) with a
-derivative-free optimiser from nevergrad (``pip install nevergrad``; DAIR fitted with its
-``NGOpt``) and returns a :class:`CubeTuneFit`; :func:`write_tuned` writes it as a packaged
-tuned file ``impactbench/data/tuned/cube_toss/<engine>.toml`` (``[parameters]`` in the engine's
-own keys, as ``replay(engine, "custom", params=…)`` takes them; :func:`load_tuned` reads them).
+``tune(engine, budget)`` searches the engine's parameter space (:mod:`~impactbench.cube_tosses.
+spaces`, named by the engine's :class:`~impactbench.engines.registry.EngineSpec`) with the one
+tuner (:mod:`impactbench.tuning.search`: its ``nevergrad`` method; ``pip install nevergrad``;
+DAIR fitted with its ``NGOpt``) and returns a :class:`CubeTuneFit`; :func:`write_tuned` writes it
+as a packaged tuned file ``impactbench/data/tuned/cube_toss/<engine>.toml`` (``[parameters]`` in
+the engine's own keys, as ``replay(engine, "custom", params=…)`` takes them; :func:`load_tuned`
+reads them).
 
 Objective (:data:`OBJECTIVE`): the mean over the training tosses of each toss's time-mean
 position error |p_sim − p_real| / (2h) — DAIR's position metric, a fraction of the cube's width,
@@ -14,38 +16,40 @@ fails or goes non-finite counts :data:`FAILED_TOSS_ERROR` widths.
 
 - **Training tosses only.** The deterministic split of :mod:`~impactbench.cube_tosses.data`
   (367 training tosses of the packaged 456); ``tune`` refuses a test toss, every evaluation the
-  optimiser sees replays exactly the training tosses it was given (one engine instance per
-  candidate, batched: Newton and MJX replay them in one call), and the test split is scored once,
-  after the fit, for the provenance.
-- **Parameter spaces** (:data:`SPACES`): named knobs with bounds, log-scaled where a knob
-  spans decades, a categorical where the engine has a discrete choice (MuJoCo's friction cone,
-  Drake's discrete solver). The start is the middle of each box (the geometric mean of a log
-  knob), never DAIR's fitted values: those were fitted on all tosses, test tosses included.
-  Each knob maps onto the engine's keys so that the *effective* pair value is the knob (both
-  bodies set where the engine combines them; see :func:`engine_params`).
+  optimiser sees replays exactly the training tosses it was given, and the test split is scored
+  once, after the fit, for the provenance.
+- **Through the one door.** An evaluation is a run of the cube-toss scenario
+  (:class:`~impactbench.scenarios.cube_toss.CubeToss` with the selected tosses) in ``custom``
+  mode with the candidate's engine parameters, through the engine's adapter and its cube-toss
+  builder (:func:`impactbench.matrix.run_jobs`, :func:`impactbench.evaluate.compare`): one engine
+  instance replays the tosses (MJX and Newton all of them in one call), the scenario scores them.
+- **Batches.** The optimiser asks a whole CMA-ES generation at once
+  (:func:`impactbench.tuning.search.nevergrad`); its runs go to ``run_jobs`` together, which runs
+  them in this process, or on Dask workers (``workers``; the same numbers).
+- **Parameter spaces** (:data:`SPACES`, :mod:`~impactbench.cube_tosses.spaces`): named knobs with
+  bounds, log-scaled where a knob spans decades, a categorical where the engine has a discrete
+  choice (MuJoCo's friction cone). The start is the middle of each box, never DAIR's fitted
+  values: those were fitted on all tosses, test tosses included.
 - **Optimiser**: nevergrad ``CMA`` by default (the ``cma`` package's CMA-ES; its candidates
   depend on the seed and the evaluations so far, never on the budget, so a longer budget repeats
-  the shorter run's candidates — served from the cache — and continues). Any nevergrad name
+  the shorter run's candidates — served from the store — and continues). Any nevergrad name
   works (``optimizer="NGOpt"``, DAIR's: its algorithm is chosen from the budget, so a different
-  budget starts a different search). Seeded (``seed``): the same seed, data and engine give the
-  same parameters.
-- **Cache** (:class:`EvalCache`): every evaluation in a small SQLite file
-  (``$IMPACTBENCH_TUNE_CACHE``, else ``$XDG_CACHE_HOME/impactbench/cube_toss_tune.sqlite``),
-  keyed by a SHA-256 of the engine and its version, the parameters, the protocol, the toss ids
-  and a hash of their data: a rerun, or a longer budget, evaluates only what it has not seen.
-  (Not the results store: that keys whole scenario runs; these are per-candidate batches.)
+  budget starts a different search; asked one candidate at a time). Seeded (``seed``): the same
+  seed, data and engine give the same parameters.
+- **Results store** (:class:`impactbench.store.Store`, the same DuckDB file as every run):
+  every evaluation is a stored run (study ``tune``, :data:`impactbench.store.CANDIDATE`: left
+  out of ``impactbench history``), keyed like any run by the engine and its version, the
+  scenario's fields (data file and its SHA-256, tosses, protocol), the mode and the engine
+  parameters: a rerun, or a longer budget, evaluates only what the store lacks.
 - The result is the best evaluated candidate (lowest training objective; the start counts).
 """
 
 from __future__ import annotations
 
 import hashlib
-import json
 import math
-import os
-import sqlite3
+import tempfile
 import time
-import warnings
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -56,150 +60,26 @@ import pandas as pd
 
 import impactbench.cube_tosses.data as data_mod
 import impactbench.engines.cube_toss as engines_mod
-from impactbench.cube_tosses.protocol import Protocol, Start, prepare, summarize, toss_errors
+from impactbench.cube_tosses.protocol import Protocol, summarize
+from impactbench.cube_tosses.spaces import (
+    DRAKE_APPROXIMATION,
+    SPACES,
+    Knob,
+    engine_params,
+    space,
+)
+from impactbench.tuning import search as search_mod
 
 OBJECTIVE = ("mean over the training tosses of the time-mean position error "
              "|p_sim - p_real| / (2h) (DAIR's protocol; a failed toss counts 10)")
 FAILED_TOSS_ERROR = 10.0
-SEED = 20240607
+SEED = search_mod.SEED
 DEFAULT_OPTIMIZER = "CMA"
 TUNED_DIR = Path(__file__).resolve().parents[1] / "data" / "tuned" / "cube_toss"
-CACHE_ENV = "IMPACTBENCH_TUNE_CACHE"
-_CACHE_VERSION = 1
-
-
-# ------------------------------------------------------------------------------ spaces
-
-
-@dataclass(frozen=True)
-class Knob:
-    """One tuned quantity: a number in [low, high] (log-scaled when ``log``) or one of
-    ``choices``; ``start`` is the middle of the box unless given."""
-
-    name: str
-    low: float = math.nan
-    high: float = math.nan
-    log: bool = True
-    choices: tuple[str, ...] = ()
-    unit: str = ""
-    note: str = ""
-
-    @property
-    def start(self) -> Any:
-        if self.choices:
-            return self.choices[0]
-        return math.sqrt(self.low * self.high) if self.log else 0.5 * (self.low + self.high)
-
-    def describe(self) -> dict[str, Any]:
-        if self.choices:
-            return {"name": self.name, "choices": list(self.choices), "start": self.start,
-                    "note": self.note}
-        return {"name": self.name, "low": self.low, "high": self.high,
-                "scale": "log" if self.log else "linear", "start": self.start,
-                "unit": self.unit, "note": self.note}
-
-
-def _friction(note: str) -> Knob:
-    return Knob("friction", 0.02, 2.0, unit="", note=note)
-
-
-SPACES: dict[str, tuple[Knob, ...]] = {
-    "pybullet": (
-        Knob("stiffness", 1e2, 1e6, unit="N/m", note="board.contactStiffness (the cube unset: "
-             "1e30 in series, so the pair's value is the board's)"),
-        Knob("damping", 0.1, 1e3, unit="N·s/m", note="board.contactDamping (pair: + the "
-             "cube's 0.1)"),
-        _friction("board.lateralFriction, cube.lateralFriction = 1 (Bullet multiplies)"),
-    ),
-    "mujoco": (
-        Knob("stiffness", 1e2, 1e6, unit="1/s² (per unit effective mass)",
-             note="direct solref (−k, −b) on both geoms"),
-        Knob("damping", 1.0, 1e3, unit="1/s", note="direct solref (−k, −b) on both geoms"),
-        _friction("friction (μ, 0.005, 0.0001) on both geoms (MuJoCo takes the larger)"),
-        Knob("solimp_dmin", 0.5, 0.9999, log=False, note="solimp[0] on both geoms"),
-        Knob("solimp_dmax", 0.5, 0.9999, log=False, note="solimp[1] on both geoms"),
-        Knob("solimp_width", 1e-4, 0.1, unit="m", note="solimp[2] on both geoms "
-             "(midpoint 0.5, power 2 kept)"),
-        Knob("cone", choices=("pyramidal", "elliptic"), note="option.cone"),
-        Knob("impratio", 1.0, 100.0, note="option.impratio (frictional/normal impedance)"),
-    ),
-    "drake": (
-        Knob("stiffness", 1e3, 1e6, unit="N/m", note="effective pair point_contact_stiffness: "
-             "both geometries 2k (in series)"),
-        _friction("mu (static = dynamic) on both (Drake combines 2ab/(a + b))"),
-        Knob("relaxation_time", 1e-4, 1.0, unit="s", note="relaxation_time on both (SAP's "
-             "linear dissipation; SAP ignores hunt_crossley_dissipation)"),
-    ),
-    "sapien": (
-        _friction("static = dynamic friction of both materials (PhysX averages)"),
-        Knob("restitution", 0.0, 0.9, log=False, note="restitution of both materials "
-             "(rigid contact; PhysX's compliant contact is undamped, not searched)"),
-        Knob("bounce_threshold", 0.01, 5.0, unit="m/s", note="scene bounce_threshold"),
-    ),
-    "dart": (
-        _friction("friction_coeff of both shapes (DART takes the smaller)"),
-        Knob("restitution", 0.0, 0.9, log=False, note="board.restitution_coeff, cube 1 "
-             "(DART multiplies)"),
-    ),
-    "newton": (
-        Knob("ke", 1e2, 3e5, unit="N/m", note="ke of both shapes (averaged); semi-implicit "
-             "stepping is unstable above ~3e5 at the protocol's step"),
-        Knob("kd", 0.1, 300.0, unit="N·s/m", note="kd of both shapes"),
-        Knob("kf", 1.0, 1e5, unit="N·s/m", note="kf (friction regularisation) of both shapes"),
-        _friction("mu of both shapes"),
-    ),
-}
-SPACES["mjx"] = SPACES["mujoco"]
-DRAKE_APPROXIMATION = "sap"
-"""Drake's discrete solver in a fit, fixed: SAP (DAIR's parameters replay best under it, and it
-is not deprecated as TAMSI is); lagged and similar, the other current choices, run at about the
-same speed and would need a categorical knob — more evaluations than one Drake budget holds
-(a training evaluation takes 10–30 s on 2 shared cores)."""
-"""engine → its knobs (bounds, scale); :func:`engine_params` maps them onto engine keys."""
-
-
-def engine_params(engine: str, knobs: Mapping[str, Any]) -> dict[str, Any]:
-    """The engine's own keys for the knob values ``knobs`` (module doc)."""
-    k = dict(knobs)
-    if engine == "pybullet":
-        return {"board.contactStiffness": k["stiffness"], "board.contactDamping": k["damping"],
-                "board.lateralFriction": k["friction"], "cube.lateralFriction": 1.0}
-    if engine in ("mujoco", "mjx"):
-        solref = (-k["stiffness"], -k["damping"])
-        friction = (k["friction"], 0.005, 0.0001)
-        solimp = (k["solimp_dmin"], k["solimp_dmax"], k["solimp_width"], 0.5, 2.0)
-        return {"board.solref": solref, "cube.solref": solref, "board.friction": friction,
-                "cube.friction": friction, "board.solimp": solimp, "cube.solimp": solimp,
-                "option.cone": k["cone"], "option.impratio": k["impratio"]}
-    if engine == "drake":
-        out = {"contact_model": "point", "discrete_contact_approximation": DRAKE_APPROXIMATION}
-        for body in ("board", "cube"):
-            out |= {f"{body}.point_contact_stiffness": 2.0 * k["stiffness"],
-                    f"{body}.mu": k["friction"],
-                    f"{body}.relaxation_time": k["relaxation_time"]}
-        return out
-    if engine == "sapien":
-        out = {"bounce_threshold": k["bounce_threshold"]}
-        for body in ("board", "cube"):
-            out |= {f"{body}.static_friction": k["friction"],
-                    f"{body}.dynamic_friction": k["friction"],
-                    f"{body}.restitution": k["restitution"]}
-        return out
-    if engine == "dart":
-        return {"board.friction_coeff": k["friction"], "cube.friction_coeff": k["friction"],
-                "board.restitution_coeff": k["restitution"], "cube.restitution_coeff": 1.0}
-    if engine == "newton":
-        return {f"{body}.{name}": k["friction" if name == "mu" else name]
-                for body in ("board", "cube") for name in ("ke", "kd", "kf", "mu")}
-    raise ValueError(f"engine = {engine!r}: tunable on the cube tosses: {', '.join(SPACES)}")
-
-
-def space(engine: str) -> tuple[Knob, ...]:
-    """The knobs of ``engine`` (ValueError naming the tunable engines)."""
-    if engine not in SPACES:
-        raise ValueError(f"engine = {engine!r}: tunable on the cube tosses: "
-                         f"{', '.join(SPACES)}")
-    return SPACES[engine]
+RUN_TIMEOUT_S = 3600.0
+"""A replay still going after this long is a hang (``run_jobs``' per-run timeout): the training
+split's 367 tosses take 1–30 s per engine on 2 shared cores (measured), far under the
+60 s floor of the default timeout only on a quiet machine."""
 
 
 # ------------------------------------------------------------------------------ evaluation
@@ -219,7 +99,14 @@ def data_hash(df: pd.DataFrame, ids: Sequence[int]) -> str:
 
 @dataclass
 class Evaluation:
-    """One candidate replayed on a set of tosses."""
+    """One candidate replayed on a set of tosses (from its run object: :func:`evaluation_of`).
+
+    Attributes:
+        objective: :data:`OBJECTIVE` (widths).
+        position_error, rotation_error_deg: per toss, in the ids' order (NaN where failed).
+        failed: the tosses that did not replay. elapsed_s: the replay's wall time (s).
+        cached: served from the results store.
+    """
 
     objective: float
     position_error: list[float]
@@ -236,120 +123,135 @@ class Evaluation:
                 "failed": list(self.failed)}
 
 
-def evaluate(engine: str, params: Mapping[str, Any], starts: Sequence[Start],
-             protocol: Protocol | None = None) -> Evaluation:
-    """Replay ``starts`` in one instance of ``engine`` with ``params`` (batched engines in one
-    call) and score them (:data:`OBJECTIVE`)."""
-    protocol = protocol or Protocol()
-    t0 = time.perf_counter()
+def evaluation_of(run: Mapping[str, Any], ids: Sequence[int], cached: bool = False
+                  ) -> Evaluation:
+    """The :class:`Evaluation` of a cube-toss run object (``compare``'s, or the store's) on
+    tosses ``ids``: each toss's errors from its ``per_toss`` row; a toss without an ``ok`` row
+    (it failed, or the run did: no rows) is failed and counts :data:`FAILED_TOSS_ERROR`."""
+    rows = {int(r["toss"]): r for r in (run.get("per_toss") or ())}
     pos, rot, failed = [], [], []
-    try:
-        sim = engines_mod.make(engine, params, starts[0].step_s, protocol.board_z_m)
-    except (ValueError, RuntimeError):
-        n = len(starts)
-        return Evaluation(FAILED_TOSS_ERROR, [math.nan] * n, [math.nan] * n,
-                          [s.toss for s in starts], time.perf_counter() - t0)
-    try:
-        batch = sim.run_many(starts) if getattr(sim, "batched", False) else None
-        for n, start in enumerate(starts):
-            try:
-                if batch is not None and isinstance(batch[n], Exception):
-                    raise batch[n]
-                p, q = batch[n] if batch is not None else sim.run(start)
-                if not (np.all(np.isfinite(p)) and np.all(np.isfinite(q))):
-                    raise FloatingPointError("non-finite state")
-                e = toss_errors(start, p, q, protocol)
-                pos.append(e["position_error"])
-                rot.append(e["rotation_error_deg"])
-            except (RuntimeError, FloatingPointError, ValueError):
-                pos.append(math.nan)
-                rot.append(math.nan)
-                failed.append(start.toss)
-    finally:
-        sim.close()
+    for i in ids:
+        row = rows.get(int(i))
+        if row is not None and row.get("status", "ok") == "ok":
+            pos.append(float(row["position_error"]))
+            rot.append(float(row["rotation_error_deg"]))
+        else:
+            pos.append(math.nan)
+            rot.append(math.nan)
+            failed.append(int(i))
     scored = np.where(np.isfinite(pos), pos, FAILED_TOSS_ERROR)
-    return Evaluation(float(np.mean(scored)), pos, rot, failed, time.perf_counter() - t0)
+    elapsed = float(run.get("elapsed_s", run.get("wall_s", math.nan)) or math.nan)
+    return Evaluation(float(np.mean(scored)), pos, rot, failed, elapsed, cached)
 
 
-def default_cache_path() -> Path:
-    """``$IMPACTBENCH_TUNE_CACHE``, else ``$XDG_CACHE_HOME/impactbench/cube_toss_tune.sqlite``."""
-    if os.environ.get(CACHE_ENV):
-        return Path(os.environ[CACHE_ENV])
-    base = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache"))
-    return base / "impactbench" / "cube_toss_tune.sqlite"
+def scenario_of(data: str | Path | None, tosses: str | Sequence[int],
+                protocol: Protocol | None = None) -> Any:
+    """The cube-toss scenario (:class:`~impactbench.scenarios.cube_toss.CubeToss`, through the
+    scenario registry) replaying ``tosses`` (a split name or ids) of ``data`` (a CSV path;
+    None: the packaged tosses) under ``protocol`` (DAIR's by default)."""
+    from impactbench.scenarios import get
+
+    protocol = protocol or Protocol()
+    selection = tosses if isinstance(tosses, str) else ",".join(str(int(i)) for i in tosses)
+    return get("cube-toss").cls(half_width_m=protocol.half_width_m, data=str(data) if data else "",
+                    tosses=selection, substeps=protocol.substeps,
+                    start_rule=protocol.start_rule, samples_before=protocol.samples_before,
+                    refit=protocol.refit, min_preceding=protocol.min_preceding,
+                    velocity_fit=protocol.velocity_fit, sample_dt_s=protocol.sample_dt_s,
+                    board_z_m=protocol.board_z_m)
 
 
-def _canonical(value: Any) -> Any:
-    if isinstance(value, Mapping):
-        return {str(k): _canonical(v) for k, v in sorted(value.items())}
-    if isinstance(value, list | tuple | np.ndarray):
-        return [_canonical(v) for v in value]
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, float):
-        return repr(value)   # exact: 17 significant digits
-    return value
+def data_file(data: pd.DataFrame | str | Path | None) -> str | None:
+    """A path the scenario can name for ``data``: the path itself, None for the packaged
+    tosses, and for a DataFrame a CSV of its rows named by their SHA-256 in the temporary
+    directory (the same rows, the same file: stored runs of it are found again)."""
+    if not isinstance(data, pd.DataFrame):
+        return None if data is None else str(data)
+    frame = data_mod.validate(data)
+    digest = hashlib.sha256(pd.util.hash_pandas_object(
+        frame[list(data_mod.COLUMNS)], index=False).to_numpy().tobytes()).hexdigest()[:16]
+    path = Path(tempfile.gettempdir()) / f"impactbench-tosses-{digest}.csv"
+    if not path.is_file():
+        partial = path.with_suffix(f".{time.time_ns()}.part")
+        frame.to_csv(partial, index=False)
+        partial.replace(path)
+    return str(path)
 
 
-class EvalCache:
-    """Evaluations in an SQLite file (module doc), or none when ``path`` is None."""
+@dataclass
+class Replays:
+    """The fit's batch objective (:class:`~impactbench.tuning.search.BatchObjective`): each
+    candidate (knob name → value) is a ``custom`` run of ``scenario`` with the engine
+    parameters it maps to (:func:`~impactbench.cube_tosses.spaces.engine_params`), a batch's
+    runs handed to :func:`impactbench.matrix.run_jobs` at once (served by ``store`` where it has
+    them; the rest in this process, or on ``workers`` Dask workers / a ``scheduler``), then
+    scored (:func:`evaluation_of`). Keeps every evaluation in order (``history``), the best,
+    and how many the store served (``hits``); ``progress`` hears (done, budget, J, best J)."""
 
-    def __init__(self, path: str | Path | None) -> None:
-        self.path = None if path is None else Path(path)
-        self.hits = 0
-        if self.path is not None:
-            self.path.parent.mkdir(parents=True, exist_ok=True)
-            with self._connect() as con:
-                con.execute("CREATE TABLE IF NOT EXISTS evaluations (key TEXT PRIMARY KEY, "
-                            "engine TEXT, params TEXT, objective REAL, result TEXT)")
+    engine: str
+    scenario: Any
+    ids: list[int]
+    budget: int = 0
+    store: Any = None
+    fresh: bool = False
+    workers: int | None = None
+    scheduler: str | None = None
+    progress: Callable[[int, int, float, float], None] | None = None
+    history: list[tuple[dict[str, Any], float]] = field(default_factory=list)
+    best: tuple[float, dict[str, Any], Evaluation] | None = None
+    hits: int = 0
+    references: dict[tuple, dict[str, Any]] = field(default_factory=dict, repr=False)
 
-    def _connect(self) -> sqlite3.Connection:
-        return sqlite3.connect(self.path, timeout=30.0)
+    def runs(self, params: Sequence[Mapping[str, Any] | None]) -> list[tuple[dict, bool]]:
+        """(run object, served from the store) of each engine-parameter set (None or {}: the
+        engine out of the box, ``default`` mode), in order."""
+        return replay_runs(self.engine, self.scenario, params, store=self.store,
+                           fresh=self.fresh, workers=self.workers, scheduler=self.scheduler,
+                           references=self.references)
 
-    @staticmethod
-    def key(engine: str, version: str, params: Mapping[str, Any], protocol: Protocol,
-            ids: Sequence[int], data: str) -> str:
-        blob = json.dumps({"v": _CACHE_VERSION, "engine": engine, "version": version,
-                           "params": _canonical(params), "protocol": _canonical(
-                               protocol.describe()), "ids": ids_hash(ids), "data": data,
-                           "objective": OBJECTIVE}, sort_keys=True)
-        return hashlib.sha256(blob.encode()).hexdigest()
-
-    def get(self, key: str) -> Evaluation | None:
-        if self.path is None:
-            return None
-        with self._connect() as con:
-            row = con.execute("SELECT result FROM evaluations WHERE key = ?", (key,)).fetchone()
-        if row is None:
-            return None
-        self.hits += 1
-        d = json.loads(row[0])
-        return Evaluation(d["objective"], _floats(d["position_error"]),
-                          _floats(d["rotation_error_deg"]), d["failed"], d["elapsed_s"], True)
-
-    def put(self, key: str, engine: str, params: Mapping[str, Any], ev: Evaluation) -> None:
-        if self.path is None:
-            return
-        result = json.dumps({"objective": ev.objective,
-                             "position_error": [_json_float(x) for x in ev.position_error],
-                             "rotation_error_deg": [_json_float(x)
-                                                    for x in ev.rotation_error_deg],
-                             "failed": ev.failed, "elapsed_s": ev.elapsed_s})
-        with self._connect() as con:
-            con.execute("INSERT OR REPLACE INTO evaluations VALUES (?, ?, ?, ?, ?)",
-                        (key, engine, json.dumps(_canonical(params)), ev.objective, result))
-
-
-def _json_float(x: float) -> float | None:
-    return float(x) if math.isfinite(x) else None
+    def evaluate_batch(self, candidates: Sequence[Mapping[str, Any]]) -> list[float]:
+        values = [_plain(c) for c in candidates]
+        out = []
+        for knobs, (run, cached) in zip(values, self.runs(
+                [engine_params(self.engine, v) for v in values]), strict=True):
+            if run["status"] == "unavailable":
+                raise ValueError(f"engine = {self.engine!r}: {run['message']}")
+            ev = evaluation_of(run, self.ids, cached)
+            self.hits += cached
+            self.history.append((knobs, ev.objective))
+            if self.best is None or ev.objective < self.best[0]:
+                self.best = (ev.objective, knobs, ev)
+            if self.progress is not None:
+                self.progress(len(self.history), self.budget, ev.objective, self.best[0])
+            out.append(ev.objective)
+        return out
 
 
-def _floats(xs: list[Any]) -> list[float]:
-    return [math.nan if x is None else float(x) for x in xs]
+def replay_runs(engine: str, scenario: Any, params: Sequence[Mapping[str, Any] | None],
+                *, store: Any = None, fresh: bool = False, workers: int | None = None,
+                scheduler: str | None = None,
+                references: dict[tuple, dict[str, Any]] | None = None
+                ) -> list[tuple[dict[str, Any], bool]]:
+    """Run ``scenario`` in ``engine`` once per engine-parameter set of ``params`` (``custom``
+    mode; None or {}: ``default``) through :func:`impactbench.matrix.run_jobs` (study
+    :data:`~impactbench.store.CANDIDATE`): (run object, served from ``store``) each, in order.
+    A run past :data:`RUN_TIMEOUT_S` is a ``timeout``."""
+    from impactbench.config import frozen_params
+    from impactbench.matrix import Job, run_jobs
+    from impactbench.store import CANDIDATE
+
+    defaults = type(scenario)().to_dict()
+    fields = tuple(sorted((k, v) for k, v in scenario.to_dict().items() if v != defaults[k]))
+    jobs = [Job(engine, scenario.name, (), "custom" if p else "default", None, fields,
+                frozen_params(dict(p)) if p else (), study=CANDIDATE) for p in params]
+    results = {r.job.id: r for r in run_jobs(
+        jobs, workers, store=store, fresh=fresh, scheduler=scheduler, timeout_s=RUN_TIMEOUT_S,
+        references=references if references is not None else {})}
+    return [(results[j.id].run, results[j.id].cached) for j in jobs]
 
 
 def engine_version(engine: str) -> str:
-    """The installed version of the engine's distribution (for the cache key and provenance)."""
+    """The installed version of the engine's distribution (for the provenance)."""
     dist = {"mjx": "mujoco-mjx", "dart": "dartpy"}.get(engine, engine)
     out = engines_mod._version(dist)
     if engine == "mjx":
@@ -357,6 +259,18 @@ def engine_version(engine: str) -> str:
     if engine == "newton":
         out += f" (warp {engines_mod._version('warp-lang')})"
     return out
+
+
+def open_store(store: Any) -> Any:
+    """A :class:`impactbench.store.Store` for ``store``: True the default results store
+    (``$IMPACTBENCH_STORE``), a path its file, a Store itself; None or False: none."""
+    if store is None or store is False:
+        return None
+    from impactbench.store import Store, default_path
+
+    if store is True:
+        return Store(default_path())
+    return store if isinstance(store, Store) else Store(Path(store))
 
 
 # ------------------------------------------------------------------------------ the fit
@@ -371,8 +285,9 @@ class CubeTuneFit:
         start_knobs, space (the knobs' bounds and scales), objective_start, objective
         (the best training objective), train / test / all_tosses (summaries: mean, median,
         quartiles of both errors; test and all are scored after the fit, None when not),
-        evaluations (candidates evaluated, start included), cache_hits, budget, seed,
-        optimizer, train_ids, wall_time_s, history ((knobs, objective) per evaluation).
+        evaluations (candidates evaluated, start included), cache_hits (of those, served from
+        the results store), budget, seed, optimizer, train_ids, wall_time_s, history ((knobs,
+        objective) per evaluation).
     """
 
     engine: str
@@ -400,39 +315,16 @@ class CubeTuneFit:
     history: list[tuple[dict[str, Any], float]] = field(default_factory=list)
 
 
-def _parametrization(knobs: Sequence[Knob], seed: int) -> Any:
-    import nevergrad as ng
-
-    entries = {}
-    for k in knobs:
-        if k.choices:
-            entries[k.name] = ng.p.Choice(list(k.choices), deterministic=True)
-        elif k.log:
-            entries[k.name] = ng.p.Log(init=k.start, lower=k.low, upper=k.high)
-        else:
-            entries[k.name] = ng.p.Scalar(init=k.start, lower=k.low, upper=k.high)
-    p = ng.p.Dict(**entries)
-    p.random_state = np.random.RandomState(seed)
-    return p
-
-
 def search(knobs: Sequence[Knob], run: Callable[[Mapping[str, Any]], float], budget: int,
            seed: int, optimizer: str = DEFAULT_OPTIMIZER) -> float:
-    """Evaluate the start (each knob's ``start``), then ``budget − 1`` candidates of the
-    nevergrad ``optimizer`` seeded with ``seed`` (one at a time: ask, ``run``, tell); ``run``
-    keeps what it needs (the best). Returns the start's objective."""
-    import nevergrad as ng
-
-    objective_start = run({k.name: k.start for k in knobs})
-    opt = ng.optimizers.registry[optimizer](parametrization=_parametrization(knobs, seed),
-                                            budget=budget - 1, num_workers=1)
-    with warnings.catch_warnings():
-        # cma's "orphanated injected solution": nevergrad injects its candidates; harmless
-        warnings.filterwarnings("ignore", message=".*orphanated injected solution")
-        for _ in range(budget - 1):
-            cand = opt.ask()
-            opt.tell(cand, run(cand.value))
-    return objective_start
+    """The one tuner's ``nevergrad`` method (:func:`impactbench.tuning.search.nevergrad`) on a
+    function ``run(knob values) -> objective`` called one candidate at a time, in order: the
+    start (each knob's ``start``), then ``budget − 1`` candidates of ``optimizer`` seeded with
+    ``seed`` (a generation asked at once, then run and told in order: the same candidates as
+    asking one at a time); ``run`` keeps what it needs (the best). Returns the start's
+    objective. (The reference model's fit, :mod:`~impactbench.cube_tosses.reference_model`.)"""
+    return search_mod.nevergrad(knobs, search_mod.FunctionObjective(run), budget, seed=seed,
+                                optimizer=optimizer)
 
 
 def _plain(values: Mapping[str, Any]) -> dict[str, Any]:
@@ -459,27 +351,29 @@ def training_ids(df: pd.DataFrame, tosses: str | Iterable[int] = "train") -> lis
     return ids
 
 
-def _starts(df: pd.DataFrame, ids: Sequence[int], protocol: Protocol) -> list[Start]:
-    return [prepare(t, protocol) for t in data_mod.tosses(df, ids)]
-
-
 def tune(engine: str, budget: int, *, seed: int = SEED,
          data: pd.DataFrame | str | Path | None = None,
          tosses: str | Iterable[int] = "train", protocol: Protocol | None = None,
-         optimizer: str = DEFAULT_OPTIMIZER, cache: str | Path | bool | None = True,
-         score: bool = True,
+         optimizer: str = DEFAULT_OPTIMIZER, store: Any = True, fresh: bool = False,
+         workers: int | None = None, scheduler: str | None = None, score: bool = True,
          progress: Callable[[int, int, float, float], None] | None = None) -> CubeTuneFit:
     """Fit ``engine``'s contact parameters to the training tosses (module doc).
 
     Args:
-        engine: one of :data:`SPACES` (pybullet, mujoco, drake, sapien, dart, newton, mjx).
+        engine: one with a cube-toss space (:data:`SPACES`: pybullet, mujoco, drake, sapien,
+            dart, newton, mjx).
         budget: candidate evaluations, the start included (≥ 2).
         seed: the optimiser's seed.
         data: the tosses (a DataFrame, a CSV path, None: the packaged ones).
         tosses: "train" or training-toss ids (a test toss is refused).
         protocol: the replay protocol (DAIR's by default).
         optimizer: a nevergrad optimiser name ("CMA", "NGOpt", …).
-        cache: True (the default file), a path, or False/None (no cache).
+        store: the results store serving and keeping every evaluation (True: the default,
+            ``$IMPACTBENCH_STORE``; a path or :class:`~impactbench.store.Store`; None or
+            False: none); ``fresh`` runs everything again (and stores it).
+        workers, scheduler: where a generation's runs go (:func:`impactbench.matrix.run_jobs`:
+            default this process; N local Dask workers; a scheduler's address). The result
+            does not depend on them, nor on the store.
         score: also score the best candidate on the test split and on all tosses (after the
             fit; the optimiser never sees them).
         progress: called after each evaluation with (done, budget, objective, best).
@@ -495,71 +389,57 @@ def tune(engine: str, budget: int, *, seed: int = SEED,
     protocol = protocol or Protocol()
     df = data_mod.validate(data) if isinstance(data, pd.DataFrame) else data_mod.load(data)
     ids = training_ids(df, tosses)
-    starts = _starts(df, ids, protocol)
+    path = data_file(data)
     dhash = data_hash(df, ids)
     version = engine_version(engine)
-    store = EvalCache(default_cache_path() if cache is True else (cache or None))
-
-    history: list[tuple[dict[str, Any], float]] = []
-    best: tuple[float, dict[str, Any], Evaluation] | None = None
+    results = open_store(store)
+    replays = Replays(engine, scenario_of(path, "train" if isinstance(tosses, str) else ids,
+                                          protocol),
+                      ids, budget, results, fresh, workers, scheduler, progress)
     t0 = time.perf_counter()
-
-    def run(values: Mapping[str, Any]) -> float:
-        nonlocal best
-        values = _plain(values)
-        params = engine_params(engine, values)
-        key = EvalCache.key(engine, version, params, protocol, ids, dhash)
-        ev = store.get(key)
-        if ev is None:
-            ev = evaluate(engine, params, starts, protocol)
-            store.put(key, engine, params, ev)
-        history.append((values, ev.objective))
-        if best is None or ev.objective < best[0]:
-            best = (ev.objective, values, ev)
-        if progress is not None:
-            progress(len(history), budget, ev.objective, best[0])
-        return ev.objective
-
     start_knobs = {k.name: k.start for k in knobs}
-    objective_start = search(knobs, run, budget, seed, optimizer)
-    assert best is not None
-    objective, best_knobs, best_ev = best
+    objective_start = search_mod.nevergrad(knobs, replays, budget, seed=seed,
+                                           optimizer=optimizer)
+    assert replays.best is not None
+    objective, best_knobs, best_ev = replays.best
     params = engine_params(engine, best_knobs)
     wall = time.perf_counter() - t0
 
     test = all_tosses = None
-    hits = store.hits  # the fit's own evaluations served from the cache
+    hits = replays.hits  # the fit's own evaluations served from the store
     if score:
-        all_tosses = score_params(engine, params, df, "all", protocol, store)
+        all_tosses = score_params(engine, params, df, "all", protocol, results,
+                                  data_path=path, workers=workers, scheduler=scheduler)
         test = split_summary(all_tosses, "test")
     return CubeTuneFit(
         engine=engine, params=params, knobs=best_knobs, start_knobs=_plain(start_knobs),
         space=[k.describe() for k in knobs], objective_start=objective_start,
         objective=objective, train=best_ev.summary(ids), test=test, all_tosses=all_tosses,
-        evaluations=len(history), cache_hits=hits, budget=budget, seed=seed,
+        evaluations=len(replays.history), cache_hits=hits, budget=budget, seed=seed,
         optimizer=optimizer, optimizer_version=f"nevergrad {engines_mod._version('nevergrad')}",
         engine_version=version, train_ids=ids, train_ids_hash=ids_hash(ids), data_hash=dhash,
-        protocol=protocol.describe(), wall_time_s=wall, history=history)
+        protocol=protocol.describe(), wall_time_s=wall, history=replays.history)
 
 
 def score_params(engine: str, params: Mapping[str, Any], data: pd.DataFrame | None = None,
                  tosses: str | Iterable[int] = "test", protocol: Protocol | None = None,
-                 cache: EvalCache | None = None) -> dict[str, Any]:
-    """``params`` replayed on a split or ids (not for fitting): the summary of both errors.
-    ``cache``: served from / kept in an :class:`EvalCache` (a rerun scores nothing again)."""
+                 store: Any = None, *, data_path: str | None = None,
+                 workers: int | None = None, scheduler: str | None = None) -> dict[str, Any]:
+    """``params`` (the engine's keys; {}: the engine out of the box) replayed on a split or
+    ids (not for fitting), through the one door: the summary of both errors, ``per_toss``,
+    ``elapsed_s``. ``store`` (:func:`open_store`'s values) serves and keeps the run (a rerun
+    scores nothing again); ``data_path`` names ``data``'s file (default: the packaged
+    tosses, or :func:`data_file` of a DataFrame that is not them)."""
     protocol = protocol or Protocol()
     df = data if data is not None else data_mod.load()
     ids = (data_mod.split(data_mod.toss_ids(df), tosses) if isinstance(tosses, str)
            else [int(i) for i in tosses])
-    key = ev = None
-    if cache is not None:
-        key = EvalCache.key(engine, engine_version(engine), params, protocol, ids,
-                            data_hash(df, ids))
-        ev = cache.get(key)
-    if ev is None:
-        ev = evaluate(engine, params, _starts(df, ids, protocol), protocol)
-        if cache is not None:
-            cache.put(key, engine, params, ev)
+    if data_path is None and data is not None:
+        data_path = data_file(data)
+    scenario = scenario_of(data_path, tosses if isinstance(tosses, str) else ids, protocol)
+    [(run, cached)] = replay_runs(engine, scenario, [dict(params)], store=open_store(store),
+                                  workers=workers, scheduler=scheduler)
+    ev = evaluation_of(run, ids, cached)
     per_toss = [{"toss": i, "position_error": p, "rotation_error_deg": r}
                 for i, p, r in zip(ids, ev.position_error, ev.rotation_error_deg, strict=True)]
     return {**ev.summary(ids), "split": tosses if isinstance(tosses, str) else "ids",
@@ -665,6 +545,7 @@ def load_tuned(engine: str, path: str | Path | None = None) -> dict[str, Any]:
     return {k: tuple(v) if isinstance(v, list) else v for k, v in params.items()}
 
 
-__all__ = ["OBJECTIVE", "SPACES", "CubeTuneFit", "EvalCache", "Knob", "engine_params",
-           "evaluate", "load_tuned", "score_params", "space", "tune", "tuned_path",
-           "write_tuned"]
+__all__ = ["DRAKE_APPROXIMATION", "OBJECTIVE", "SPACES", "CubeTuneFit", "Evaluation", "Knob",
+           "Replays", "data_file", "engine_params", "evaluation_of", "load_tuned",
+           "open_store", "replay_runs", "scenario_of", "score_params", "search", "space",
+           "tune", "tuned_path", "write_tuned"]

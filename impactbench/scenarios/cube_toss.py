@@ -207,24 +207,6 @@ DESCRIPTIONS = {
 }
 
 
-def add_options(group: argparse._ArgumentGroup, with_gravity: bool = True) -> None:
-    """The data file and the toss selection (``with_gravity`` is the ball's; unused)."""
-    group.add_argument("--data", default=None, metavar="FILE",
-                       help="cube tosses: a CSV of tosses (columns toss, sample, t_s, x_m … "
-                       "wz_rad_s; impactbench/cube_tosses/data.py); default the packaged "
-                       "ContactNets tosses")
-    group.add_argument("--tosses", default=None, metavar="WHICH",
-                       help="cube tosses: test, train, all or ids 0,1,57 (default test; with "
-                       "--data, every toss of the file)")
-
-
-def reference(scenario: CubeToss) -> dict[str, Any]:
-    """What the measurement holds for the selected tosses (``reference cube-toss --json``)."""
-    from impactbench.cube_tosses.scenario import measurement
-
-    return measurement(scenario)
-
-
 def _side() -> Any:
     """The scenario's side of a replay (inputs, scoring, store key, step, tuned files),
     imported when first used: it needs numpy and pandas."""
@@ -247,8 +229,6 @@ class CubeTossSpec(ScenarioSpec):
     def measured(self) -> bool:
         return True
 
-    def reference_metrics(self, scenario: Any) -> dict[str, Any]:
-        return reference(scenario)
 
     def metrics_of(self, record: Any, scenario: Any) -> dict[str, Any]:
         return dict(_side().record_metrics(record, scenario))
@@ -272,8 +252,21 @@ class CubeTossSpec(ScenarioSpec):
         the protocol's step and the cube's half width (the scenario already at the step)."""
         return _side().tuned_settings(engine, scenario, tuned_file)
 
-    def add_options(self, group: Any, with_gravity: bool = True) -> None:
-        add_options(group, with_gravity)
+    def reference_metrics(self, scenario: CubeToss) -> dict[str, Any]:
+        """What the measurement holds for the selected tosses (``reference cube-toss --json``)."""
+        from impactbench.cube_tosses.scenario import measurement
+
+        return measurement(scenario)
+
+    def add_options(self, group: argparse._ArgumentGroup, with_gravity: bool = True) -> None:
+        """The data file and the toss selection (``with_gravity`` is the ball's; unused)."""
+        group.add_argument("--data", default=None, metavar="FILE",
+                           help="cube tosses: a CSV of tosses (columns toss, sample, t_s, x_m … "
+                           "wz_rad_s; impactbench/cube_tosses/data.py); default the packaged "
+                           "ContactNets tosses")
+        group.add_argument("--tosses", default=None, metavar="WHICH",
+                           help="cube tosses: test, train, all or ids 0,1,57 (default test; with "
+                           "--data, every toss of the file)")
 
 
 SPEC = CubeTossSpec(

@@ -70,144 +70,11 @@ DESCRIPTIONS = {
 }
 
 
-def reference(scenario: Any) -> dict[str, Any]:
-    """The reference metrics: rigid closed form or the Mindlin integration."""
-    from impactbench.reference import oblique
-
-    return dict(oblique.solve(scenario))
-
-
-def history(scenario: Any) -> Any:
-    """The integrated impact as an ImpactRecord (tangential arrays in ``meta``)."""
-    from impactbench.reference import oblique_integrate
-
-    return oblique_integrate.history(scenario)
-
-
-def record_metrics(rec: Any, scenario: Any) -> dict[str, float]:
-    """The oblique metrics of a record (for the suite's per-scenario metrics hook)."""
-    from impactbench.reference import oblique
-
-    return oblique.record_metrics(rec, scenario)
-
-
-def plausibility(scenario: Any, rec: Any, metrics: dict[str, Any]) -> dict[str, float]:
-    """The largest overlap over the ball's radius (from the record), and the kinetic energy
-    after over before, translation and spin: (m·(v_n'² + v_t'²) + I·ω'²)/(m·V² + I·ω0²),
-    I = m·k² of the shape ((2/5)·m·R² sphere, (1/2)·m·R² disc), with v_n' = e·v_n and
-    v_t' = e_t·V·sin θ (the tangential restitution; at θ = 0, v_t' = 0)."""
-    pen = float(rec.penetration_m.max()) if len(rec) else math.nan
-    e = float(metrics.get("restitution", math.nan))
-    w = float(metrics.get("spin_out_rad_s", math.nan))
-    m = scenario.mass_kg
-    inertia = scenario.moment_of_inertia_kg_m2
-    vn = e * scenario.normal_velocity_m_s
-    v_t_in = scenario.velocity_m_s * math.sin(math.radians(scenario.angle_deg))
-    vt = float(metrics.get("tangential_restitution", math.nan)) * v_t_in if v_t_in else 0.0
-    before = m * scenario.velocity_m_s**2 + inertia * scenario.spin_rad_s**2
-    after = m * (vn * vn + vt * vt) + inertia * w * w
-    return {"penetration_ratio": pen / scenario.radius_m, "energy_ratio": after / before}
-
-
-def reference_problem(scenario: Any, ref: dict[str, Any]) -> str:
-    """An indentation beyond the ball's radius (the normal closed form's): no contact law
-    holds there."""
-    import numpy as np
-
-    from impactbench.reference.oblique import normal_sweep
-
-    normal = normal_sweep(scenario, np.asarray([scenario.normal_velocity_m_s]))
-    return scenario.penetration_problem(float(normal["max_penetration_m"].iloc[0]))
-
-
-def add_options(group: argparse._ArgumentGroup, with_gravity: bool = True) -> None:
-    """The normal contact model and nominal restitution (shared with the ball when both are
-    on one parser), the tangential model, the ball's shape and a named case. No gravity: the
-    reference is the gravity-free impact (``with_gravity`` is accepted for the spec's signature)."""
-    from impactbench.cliutil import number
-    from impactbench.reference.oblique_scenario import (
-        CASES,
-        OBLIQUE_MODELS,
-        SHAPES,
-        TANGENTIAL_MODELS,
-    )
-
-    have = group._option_string_actions  # shared with the parser: another scenario's flags
-    if "--model" not in have:
-        group.add_argument("--model", choices=OBLIQUE_MODELS, default=None,
-                           help="normal contact model (default hunt-crossley; every other "
-                           "model needs --nominal-restitution)")
-    if "--nominal-restitution" not in have:
-        group.add_argument("--nominal-restitution", type=number, default=None,
-                           dest="nominal_restitution", metavar="E",
-                           help="nominal restitution e in (0, 1] the model's damping is set "
-                           "from at the normal velocity (replaces --damping)")
-    if "--tangential" not in have:
-        group.add_argument("--tangential", choices=TANGENTIAL_MODELS, default=None,
-                           help="tangential contact: rigid (ideal Coulomb, closed form; the "
-                           "default), mindlin (no-slip spring k_t = 8·G*·a capped at μ·F_n, "
-                           "integrated) or mindlin-deresiewicz (the full law: micro-slip and "
-                           "the contact's memory, a spring bed)")
-    if "--shape" not in have:
-        group.add_argument("--shape", choices=SHAPES, default=None,
-                           help="the ball: sphere (k² = 2R²/5, the default) or disc (k² = "
-                           "R²/2: the 2D engines' circle with a disc's inertia; the 3D engines "
-                           "return unsupported)")
-    if "--case" not in have:
-        group.add_argument("--case", choices=tuple(CASES), default=None,
-                           help="a named set of fields (kharaz2001: Kharaz et al. 2001's "
-                           "alumina sphere, μ 0.092, e 0.98, rigid plate; `reference` runs it "
-                           "at its 3.9 m/s unless --velocity); flags given here override it")
-
-
-def from_args(args: argparse.Namespace, values: dict[str, Any]) -> dict[str, Any]:
-    """The fields of a named case (``--case``) under the explicit ones (``values``); the
-    Hertz c of the given elastic constants (ball and plate) when any is given and
-    ``--stiffness`` is not. An explicit ``--damping`` drops a case's nominal restitution.
-    The ball's material options (``--material``, ``--plate-material``, ``--scenario-file``,
-    ``--gravity``) do not apply here: a one-line error says so."""
-    from impactbench.reference import validation as check
-    from impactbench.reference.oblique_scenario import CASES, Oblique
-    from impactbench.reference.scenarios import hertz_stiffness
-
-    for option, flag in (("material", "--material"), ("plate_material", "--plate-material"),
-                         ("scenario_file", "--scenario-file")):
-        value = getattr(args, option, None)
-        if value is not None:
-            raise ValueError(f"{option} = {value!r}: {flag} does not apply to the {NAME} "
-                             "scenario (give --youngs-modulus/--poisson/--plate-youngs-modulus"
-                             "/--plate-poisson, or --case)")
-    gravity = getattr(args, "gravity_m_s2", None)
-    if gravity:
-        raise ValueError(f"gravity_m_s2 = {gravity!r}: the {NAME} scenario is gravity-free")
-    case = getattr(args, "case", None)
-    base: dict[str, Any] = {}
-    if case is not None:
-        check.one_of("case", case, tuple(CASES))
-        base = dict(CASES[case])
-        if "damping_s_per_m" in values and "nominal_restitution" not in values \
-                and values.get("model", base.get("model", "hunt-crossley")) == "hunt-crossley":
-            base.pop("nominal_restitution", None)  # an explicit b wins over the case's e
-    out = {**base, **values}
-    if any(k in values for k in MATERIAL_FIELDS) and "stiffness" not in values:
-        if out.get("exponent", 1.5) != 1.5:
-            raise ValueError(f"exponent = {out['exponent']!r}: elastic constants give the "
-                             "Hertz law; must be 1.5 (or give --stiffness)")
-        d = Oblique()
-        get = {k: out.get(k, getattr(d, k)) for k in (*MATERIAL_FIELDS, "radius_m")}
-        check.positive("radius_m", get["radius_m"])
-        check.positive("youngs_modulus_pa", get["youngs_modulus_pa"])
-        out["stiffness"] = hertz_stiffness(get["radius_m"], get["youngs_modulus_pa"],
-                                           get["poisson"], math.inf,
-                                           get["plate_youngs_modulus_pa"], get["plate_poisson"])
-        out["exponent"] = 1.5
-    return out
-
-
 @dataclass(frozen=True)
 class ObliqueSpec(ScenarioSpec):
-    """The oblique scenario's behaviour: each method is the module's function of
-    the same purpose (module doc)."""
+    """The oblique impact: its dataclass, the rigid-Coulomb closed form (or the Mindlin
+    integration), the tangential metrics of a record, plausibility with spin energy, its flags
+    and the report's figures against incidence angle."""
 
     @property
     def cls(self) -> type:
@@ -216,28 +83,150 @@ class ObliqueSpec(ScenarioSpec):
         return Oblique
 
     def reference_metrics(self, scenario: Any) -> dict[str, Any]:
-        return reference(scenario)
+        """The reference metrics: rigid closed form or the Mindlin integration."""
+        from impactbench.reference import oblique
+
+        return dict(oblique.solve(scenario))
 
     def history(self, scenario: Any) -> Any:
-        return history(scenario)
+        """The integrated impact as an ImpactRecord (tangential arrays in ``meta``)."""
+        from impactbench.reference import oblique_integrate
 
-    def problem(self, scenario: Any, reference: Any) -> str:
-        return reference_problem(scenario, reference)
+        return oblique_integrate.history(scenario)
 
-    def metrics_of(self, record: Any, scenario: Any) -> dict[str, Any]:
-        return dict(record_metrics(record, scenario))
+    def measure(self, scenario: Any, rec: Any, metrics: dict[str, Any]) -> dict[str, float]:
+        """The largest overlap over the ball's radius (from the record), and the kinetic energy
+        after over before, translation and spin: (m·(v_n'² + v_t'²) + I·ω'²)/(m·V² + I·ω0²),
+        I = m·k² of the shape ((2/5)·m·R² sphere, (1/2)·m·R² disc), with v_n' = e·v_n and
+        v_t' = e_t·V·sin θ (the tangential restitution; at θ = 0, v_t' = 0)."""
+        pen = float(rec.penetration_m.max()) if len(rec) else math.nan
+        e = float(metrics.get("restitution", math.nan))
+        w = float(metrics.get("spin_out_rad_s", math.nan))
+        m = scenario.mass_kg
+        inertia = scenario.moment_of_inertia_kg_m2
+        vn = e * scenario.normal_velocity_m_s
+        v_t_in = scenario.velocity_m_s * math.sin(math.radians(scenario.angle_deg))
+        vt = float(metrics.get("tangential_restitution", math.nan)) * v_t_in if v_t_in else 0.0
+        before = m * scenario.velocity_m_s**2 + inertia * scenario.spin_rad_s**2
+        after = m * (vn * vn + vt * vt) + inertia * w * w
+        return {"penetration_ratio": pen / scenario.radius_m, "energy_ratio": after / before}
+
+    def problem(self, scenario: Any, ref: dict[str, Any]) -> str:
+        """An indentation beyond the ball's radius (the normal closed form's): no contact law
+        holds there."""
+        import numpy as np
+
+        from impactbench.reference.oblique import normal_sweep
+
+        normal = normal_sweep(scenario, np.asarray([scenario.normal_velocity_m_s]))
+        return scenario.penetration_problem(float(normal["max_penetration_m"].iloc[0]))
+
+    def metrics_of(self, rec: Any, scenario: Any) -> dict[str, float]:
+        """The oblique metrics of a record (for the suite's per-scenario metrics hook)."""
+        from impactbench.reference import oblique
+
+        return oblique.record_metrics(rec, scenario)
+
+    def add_options(self, group: argparse._ArgumentGroup, with_gravity: bool = True) -> None:
+        """The normal contact model and nominal restitution (shared with the ball when both are
+        on one parser), the tangential model, the ball's shape and a named case. No gravity: the
+        reference is the gravity-free impact (``with_gravity`` is accepted for the spec's
+        signature)."""
+        from impactbench.cliutil import number
+        from impactbench.reference.oblique_scenario import (
+            CASES,
+            OBLIQUE_MODELS,
+            SHAPES,
+            TANGENTIAL_MODELS,
+        )
+
+        have = group._option_string_actions  # shared with the parser: another scenario's flags
+        if "--model" not in have:
+            group.add_argument("--model", choices=OBLIQUE_MODELS, default=None,
+                               help="normal contact model (default hunt-crossley; every other "
+                               "model needs --nominal-restitution)")
+        if "--nominal-restitution" not in have:
+            group.add_argument("--nominal-restitution", type=number, default=None,
+                               dest="nominal_restitution", metavar="E",
+                               help="nominal restitution e in (0, 1] the model's damping is set "
+                               "from at the normal velocity (replaces --damping)")
+        if "--tangential" not in have:
+            group.add_argument("--tangential", choices=TANGENTIAL_MODELS, default=None,
+                               help="tangential contact: rigid (ideal Coulomb, closed form; the "
+                               "default), mindlin (no-slip spring k_t = 8·G*·a capped at μ·F_n, "
+                               "integrated) or mindlin-deresiewicz (the full law: micro-slip and "
+                               "the contact's memory, a spring bed)")
+        if "--shape" not in have:
+            group.add_argument("--shape", choices=SHAPES, default=None,
+                               help="the ball: sphere (k² = 2R²/5, the default) or disc (k² = "
+                               "R²/2: the 2D engines' circle with a disc's inertia; the 3D engines "
+                               "return unsupported)")
+        if "--case" not in have:
+            group.add_argument("--case", choices=tuple(CASES), default=None,
+                               help="a named set of fields (kharaz2001: Kharaz et al. 2001's "
+                               "alumina sphere, μ 0.092, e 0.98, rigid plate; `reference` runs it "
+                               "at its 3.9 m/s unless --velocity); flags given here override it")
+
+    def from_args(self, args: argparse.Namespace, values: dict[str, Any]) -> dict[str, Any]:
+        """The fields of a named case (``--case``) under the explicit ones (``values``); the
+        Hertz c of the given elastic constants (ball and plate) when any is given and
+        ``--stiffness`` is not. An explicit ``--damping`` drops a case's nominal restitution.
+        The ball's material options (``--material``, ``--plate-material``, ``--scenario-file``,
+        ``--gravity``) do not apply here: a one-line error says so."""
+        from impactbench.reference import validation as check
+        from impactbench.reference.oblique_scenario import CASES, Oblique
+        from impactbench.reference.scenarios import hertz_stiffness
+
+        for option, flag in (("material", "--material"), ("plate_material", "--plate-material"),
+                             ("scenario_file", "--scenario-file")):
+            value = getattr(args, option, None)
+            if value is not None:
+                raise ValueError(f"{option} = {value!r}: {flag} does not apply to the {NAME} "
+                                 "scenario (give --youngs-modulus/--poisson/--plate-youngs-modulus"
+                                 "/--plate-poisson, or --case)")
+        gravity = getattr(args, "gravity_m_s2", None)
+        if gravity:
+            raise ValueError(f"gravity_m_s2 = {gravity!r}: the {NAME} scenario is gravity-free")
+        case = getattr(args, "case", None)
+        base: dict[str, Any] = {}
+        if case is not None:
+            check.one_of("case", case, tuple(CASES))
+            base = dict(CASES[case])
+            if "damping_s_per_m" in values and "nominal_restitution" not in values \
+                    and values.get("model", base.get("model", "hunt-crossley")) == "hunt-crossley":
+                base.pop("nominal_restitution", None)  # an explicit b wins over the case's e
+        out = {**base, **values}
+        if any(k in values for k in MATERIAL_FIELDS) and "stiffness" not in values:
+            if out.get("exponent", 1.5) != 1.5:
+                raise ValueError(f"exponent = {out['exponent']!r}: elastic constants give the "
+                                 "Hertz law; must be 1.5 (or give --stiffness)")
+            d = Oblique()
+            get = {k: out.get(k, getattr(d, k)) for k in (*MATERIAL_FIELDS, "radius_m")}
+            check.positive("radius_m", get["radius_m"])
+            check.positive("youngs_modulus_pa", get["youngs_modulus_pa"])
+            out["stiffness"] = hertz_stiffness(get["radius_m"], get["youngs_modulus_pa"],
+                                               get["poisson"], math.inf,
+                                               get["plate_youngs_modulus_pa"], get["plate_poisson"])
+            out["exponent"] = 1.5
+        return out
 
     def report_figures(self, ctx: Any, runs: list, loops: list) -> None:
-        report_figures(ctx, self, runs, loops)
+        """The oblique figures: per configured speed, the quantities against incidence angle
+        beside both references."""
+        spec = self
+        from impactbench.report import modes_text, timestep_text
 
-    def measure(self, scenario: Any, record: Any, metrics: Any) -> dict:
-        return dict(plausibility(scenario, record, metrics))
-
-    def add_options(self, group: Any, with_gravity: bool = True) -> None:
-        add_options(group, with_gravity)
-
-    def from_args(self, args: Any, values: dict[str, Any]) -> dict[str, Any]:
-        return from_args(args, values)
+        if not runs:
+            return
+        sm = next((s for s in ctx.cfg.scenarios if s.name == spec.name), None)
+        params = sm.parameters if sm is not None else {}
+        for v in sorted({r.job.velocity_m_s for r in runs}):
+            at = [r for r in runs if r.job.velocity_m_s == v]
+            scenario = spec.build((("angle_deg", 0.0), ("velocity_m_s", v)), params)
+            how = f"{modes_text(at)}; {timestep_text(at)}"
+            path = angle_figure(ctx.df, scenario, ctx.fig_dir / f"report_oblique_v{v:g}.png", how)
+            ctx.add_figure(path, f"Rebound angle, spin and tangential restitution against "
+                           f"incidence angle, V = {v:g} m/s; {how}", f"extra:{spec.name}")
 
 
 SPEC = ObliqueSpec(
@@ -315,19 +304,3 @@ def angle_figure(df: Any, scenario: Any, path: Any, how: str, kharaz: bool = Fal
     return _save(fig, path)
 
 
-def report_figures(ctx: Any, spec: ScenarioSpec, runs: list, loops: list) -> None:
-    """The oblique figures: per configured speed, the quantities against incidence angle
-    beside both references."""
-    from impactbench.report import modes_text, timestep_text
-
-    if not runs:
-        return
-    sm = next((s for s in ctx.cfg.scenarios if s.name == spec.name), None)
-    params = sm.parameters if sm is not None else {}
-    for v in sorted({r.job.velocity_m_s for r in runs}):
-        at = [r for r in runs if r.job.velocity_m_s == v]
-        scenario = spec.build((("angle_deg", 0.0), ("velocity_m_s", v)), params)
-        how = f"{modes_text(at)}; {timestep_text(at)}"
-        path = angle_figure(ctx.df, scenario, ctx.fig_dir / f"report_oblique_v{v:g}.png", how)
-        ctx.add_figure(path, f"Rebound angle, spin and tangential restitution against "
-                       f"incidence angle, V = {v:g} m/s; {how}", f"extra:{spec.name}")

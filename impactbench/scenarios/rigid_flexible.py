@@ -33,31 +33,6 @@ FLAGS = (
 )
 
 
-def reference(scenario: Any) -> dict[str, Any]:
-    """The event-driven reference: status and the five pulse metrics."""
-    from impactbench.reference import two_dof
-
-    ref = two_dof.solve(scenario)
-    return {"status": str(ref["status"]), **{k: ref[k] for k in METRICS}}
-
-
-def history(scenario: Any) -> Any:
-    from impactbench.reference import two_dof
-
-    return two_dof.simulate(scenario)
-
-
-def plausibility(scenario: Any, rec: Any, metrics: dict[str, Any]) -> dict[str, float]:
-    """Body 1's kinetic energy after the last impact over before ((v1'/v1)²: body 2 starts at
-    rest, so body 1 cannot leave with more than it brought). No size to measure penetration
-    against: the local law's deformation is the physics here (NaN)."""
-    import math
-
-    v_end = float(rec.velocity_1_m_s[-1]) if len(rec) else math.nan
-    return {"penetration_ratio": math.nan,
-            "energy_ratio": (v_end / scenario.velocity_m_s) ** 2}
-
-
 def _laws(name: str) -> tuple[str, ...]:
     """A table of :mod:`impactbench.reference.laws` (imported when asked for)."""
     from impactbench.reference import laws
@@ -79,8 +54,8 @@ def _structural_laws() -> tuple[str, ...]:
 
 @dataclass(frozen=True)
 class RigidFlexibleSpec(ScenarioSpec):
-    """The rigid flexible scenario's behaviour: each method is the module's function of
-    the same purpose (module doc)."""
+    """The rigid–flexible impact: its dataclass, the event-driven 2-DOF reference and the
+    plausibility of a run."""
 
     @property
     def cls(self) -> type:
@@ -89,13 +64,26 @@ class RigidFlexibleSpec(ScenarioSpec):
         return RigidFlexible
 
     def reference_metrics(self, scenario: Any) -> dict[str, Any]:
-        return reference(scenario)
+        """The event-driven reference: status and the five pulse metrics."""
+        from impactbench.reference import two_dof
+
+        ref = two_dof.solve(scenario)
+        return {"status": str(ref["status"]), **{k: ref[k] for k in METRICS}}
 
     def history(self, scenario: Any) -> Any:
-        return history(scenario)
+        from impactbench.reference import two_dof
 
-    def measure(self, scenario: Any, record: Any, metrics: Any) -> dict:
-        return dict(plausibility(scenario, record, metrics))
+        return two_dof.simulate(scenario)
+
+    def measure(self, scenario: Any, rec: Any, metrics: dict[str, Any]) -> dict[str, float]:
+        """Body 1's kinetic energy after the last impact over before ((v1'/v1)²: body 2 starts at
+        rest, so body 1 cannot leave with more than it brought). No size to measure penetration
+        against: the local law's deformation is the physics here (NaN)."""
+        import math
+
+        v_end = float(rec.velocity_1_m_s[-1]) if len(rec) else math.nan
+        return {"penetration_ratio": math.nan,
+                "energy_ratio": (v_end / scenario.velocity_m_s) ** 2}
 
 
 SPEC = RigidFlexibleSpec(

@@ -11,11 +11,14 @@ comparison. A run that fails (non-ok status, or a NaN metric) gets the residual
 :mod:`impactbench.plausibility`) counts as failed, so every search is constrained to
 plausible contacts.
 
-Evaluations are sequential (the search's budget, counting and best-so-far never depend on
-where runs execute), but their engine runs need not be: :meth:`Objective.prefetch` runs every
-run of several parameter points at once, on a :class:`impactbench.cluster.Runner` (Dask), and
-the evaluations that follow read them back. The optimiser prefetches each slice of its Sobol
-scan and each finite-difference Jacobian, so a result on Dask equals the in-process one.
+The one tuner's batch objective (:class:`~impactbench.tuning.search.ResidualObjective`):
+:meth:`Objective.evaluate_batch` and :meth:`Objective.residuals_batch` take a population of
+parameter sets (dicts by the space's parameter names) at once. Their evaluations are sequential
+(the search's budget, counting and best-so-far never depend on where runs execute), but their
+engine runs need not be: :meth:`Objective.prefetch` runs every run of the batch at once, on a
+:class:`impactbench.cluster.Runner` (Dask), and the evaluations that follow read them back; in
+this process they run one by one. The search hands over each slice of its Sobol scan and each
+finite-difference Jacobian as one batch, so a result on Dask equals the in-process one.
 """
 
 from __future__ import annotations
@@ -23,7 +26,7 @@ from __future__ import annotations
 import contextlib
 import math
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -35,6 +38,7 @@ from impactbench.reference.metrics import BALL_METRICS, relative_error
 from impactbench.reference.record import Status
 from impactbench.reference.scenarios import BallOnPlate
 from impactbench.tuning.names import DEFAULT_TARGETS, TARGETS
+from impactbench.tuning.search import OutOfBudget
 from impactbench.tuning.spaces import Space
 
 FAILED_RESIDUAL = 10.0
@@ -73,10 +77,6 @@ def crashed_run(item: tuple, why: str) -> dict[str, Any]:
     """The run object of a run whose worker died: status ``crashed``, NaN metrics."""
     return {"status": str(Status.CRASHED), "message": why,
             **dict.fromkeys(BALL_METRICS, math.nan)}
-
-
-class OutOfBudget(Exception):
-    """Raised inside the optimiser when the time or evaluation budget is spent."""
 
 
 @dataclass
@@ -153,13 +153,18 @@ class Objective:
     def targets(self) -> tuple[str, ...]:
         return tuple(self.weights)
 
+    def _check_budget(self) -> None:
+        """:class:`~impactbench.tuning.search.OutOfBudget` when the time or evaluation budget
+        is spent."""
+        if time.perf_counter() > self.deadline:
+            raise OutOfBudget("time budget spent")
+        if self.max_evals is not None and self.evaluations >= self.max_evals:
+            raise OutOfBudget("evaluation budget spent")
+
     def evaluate(self, values: np.ndarray, *, count_budget: bool = True) -> Evaluation:
         """Run the engine at every velocity with parameter ``values`` (natural units)."""
         if count_budget:
-            if time.perf_counter() > self.deadline:
-                raise OutOfBudget("time budget spent")
-            if self.max_evals is not None and self.evaluations >= self.max_evals:
-                raise OutOfBudget("evaluation budget spent")
+            self._check_budget()
         t0 = time.perf_counter()
         values = np.asarray(values, dtype=float)
         mets, errs, stats, pens = [], [], [], []
@@ -188,6 +193,28 @@ class Objective:
             if self.best_implausible is None or free.objective < self.best_implausible.objective:
                 self.best_implausible = free
         return ev
+
+    def batch(self, candidates: Sequence[Mapping[str, Any]]) -> list[Evaluation]:
+        """Evaluate ``candidates`` (parameter name → value) in order: the engine runs of those
+        within the evaluation budget prefetched at once (:meth:`prefetch`), then each scored;
+        :class:`~impactbench.tuning.search.OutOfBudget` at the first past a budget."""
+        points = [self.space.values_of(c) for c in candidates]
+        self._check_budget()
+        self.prefetch(points[:int(min(len(points), self.remaining()))])
+        return [self.evaluate(values) for values in points]
+
+    def evaluate_batch(self, candidates: Sequence[Mapping[str, Any]]) -> list[float]:
+        """J of each candidate (:meth:`batch`)."""
+        return [ev.objective for ev in self.batch(candidates)]
+
+    def residuals_batch(self, candidates: Sequence[Mapping[str, Any]]) -> list[np.ndarray]:
+        """The residual vector of each candidate (:meth:`batch`, :meth:`residuals_of`)."""
+        return [self.residuals_of(ev) for ev in self.batch(candidates)]
+
+    @property
+    def batch_size(self) -> int:
+        """How many candidates a scan hands over at once (:attr:`parallel`)."""
+        return self.parallel
 
     @property
     def parallel(self) -> int:

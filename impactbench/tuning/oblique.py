@@ -18,14 +18,15 @@ there is the ``native`` run, evaluated as such too); the categorical knobs' comb
 searched in turn (the start's first), each with a scrambled Sobol scan (seed
 :data:`SEED` + the combination's index) of the continuous knobs' box in unit coordinates
 (log or linear per knob) and a bounded Nelder–Mead (scipy) from the best point seen; the
-evaluation budget ``max_evals`` (one evaluation = one run per angle) is shared out evenly.
+evaluation budget ``max_evals`` (one evaluation = one run per angle) is shared out evenly. That
+is the one tuner's ``nelder_mead`` method (:func:`impactbench.tuning.search.nelder_mead`) on
+:func:`knob_space`, with :class:`Sweep` as its batch objective (a scan, a simplex: one batch).
 The result is the best evaluation seen — among those within :data:`TIE_RTOL` of the best
 objective, the one closest to the start — so the fit is never worse than its start.
 """
 
 from __future__ import annotations
 
-import itertools
 import math
 import time
 from collections.abc import Callable, Sequence
@@ -40,6 +41,7 @@ from impactbench.engines.base import RunSettings, get_adapter, run_safely
 from impactbench.engines.oblique_tuned import Knob
 from impactbench.reference import validation as check
 from impactbench.reference.record import Status
+from impactbench.tuning import search
 
 TARGETS: tuple[str, ...] = ("tangential_restitution", "spin_out_rad_s", "rebound_angle_deg")
 SHOWN: tuple[str, ...] = (*TARGETS, "restitution")
@@ -66,10 +68,6 @@ OPTIMIZER = ("categorical knobs enumerated; per combination a scrambled Sobol sc
              "Nelder-Mead from the best point seen; the best evaluation is kept")
 OBJECTIVE = ("sum over angles and targets of weight * relative_error^2 (a failed run: "
              f"{FAILED:g} * weight per target)")
-
-
-class OutOfBudget(Exception):
-    """The evaluation budget is spent (the search stops, keeping the best)."""
 
 
 @dataclass
@@ -157,25 +155,6 @@ def check_weights(weights: Sequence[float] | None) -> dict[str, float]:
     return out
 
 
-def _unit_to_value(knob: Knob, lo: float, hi: float, u: float) -> float:
-    u = min(max(float(u), 0.0), 1.0)
-    if knob.scale == "log":
-        value = math.exp(math.log(lo) + u * (math.log(hi) - math.log(lo)))
-    else:
-        value = lo + u * (hi - lo)
-    return float(min(max(value, lo), hi))  # exp(log(hi)) may round past the bound
-
-
-def _value_to_unit(knob: Knob, lo: float, hi: float, value: float) -> float:
-    if hi == lo:
-        return 0.0
-    if knob.scale == "log":
-        u = (math.log(value) - math.log(lo)) / (math.log(hi) - math.log(lo))
-    else:
-        u = (value - lo) / (hi - lo)
-    return min(max(u, 0.0), 1.0)
-
-
 def evaluate(engine: str, scenario: Any, pts: list[tuple[float, float]], dt: float,
              references: list[dict[str, Any]], weights: dict[str, float], mode: str,
              parameters: dict[str, Any]) -> Evaluation:
@@ -200,15 +179,6 @@ def evaluate(engine: str, scenario: Any, pts: list[tuple[float, float]], dt: flo
             ok = out["status"] == "ok" and math.isfinite(e)
             total += w * (e * e if ok else FAILED)
     return Evaluation(dict(parameters), total, statuses, got, errs)
-
-
-def _combos(knobs: tuple[Knob, ...], start: dict[str, Any]) -> list[dict[str, Any]]:
-    """Every combination of the categorical knobs, the start's first."""
-    cat = [k for k in knobs if k.scale == "choice"]
-    combos = [dict(zip([k.key for k in cat], values, strict=True))
-              for values in itertools.product(*(k.choices for k in cat))]
-    first = {k.key: start[k.key] for k in cat}
-    return [first] + [c for c in combos if c != first]
 
 
 def fit(engine: str, scenario: Any = None, angles_deg: Sequence[float] | None = None,
@@ -263,115 +233,77 @@ def fit(engine: str, scenario: Any = None, angles_deg: Sequence[float] | None = 
     pts = points(speeds, angles)
     refs = [reference_metrics(scenario.replace(angle_deg=a, velocity_m_s=v)) for v, a in pts]
     start = oblique_tuned.start_values(engine, scenario, dt)
-    bounds = {k.key: k.bounds(scenario, dt) for k in knobs}
-    cont = [k for k in knobs if k.scale != "choice"]
-
-    def run(mode: str, params: dict[str, Any]) -> Evaluation:
-        return evaluate(engine, scenario, pts, dt, refs, w, mode, params)
-
+    space = knob_space(knobs, scenario, dt)
     probe = run_safely(engine, scenario.replace(angle_deg=pts[0][1], velocity_m_s=pts[0][0]),
                        "tuned", RunSettings(timestep_s=dt, tuned=dict(start)))
     if probe.status is Status.UNSUPPORTED:  # before any output: the adapter is not wired
         raise ValueError(f"engine = {engine!r}: its oblique tuned mode does not run "
                          f"({probe.message})")
-    native = run("native", {})
-    cache: dict[tuple, Evaluation] = {}
-    state: dict[str, Any] = {"count": 0, "best": None}
-
-    def score(params: dict[str, Any]) -> float:
-        key = tuple((k, repr(v)) for k, v in params.items())
-        if key in cache:
-            return cache[key].objective
-        if state["count"] >= budget:
-            raise OutOfBudget(f"budget of {budget} evaluations spent")
-        ev = run("tuned", params)
-        state["count"] += 1
-        cache[key] = ev
-        if state["best"] is None or ev.objective < state["best"].objective:
-            state["best"] = ev
-        if progress is not None:
-            progress(state["count"], budget, ev.objective, state["best"].objective)
-        return ev.objective
-
-    u0 = np.array([_value_to_unit(k, *bounds[k.key], float(start[k.key])) for k in cont])
-
-    def params_of(combo: dict[str, Any], u: Sequence[float]) -> dict[str, Any]:
-        out = dict(combo)
-        at_start = np.array_equal(np.asarray(u, dtype=float), u0)  # exactly, not via exp(log)
-        for k, ui in zip(cont, u, strict=True):
-            out[k.key] = start[k.key] if at_start else _unit_to_value(k, *bounds[k.key], ui)
-        return {k.key: out[k.key] for k in knobs}
-
-    score(dict(start))  # the native values through tuned mode: the start
-    first = cache[next(iter(cache))]
+    native = evaluate(engine, scenario, pts, dt, refs, w, "native", {})
+    sweep = Sweep(engine, scenario, pts, dt, refs, w)
+    tracker = search.Tracker(sweep, max_evals=budget, dedupe=True, progress=progress)
+    outcome = search.nelder_mead(space, tracker, seed=seed, scan_max=SCAN_MAX,
+                                 simplex_step=SIMPLEX_STEP)
+    first = sweep.evaluations[search.candidate_key(start)]  # the native values through tuned
     stages = [f"start (native values through tuned mode): J = {first.objective:.6g}; native "
-              f"run: J = {native.objective:.6g}"]
-    combos = _combos(knobs, start)
-    stop = "converged"
-    try:
-        for ci, combo in enumerate(combos):
-            last = ci == len(combos) - 1
-            cap = budget if last else 1 + (budget - 1) * (ci + 1) // len(combos)
-            n0 = state["count"]
-            share = cap - n0
-            seen = [(score(params_of(combo, u0)), tuple(u0))]
-            if cont and share >= 8:
-                from scipy.stats import qmc  # scipy.stats costs ~0.5 s: only when fitting
-
-                m = min(int(math.log2(max(1, share // 4))), int(math.log2(SCAN_MAX)))
-                pts_u = qmc.Sobol(len(cont), scramble=True, seed=seed + ci).random_base2(m)
-                seen += [(score(params_of(combo, u)), tuple(u)) for u in pts_u]
-            seen.sort(key=lambda x: x[0])
-            best_u = np.array(seen[0][1])
-            line = f"{_combo_text(combo)}: scan of {len(seen) - 1}, best J = {seen[0][0]:.6g}"
-            if cont:
-                from scipy import optimize
-
-                simplex = [best_u]
-                for i in range(len(cont)):
-                    u = best_u.copy()
-                    u[i] = u[i] + SIMPLEX_STEP if u[i] + SIMPLEX_STEP <= 1.0 \
-                        else u[i] - SIMPLEX_STEP
-                    simplex.append(u)
-                res = optimize.minimize(
-                    lambda u, c=combo: score(params_of(c, u)), best_u, method="Nelder-Mead",
-                    bounds=[(0.0, 1.0)] * len(cont),
-                    options={"initial_simplex": np.array(simplex), "xatol": 1e-4,
-                             "fatol": 1e-12,
-                             "maxfev": max(0, cap - state["count"]) + 1})  # x0: seen
-                line += (f"; Nelder-Mead: J = {float(res.fun):.6g} ({res.message.strip('.')})")
-                if not res.success:
-                    stop = "budget"
-            stages.append(f"{line}; {state['count'] - n0} evaluations")
-    except OutOfBudget as exc:
-        stages.append(f"stopped: {exc}")
-        stop = "budget"
-    best = _closest_of_best(list(cache.values()), start, cont, bounds)
+              f"run: J = {native.objective:.6g}", *outcome.stages]
+    best = _closest_of_best(list(sweep.evaluations.values()), space)
     return ObliqueFit(engine, adapter.version(), scenario, angles, speeds, dt, w, knobs, refs,
-                      native, first, best, state["count"], budget, seed, stop,
+                      native, first, best, tracker.evaluations, budget, seed, outcome.stop,
                       time.perf_counter() - t0, stages)
 
 
-def _closest_of_best(evals: list[Evaluation], start: dict[str, Any], cont: list[Knob],
-                     bounds: dict[str, tuple[float, float]]) -> Evaluation:
+def knob_space(knobs: Sequence[Knob], scenario: Any, dt: float) -> search.KnobSpace:
+    """The one tuner's space of the oblique knobs for ``scenario`` at step ``dt``: each knob's
+    absolute box and its start (the native run's value)."""
+    out = []
+    for k in knobs:
+        lo, hi = k.bounds(scenario, dt)
+        out.append(search.Knob(k.key, lo, hi, log=k.scale == "log",
+                               choices=tuple(k.choices) if k.scale == "choice" else (),
+                               note=k.meaning, initial=k.start_value(scenario, dt)))
+    return search.KnobSpace(tuple(out))
+
+
+@dataclass
+class Sweep:
+    """The fit's batch objective (:class:`~impactbench.tuning.search.BatchObjective`): each
+    candidate (knob key → value) run in ``tuned`` mode at every point of the sweep, one by
+    one (an oblique run takes milliseconds), and scored (:func:`evaluate`); every
+    :class:`Evaluation` kept by its candidate, in evaluation order."""
+
+    engine: str
+    scenario: Any
+    pts: list[tuple[float, float]]
+    dt: float
+    references: list[dict[str, Any]]
+    weights: dict[str, float]
+    evaluations: dict[tuple, Evaluation] = field(default_factory=dict)
+
+    def evaluate_batch(self, candidates: Sequence[dict[str, Any]]) -> list[float]:
+        out = []
+        for c in candidates:
+            ev = evaluate(self.engine, self.scenario, self.pts, self.dt, self.references,
+                          self.weights, "tuned", dict(c))
+            self.evaluations[search.candidate_key(c)] = ev
+            out.append(ev.objective)
+        return out
+
+
+def _closest_of_best(evals: list[Evaluation], space: search.KnobSpace) -> Evaluation:
     """The evaluation closest to the start among those within :data:`TIE_RTOL` of the best
     objective (categorical changes first, then the unit-coordinate distance)."""
     low = min(ev.objective for ev in evals)
     tied = [ev for ev in evals if ev.objective <= low + TIE_RTOL * abs(low)]
+    start = space.start_candidate
 
     def distance(ev: Evaluation) -> tuple[int, float]:
-        changed = sum(ev.parameters[k] != v for k, v in start.items()
-                      if k not in {c.key for c in cont})
-        far = sum((_value_to_unit(k, *bounds[k.key], float(ev.parameters[k.key]))
-                   - _value_to_unit(k, *bounds[k.key], float(start[k.key]))) ** 2
-                  for k in cont)
+        changed = sum(ev.parameters[k.name] != start[k.name] for k in space.categorical)
+        far = sum((k.to_unit(float(ev.parameters[k.name])) - k.to_unit(float(start[k.name])))
+                  ** 2 for k in space.continuous)
         return changed, far
 
     return min(tied, key=distance)
-
-
-def _combo_text(combo: dict[str, Any]) -> str:
-    return ", ".join(f"{k} = {v!r}" for k, v in combo.items()) or "continuous knobs"
 
 
 # ------------------------------------------------------------------------------ output

@@ -3,7 +3,8 @@
 Coordinates: each parameter p in [lo, hi] is optimised as u = (ln p − ln lo)/(ln hi − ln lo)
 ∈ [0, 1], so every direction is a relative change of comparable size.
 
-Search, all deterministic:
+Search, all deterministic (the one tuner's ``least_squares`` method,
+:mod:`impactbench.tuning.search`):
 
 1. the closed-form start (the engine's native conversion) is evaluated first — the result is
    never worse than it, because the best evaluation seen is what is returned;
@@ -25,7 +26,6 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -37,17 +37,18 @@ from impactbench.reference import validation as check
 from impactbench.reference.metrics import BALL_METRICS, MIN_CONTACT_SAMPLES, TIME_RESOLVED
 from impactbench.reference.scenarios import BallOnPlate
 from impactbench.scenarios import spec_of
+from impactbench.tuning import search as search_mod
 from impactbench.tuning.names import DEFAULT_BUDGET_S
 from impactbench.tuning.objective import (
     Evaluation,
     Objective,
-    OutOfBudget,
     parse_weights,
     quiet,
 )
+from impactbench.tuning.search import SEED
 from impactbench.tuning.spaces import SAP_LIMIT, Space, make_space
 
-SEED = 20240607
+__all__ = ["COARSE_SCAN_POINTS", "SEED", "Interrupted", "TuneResult", "search", "tune"]
 COARSE_SCAN_POINTS = 64
 """Sobol scan size at a step too coarse to resolve the contact, or when the start fails."""
 
@@ -119,75 +120,25 @@ class TuneResult:
         return out
 
 
-def _to_unit(space: Space, values: np.ndarray) -> np.ndarray:
-    lo, hi = space.log_bounds()
-    return np.clip((np.log(values) - lo) / (hi - lo), 0.0, 1.0)
-
-
-def _from_unit(space: Space, u: np.ndarray) -> np.ndarray:
-    lo, hi = space.log_bounds()
-    return np.exp(lo + np.clip(u, 0.0, 1.0) * (hi - lo))
-
-
-def _prefetching(obj: Objective) -> Callable[[Callable, Iterable], list]:
-    """A map for scipy's finite differences: run every point's engine runs at once
-    (:meth:`Objective.prefetch`), then call scipy's function on each point in order, which
-    evaluates from the prefetched runs: the same Jacobian as a plain ``map``."""
-
-    def mapper(fun: Callable, points: Iterable) -> list:
-        points = list(points)
-        room = int(min(len(points), obj.remaining()))
-        obj.prefetch([_from_unit(obj.space, u) for u in points[:room]])
-        return [fun(u) for u in points]
-
-    return mapper
-
-
 def search(obj: Objective, *, scan_points: int | None = None, polish_starts: int = 2,
            diff_step: float | None = None, max_polish_evals: int = 400
            ) -> tuple[str, list[str]]:
-    """Run the search stages on ``obj`` (its best evaluation is the answer); ``diff_step``
-    defaults to the space's (larger for float32 engines, whose metrics carry rounding noise).
+    """Run the search stages on ``obj`` (its best evaluation is the answer): the one tuner's
+    ``least_squares`` method (:func:`impactbench.tuning.search.least_squares`) on the space's
+    log coordinates, the Sobol scan handed over ``obj.batch_size`` points at a time;
+    ``diff_step`` defaults to the space's (larger for float32 engines, whose metrics carry
+    rounding noise).
 
     Returns (stop reason, a line per stage).
     """
     space = obj.space
-    diff_step = space.diff_step if diff_step is None else diff_step
-    dim = len(space.parameters)
     if scan_points is None:
-        scan_points = 128 if dim > 2 else 0
-    stages: list[str] = []
-    starts = [_to_unit(space, np.asarray(space.start))]
-    try:
-        if scan_points > 0:
-            from scipy.stats import qmc  # scipy.stats costs ~0.5 s: only when tuning
-
-            sampler = qmc.Sobol(dim, scramble=True, seed=SEED)
-            pts = sampler.random(scan_points)
-            scored = []
-            for i in range(0, len(pts), obj.parallel):
-                points = [_from_unit(space, u) for u in pts[i:i + obj.parallel]]
-                obj.prefetch(points[:int(min(len(points), obj.remaining()))])
-                for u, values in zip(pts[i:i + obj.parallel], points, strict=True):
-                    scored.append((obj.evaluate(values).objective, tuple(u)))
-            scored.sort()
-            starts += [np.array(u) for _, u in scored[:polish_starts]]
-            stages.append(f"Sobol scan: {scan_points} points, best J = {scored[0][0]:.6g}")
-        for i, u0 in enumerate(starts):
-            n0 = obj.evaluations
-            from scipy import optimize
-
-            res = optimize.least_squares(
-                lambda u: obj.residuals(_from_unit(space, u)), u0, bounds=(0.0, 1.0),
-                method="trf", diff_step=diff_step, x_scale=1.0, xtol=1e-8, ftol=1e-10,
-                gtol=1e-10, max_nfev=max_polish_evals, workers=_prefetching(obj))
-            stages.append(f"least_squares from {'start' if i == 0 else f'scan #{i}'}: "
-                          f"J = {2.0 * res.cost:.6g} after {obj.evaluations - n0} evaluations "
-                          f"({res.message})")
-    except OutOfBudget as exc:
-        stages.append(f"stopped: {exc}")
-        return str(exc), stages
-    return "converged", stages
+        scan_points = 128 if len(space.parameters) > 2 else 0
+    outcome = search_mod.least_squares(
+        space, obj, scan_points=scan_points, seed=SEED, polish_starts=polish_starts,
+        diff_step=space.diff_step if diff_step is None else diff_step,
+        max_nfev=max_polish_evals, slice_size=obj.batch_size)
+    return outcome.stop, outcome.stages
 
 
 def tune(engine: str, scenario: BallOnPlate | None = None,

@@ -56,7 +56,7 @@ The last four (the optional extras) live in :mod:`~impactbench.tuning.spaces_ext
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -71,6 +71,7 @@ from impactbench.tuning.names import (
     SOLREF_FORMS,
     VARIANTS,
 )
+from impactbench.tuning.search import Knob
 
 MUJOCO_DMAX = 0.95
 """solimp dmax of the tuned MuJoCo contact (MuJoCo's default); only dmin/dmax is tuned."""
@@ -151,6 +152,34 @@ class Space:
     def log_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         return (np.log([p.lower for p in self.parameters]),
                 np.log([p.upper for p in self.parameters]))
+
+    # the one tuner's space (impactbench.tuning.search.UnitSpace): every parameter a log knob,
+    # u = (ln p − ln lower)/(ln upper − ln lower) ∈ [0, 1], mapped with numpy
+    def candidate(self, values: np.ndarray) -> dict[str, float]:
+        """Parameter name → value (the search's candidate) of a vector in :attr:`names` order."""
+        return {n: float(v) for n, v in zip(self.names, values, strict=True)}
+
+    def values_of(self, candidate: Mapping[str, Any]) -> np.ndarray:
+        """The vector of a candidate, in :attr:`names` order."""
+        return np.array([float(candidate[n]) for n in self.names])
+
+    @property
+    def start_candidate(self) -> dict[str, float]:
+        return self.candidate(np.asarray(self.start, dtype=float))
+
+    def to_unit(self, candidate: Mapping[str, Any]) -> np.ndarray:
+        lo, hi = self.log_bounds()
+        return np.clip((np.log(self.values_of(candidate)) - lo) / (hi - lo), 0.0, 1.0)
+
+    def from_unit(self, u: Any, fixed: Mapping[str, Any] | None = None) -> dict[str, float]:
+        lo, hi = self.log_bounds()
+        return self.candidate(np.exp(lo + np.clip(u, 0.0, 1.0) * (hi - lo)))
+
+    @property
+    def knobs(self) -> tuple[Knob, ...]:
+        """The parameters as the one tuner's knobs (log, with the start)."""
+        return tuple(Knob(p.name, p.lower, p.upper, unit=p.unit, initial=float(s))
+                     for p, s in zip(self.parameters, self.start, strict=True))
 
 
 def _decades(value: float, down: float, up: float) -> tuple[float, float]:

@@ -17,7 +17,7 @@ from impactbench.reference import oblique_integrate as oi
 from impactbench.reference.oblique import OBLIQUE_METRICS, Oblique
 
 from impactbench.commands.oblique import main
-from impactbench.scenarios.oblique import SPEC, from_args, plausibility
+from impactbench.scenarios.oblique import SPEC
 
 
 def run(capsys, *argv: str) -> tuple[int, str, str]:
@@ -112,18 +112,18 @@ def test_bad_input_exits_2_with_one_line(capsys, argv):
 def test_elastic_constants_give_the_hertz_stiffness():
     """--youngs-modulus/--poisson (and the plate's) set Mindlin's G* and, without --stiffness,
     the Hertz c; with --stiffness c is kept; a --damping drops a case's nominal e."""
-    derived = from_args(argparse.Namespace(), {"youngs_modulus_pa": 3.8e11, "poisson": 0.23,
+    derived = SPEC.from_args(argparse.Namespace(), {"youngs_modulus_pa": 3.8e11, "poisson": 0.23,
                                                 "plate_youngs_modulus_pa": math.inf})
     assert derived["stiffness"] == pytest.approx(Oblique.kharaz2001().stiffness *
                                                  (0.01452 / 0.0025) ** 0.5, rel=1e-14)
-    kept = from_args(argparse.Namespace(), {"youngs_modulus_pa": 3.8e11, "stiffness": 1e9})
+    kept = SPEC.from_args(argparse.Namespace(), {"youngs_modulus_pa": 3.8e11, "stiffness": 1e9})
     assert kept["stiffness"] == 1e9
-    damped = from_args(argparse.Namespace(case="kharaz2001"), {"damping_s_per_m": 0.1})
+    damped = SPEC.from_args(argparse.Namespace(case="kharaz2001"), {"damping_s_per_m": 0.1})
     assert "nominal_restitution" not in damped and damped["damping_s_per_m"] == 0.1
     with pytest.raises(ValueError, match=r"^material = 'steel': --material does not apply"):
-        from_args(argparse.Namespace(material="steel"), {})
+        SPEC.from_args(argparse.Namespace(material="steel"), {})
     with pytest.raises(ValueError, match=r"^gravity_m_s2 = 9.81"):
-        from_args(argparse.Namespace(gravity_m_s2=9.81), {})
+        SPEC.from_args(argparse.Namespace(gravity_m_s2=9.81), {})
 
 
 # ------------------------------------------------------------------ the spec
@@ -163,11 +163,11 @@ def test_plausibility_of_the_reference():
     s = Oblique(angle_deg=30.0, spin_rad_s=-100.0)
     rec = SPEC.history(s)
     m = SPEC.reference_metrics(s)
-    got = plausibility(s, rec, m)
+    got = SPEC.measure(s, rec, m)
     assert 0.0 < got["penetration_ratio"] < 0.01
     assert 0.5 < got["energy_ratio"] < 1.0
     frictionless = s.replace(friction=0.0, spin_rad_s=0.0)
-    got = plausibility(frictionless, SPEC.history(frictionless),
+    got = SPEC.measure(frictionless, SPEC.history(frictionless),
                        SPEC.reference_metrics(frictionless))
     e = SPEC.reference_metrics(frictionless)["restitution"]
     # only the normal motion loses energy: (e²·cos²θ + sin²θ)
@@ -177,7 +177,7 @@ def test_plausibility_of_the_reference():
 def test_a_case_sets_no_axis_field():
     """A case (``--case``, a config's ``case = …``) sets physical fields only, so a config
     table's points never collide with it; its own speed is the reference command's default."""
-    params = from_args(argparse.Namespace(case="kharaz2001"), {})
+    params = SPEC.from_args(argparse.Namespace(case="kharaz2001"), {})
     assert not set(params) & set(SPEC.axis_names)
     s = SPEC.build((("angle_deg", 20.0), ("velocity_m_s", 3.9)), params)
     assert s == Oblique.kharaz2001(angle_deg=20.0)

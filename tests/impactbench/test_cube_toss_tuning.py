@@ -1,11 +1,12 @@
 """Tuning on the cube tosses (impactbench.cube_tosses.tune) and the extra engines' replays.
 
 A tiny budget on three training tosses: it improves the objective over its start, the same
-seed gives the same parameters, a longer budget resumes from the cache, the optimiser never
-sees a test toss. SAPIEN, DART, Newton and MJX replay two tosses each with finite errors;
-pymunk and Box2D are ``unsupported`` with their reason. The packaged tuned files beat DAIR's
-published parameters on the test split (their recorded errors; the replays that measured them
-take minutes and are not run here).
+seed gives the same parameters, a longer budget resumes from the results store (every
+evaluation a stored run of the cube-toss scenario), the optimiser never sees a test toss, and
+a generation asked at once gives the candidates of one-at-a-time asking. SAPIEN, DART, Newton
+and MJX replay two tosses each with finite errors; pymunk and Box2D are ``unsupported`` with
+their reason. The packaged tuned files beat DAIR's published parameters on the test split
+(their recorded errors; the replays that measured them take minutes and are not run here).
 """
 
 from __future__ import annotations
@@ -28,7 +29,7 @@ def df():
 
 
 def _tiny(df, engine="mujoco", budget=8, **kw):
-    return tune_mod.tune(engine, budget, data=df, tosses=TRAIN3, cache=kw.pop("cache", None),
+    return tune_mod.tune(engine, budget, tosses=TRAIN3, store=kw.pop("store", None),
                          score=False, **kw)
 
 
@@ -49,39 +50,82 @@ def test_tiny_budget_improves_and_is_deterministic(df) -> None:
     assert [h[0] for h in c.history][1:] != [h[0] for h in a.history][1:]
 
 
-def test_longer_budget_resumes_from_the_cache(df, tmp_path) -> None:
-    cache = tmp_path / "evals.sqlite"
-    short = _tiny(df, "pybullet", 5, cache=cache)
+def test_longer_budget_resumes_from_the_store(df, tmp_path) -> None:
+    from impactbench.store import CANDIDATE, Store
+
+    store = Store(tmp_path / "results.duckdb")
+    short = _tiny(df, "pybullet", 5, store=store)
     assert short.cache_hits == 0
-    longer = _tiny(df, "pybullet", 9, cache=cache)
+    longer = _tiny(df, "pybullet", 9, store=store)
     assert longer.cache_hits == 5       # the first five candidates are the same ones
     assert longer.history[:5] == short.history
     assert longer.objective <= short.objective
+    # each evaluation is a stored run of the cube-toss scenario, a tuning candidate
+    rows = store.frame("pybullet")
+    runs = rows.drop_duplicates("run_key")
+    assert len(runs) == 9 and set(runs["scenario"]) == {"cube-toss"}
+    assert set(runs["study"]) == {CANDIDATE} and set(runs["mode"]) == {"custom"}
 
 
 def test_the_optimiser_never_sees_a_test_toss(df, monkeypatch) -> None:
     seen: list[list[int]] = []
+    replay_runs = tune_mod.replay_runs
 
-    def spy(engine, params, starts, protocol=None):   # records the ids, replays nothing
-        seen.append([s.toss for s in starts])
-        n = len(starts)
-        return tune_mod.Evaluation(1.0, [1.0] * n, [1.0] * n, [], 0.0)
+    def spy(engine, scenario, params, **kw):   # records what the engine replayed
+        got = replay_runs(engine, scenario, params, **kw)
+        seen.extend([int(r["toss"]) for r in run["per_toss"]] for run, _ in got)
+        return got
 
-    monkeypatch.setattr(tune_mod, "evaluate", spy)
-    fit = tune_mod.tune("mujoco", 3, data=df, cache=None, score=False)
+    monkeypatch.setattr(tune_mod, "replay_runs", spy)
+    fit = tune_mod.tune("mujoco", 2, store=None, score=False)
     train = split(df["toss"].unique(), "train")
-    assert len(seen) == 3 and all(ids == train for ids in seen)
+    assert len(seen) == 2 and all(ids == train for ids in seen)
     assert len(train) == 367 and not any(in_test_set(i) for i in train)
     assert fit.train_ids == train and fit.train_ids_hash == tune_mod.ids_hash(train)
+    assert fit.train["tosses"] == 367 and fit.evaluations == 2
     with pytest.raises(ValueError, match="toss 0 is in the test split"):
-        tune_mod.tune("mujoco", 3, data=df, tosses=[0, 1], cache=None, score=False)
+        tune_mod.tune("mujoco", 3, data=df, tosses=[0, 1], store=None, score=False)
     with pytest.raises(ValueError, match="'train' split"):
-        tune_mod.tune("mujoco", 3, data=df, tosses="test", cache=None, score=False)
+        tune_mod.tune("mujoco", 3, data=df, tosses="test", store=None, score=False)
+
+
+def test_a_generation_at_once_asks_the_same_candidates() -> None:
+    """CMA-ES asked a whole generation before any tell (what batches a generation) proposes
+    exactly the candidates of asking and telling one at a time, over several generations
+    (MuJoCo's 8 knobs, a categorical among them: popsize 10)."""
+    from impactbench.tuning import search
+
+    def bowl(values) -> float:   # a smooth objective with its minimum inside the box
+        return sum((search.Knob(k.name, k.low, k.high, k.log).to_unit(values[k.name]) - 0.3)
+                   ** 2 for k in tune_mod.space("mujoco") if not k.choices) + (
+            values["cone"] == "elliptic")
+
+    class Recorder:
+        def __init__(self) -> None:
+            self.calls: list[list[dict]] = []
+
+        def evaluate_batch(self, candidates):
+            self.calls.append([dict(c) for c in candidates])
+            return [bowl(c) for c in candidates]
+
+    got = {}
+    for batch in (True, False):
+        rec = Recorder()
+        search.nevergrad(tune_mod.space("mujoco"), rec, 33, seed=tune_mod.SEED, batch=batch)
+        got[batch] = rec.calls
+    # the start, the first ask (CMA makes its CMA-ES there), then the rest of each generation
+    assert [len(c) for c in got[True]] == [1, 1, 9, 10, 10, 2]
+    assert [c for b in got[True] for c in b] == [c for b in got[False] for c in b]
 
 
 def test_every_space_maps_onto_engine_keys() -> None:
     from impactbench.engines.cube_toss import make
+    from impactbench.engines.registry import SPECS
 
+    # the engines' specs name their spaces: every 3D engine that replays the tosses has one
+    assert set(tune_mod.SPACES) == {n for n, s in SPECS.items() if "tosses" in dict(s.spaces)}
+    assert set(tune_mod.SPACES) == {"pybullet", "mujoco", "drake", "sapien", "dart", "newton",
+                                    "mjx"}
     for engine, knobs in tune_mod.SPACES.items():
         assert all(k.choices or (k.low < k.high and (k.low > 0 or not k.log)) for k in knobs)
         params = tune_mod.engine_params(engine, {k.name: k.start for k in knobs})

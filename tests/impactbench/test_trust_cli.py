@@ -65,9 +65,10 @@ def test_interruptible_hands_ctrl_c_to_the_main_thread_inside_the_kernel() -> No
     # the solve's thread: KeyboardInterrupt reaches the caller 0.3 s after the signal at
     # most, while the kernel (~1.5-4 s to its budget at m2 = 1e-30 kg) still computes;
     # called directly, the signal would wait for the kernel to return
-    from impactbench.cliutil import interruptible
     from impactbench.reference import two_dof
     from impactbench.reference.scenarios import RigidFlexible
+
+    from impactbench.cliutil import interruptible
 
     two_dof.solve(RigidFlexible())  # the kernel loaded
     previous = signal.signal(signal.SIGINT, signal.default_int_handler)
@@ -145,3 +146,27 @@ def test_negative_numbers_in_exponent_form_reach_the_validator(capsys, argv, mes
     code, err = run_main(capsys, *argv)
     assert code == 2 and err.count("\n") == 1, err
     assert message in err
+
+
+def test_ctrl_c_stops_a_sweep_inside_a_chunk(tmp_path) -> None:
+    # a chunk of 20 points of a vanishing body 2, each ~1.5 s to its step budget: before, a
+    # chunk solved in the main thread kept Ctrl-C waiting ~30 s; now it stops at once
+    # (what finished is stored: none here)
+    proc = subprocess.Popen(
+        [*CLI, "sweep", "rigid-flexible", "--over", "m2", "--start", "1e-30", "--stop",
+         "2e-29", "--step", "1e-30", "--local", "linear", "--structure", "linear",
+         "--workers", "0", "--store", str(tmp_path / "s.duckdb"), "--out",
+         str(tmp_path / "m2.csv")], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    ps = psutil.Process(proc.pid)
+    deadline = time.monotonic() + 60
+    while sum(ps.cpu_times()[:2]) < 3.0 and time.monotonic() < deadline:  # past start-up
+        assert proc.poll() is None
+        time.sleep(0.05)
+    assert proc.poll() is None
+    t0 = time.monotonic()
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    assert time.monotonic() - t0 < 5.0, err
+    assert proc.returncode == 130, err
+    assert "Traceback" not in err and "interrupted" in err, err
+    assert not (tmp_path / "m2.csv").exists()

@@ -28,9 +28,6 @@ TRIALS = 80
 KeyboardInterrupts with probability 0.92⁸⁰ = 0.1 %: the strict xfail is not flaky."""
 
 
-@pytest.mark.xfail(strict=True, raises=AssertionError,
-                   reason="impactbench/store.py: a signal inside a DuckDB query surfaces as "
-                   "RuntimeError('Query interrupted'), not KeyboardInterrupt (module doc)")
 def test_an_interrupt_during_a_store_write_is_a_keyboard_interrupt(tmp_path: Path) -> None:
     if threading.current_thread() is not threading.main_thread():
         pytest.skip("signal handlers are set in the main thread only")

@@ -329,6 +329,25 @@ def test_cli_tune_reports_runs_from_the_store(tmp_path, capsys):
     assert two["parameters"] == one["parameters"]
 
 
+def test_the_ball_objective_takes_a_batch_and_keeps_its_budget():
+    """The one tuner's batch objective: a population's J equal each candidate's own, in
+    order; a batch past the evaluation budget evaluates those within it, then stops."""
+    require_engine("pymunk")
+    from impactbench.tuning import Objective, make_space, parse_weights
+    from impactbench.tuning.search import OutOfBudget
+
+    space = make_space("pymunk", SCENARIO)
+    cands = [space.candidate(np.array([e])) for e in (0.5, 0.7, 0.9)]
+    obj = Objective(space, SCENARIO, FEW, parse_weights(["restitution"], None))
+    one_by_one = [obj.evaluate(space.values_of(c), count_budget=False).objective for c in cands]
+    assert obj.evaluate_batch(cands) == one_by_one
+    assert [float(np.sum(r ** 2)) for r in obj.residuals_batch(cands)] == one_by_one
+    obj.max_evals = obj.evaluations + 2
+    with pytest.raises(OutOfBudget, match="evaluation budget spent"):
+        obj.evaluate_batch(cands)
+    assert obj.evaluations == obj.max_evals
+
+
 # --------------------------------------------------------------------------- Dask
 
 
