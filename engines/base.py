@@ -87,6 +87,7 @@ from impactbench.engines.registry import (  # noqa: F401
     engine_names,
 )
 from impactbench.reference.record import ImpactRecord, Status
+from impactbench.reference.validation import InvalidValue
 
 Scenario = Any
 """A scenario: a frozen dataclass with a class attribute ``name`` (its registry name), e.g.
@@ -449,8 +450,8 @@ def run_safely(engine: str, scenario: Scenario, mode: str = "native",
         return ImpactRecord.failed(Status.UNAVAILABLE, str(exc), **meta)
     try:
         return adapter.run(scenario, mode, settings)
-    except SettingsError as exc:  # bad input a builder found: the caller's one-line error
-        raise ValueError(str(exc)) from None
+    except (SettingsError, InvalidValue) as exc:  # bad input a builder found (a value
+        raise ValueError(str(exc)) from None  # that breaks its rule): the one-line error
     except EngineUnavailable as exc:  # adapters import their engine lazily, inside run
         return ImpactRecord.failed(Status.UNAVAILABLE, str(exc), **meta)
     except Exception as exc:  # an engine failure must not lose the other results

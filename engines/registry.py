@@ -84,14 +84,14 @@ class EngineSpec:
         tuning: ``{parameterisation: "module:function"}`` (the first is the default): the
             function builds the contact fit's space (the ball's, ``impactbench tune``),
             ``f(scenario, variant, timestep_s, **options)``.
+        customary_timesteps_s: the steps its users run it at (s), for "at your timestep".
+        color: its colour in every figure (a matplotlib colour); "" for
+            :func:`fallback_color` (see :attr:`plot_color`).
         spaces: ``{fit: "module:attr"}``: the knobs of its other fits, by the fit's name
             (:data:`FITS`: ``friction``, the oblique impact's friction knobs; ``tosses``, the
             cube tosses' contact knobs), each read by that fit's module
             (:func:`tuning_space`). With ``tuning``, every tuning space of the engine is
             reached from here, in one place per engine.
-        customary_timesteps_s: the steps its users run it at (s), for "at your timestep".
-        color: its colour in every figure (a matplotlib colour); "" for
-            :func:`fallback_color` (see :attr:`plot_color`).
     """
 
     name: str
@@ -101,9 +101,9 @@ class EngineSpec:
     distribution: str = ""
     module: str = ""
     tuning: tuple[tuple[str, str], ...] = ()
-    spaces: tuple[tuple[str, str], ...] = ()
     customary_timesteps_s: tuple[float, ...] = ()
     color: str = ""
+    spaces: tuple[tuple[str, str], ...] = ()
 
     @property
     def variants(self) -> tuple[str, ...]:
@@ -139,43 +139,42 @@ BUILTIN: tuple[EngineSpec, ...] = (
     EngineSpec("mujoco", "impactbench.engines.mujoco_adapter:MujocoAdapter",
                "pip install mujoco", "mujoco", "mujoco", "mujoco",
                (("solref+solimp", f"{_TUNE}:mujoco_space"), ("solref", f"{_TUNE}:mujoco_space")),
-               _spaces("MUJOCO"), (2e-3, 1e-3), color="tab:blue"),
+               (2e-3, 1e-3), color="tab:blue", spaces=_spaces("MUJOCO")),
     EngineSpec("pybullet", "impactbench.engines.pybullet_adapter:PybulletAdapter",
                "pip install pybullet", "pybullet", "pybullet", "pybullet",
-               (("stiffness+damping", f"{_TUNE}:pybullet_space"),), _spaces("PYBULLET"),
-               (1 / 240,),
-               color="tab:orange"),
+               (("stiffness+damping", f"{_TUNE}:pybullet_space"),), (1 / 240,),
+               color="tab:orange", spaces=_spaces("PYBULLET")),
     EngineSpec("pymunk", "impactbench.engines.pymunk_adapter:PymunkAdapter",
                "pip install pymunk", "pymunk", "pymunk", "pymunk",
                (("elasticity", f"{_TUNE}:pymunk_space"),
                 ("restitution-law", f"{_TUNE}:pymunk_space")),
-               _spaces("PYMUNK", tosses=False), (1 / 60, 1e-3),
-               color="tab:green"),
+               (1 / 60, 1e-3), color="tab:green", spaces=_spaces("PYMUNK", tosses=False)),
     EngineSpec("drake", "impactbench.engines.drake_adapter:DrakeAdapter",
                "pip install drake", "drake", "drake", "pydrake",
                (("stiffness+dissipation", f"{_TUNE}:drake_space"),
                 ("stiffness+relaxation", f"{_TUNE}:drake_relaxation_space")),
-               _spaces("DRAKE"), (1e-3,),
-               color="tab:red"),
+               (1e-3,), color="tab:red", spaces=_spaces("DRAKE")),
     EngineSpec("sapien", "impactbench.engines.sapien_adapter:SapienAdapter",
                "pip install sapien", "sapien", "sapien", "sapien",
                (("compliant-stiffness", f"{_MORE}:sapien_space"),
-                ("restitution", f"{_MORE}:sapien_space")), _spaces("SAPIEN"),
-               color="tab:purple"),
+                ("restitution", f"{_MORE}:sapien_space")), color="tab:purple",
+               spaces=_spaces("SAPIEN")),
     EngineSpec("dart", "impactbench.engines.dart_adapter:DartAdapter",
                "pip install dartpy", "dart", "dartpy", "dartpy",
-               (("restitution", f"{_MORE}:dart_space"),), _spaces("DART"), color="tab:brown"),
+               (("restitution", f"{_MORE}:dart_space"),), color="tab:brown",
+               spaces=_spaces("DART")),
     EngineSpec("box2d", "impactbench.engines.box2d_adapter:Box2dAdapter",
                "pip install box2d", "box2d", "box2d", "Box2D",
-               (("restitution", f"{_MORE}:box2d_space"),), _spaces("BOX2D", tosses=False),
-               color="tab:pink"),
+               (("restitution", f"{_MORE}:box2d_space"),), color="tab:pink",
+               spaces=_spaces("BOX2D", tosses=False)),
     EngineSpec("mjx", "impactbench.engines.mjx_adapter:MjxAdapter",
                "pip install mujoco-mjx jax", "mjx", "mujoco-mjx", "mujoco.mjx",
                (("solref+solimp", f"{_TUNE}:mujoco_space"), ("solref", f"{_TUNE}:mujoco_space")),
-               _spaces("MUJOCO"), color="tab:cyan"),
+               color="tab:cyan", spaces=_spaces("MUJOCO")),
     EngineSpec("newton", "impactbench.engines.newton_adapter:NewtonAdapter",
                "pip install newton", "newton", "newton", "newton",
-               (("ke+kd", f"{_MORE}:newton_space"),), _spaces("NEWTON"), color="tab:olive"),
+               (("ke+kd", f"{_MORE}:newton_space"),), color="tab:olive",
+               spaces=_spaces("NEWTON")),
 )
 """The packaged engines, in the report's order (colours: matplotlib's tab10, one each)."""
 

@@ -15,8 +15,15 @@ Keyword arguments, the same for every function:
 - the scenario's further options, as its command-line flags have them (the ball's
   ``material``, ``plate_material``, ``youngs_modulus_pa``, ``poisson``, ``scenario_file``);
 - *engine settings*: ``params`` (``custom`` mode: a dict by the engine's own names, as
-  ``run --param``), ``tuned_file`` (``tuned`` mode) and ``timestep_s`` (default: in
-  ``default`` mode the engine's own step, else the adapter's for the scenario).
+  ``run --param``), ``param_set`` (``custom`` mode of a measured scenario: a parameter set
+  published with its data), ``tuned_file`` (``tuned`` mode) and ``timestep_s`` (default: in
+  ``default`` mode the engine's own step, else the adapter's for the scenario; a measured
+  scenario's own step).
+
+The commands are a thin layer over these functions: ``impactbench run`` translates its flags
+into :func:`run`'s keywords and calls it inside :func:`command_line`, under which errors name
+the flags (``timestep = …``, ``--mode custom``) instead of the keywords; every rule (default
+mode, mode checks, the step, tuned files, cost, timeout, plausibility limits) lives here once.
 
 An unknown keyword is a one-line ``ValueError`` that names it, suggests the nearest valid one
 and lists them all, as are bad values (the scenario's own validation):
@@ -48,20 +55,22 @@ A run in one line, compared with the reference:
 
 from __future__ import annotations
 
-import argparse
+import contextlib
 import difflib
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
+from contextvars import ContextVar
 from dataclasses import dataclass, field
-from functools import cache
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any
 
 from impactbench import scenarios
 
-__all__ = ["RunResult", "TuneFit", "build_report", "reference_solution", "run", "tune"]
+__all__ = ["RunResult", "TuneFit", "build_report", "command_line", "reference_solution",
+           "run", "run_timestep", "tune"]
 
-RUN_KEYWORDS = ("engine", "scenario", "mode", "params", "tuned_file", "timestep_s", "yes",
-                "timeout_s")
+RUN_KEYWORDS = ("engine", "scenario", "mode", "params", "param_set", "tuned_file",
+                "timestep_s", "yes", "timeout_s", "max_penetration_ratio", "max_energy_ratio")
 """The keywords of :func:`run` besides the scenario's fields and options."""
 TUNE_KEYWORDS = ("engine", "scenario", "velocities_m_s", "targets", "weights", "parameters",
                  "solref_form", "timestep_s", "budget_s", "max_evals", "params", "out", "plot",
@@ -108,6 +117,7 @@ class RunResult:
         scenario: the scenario object that ran (its dataclass).
         record: the engine's :class:`~impactbench.reference.record.ImpactRecord` (time
             histories: ``t_s``, forces, positions).
+        data: the whole ``run --json`` object, in its key order (:meth:`to_dict`).
     """
 
     status: str
@@ -128,6 +138,7 @@ class RunResult:
     timestep_source: str = ""
     scenario: Any = field(default=None, repr=False, compare=False)
     record: Any = field(default=None, repr=False, compare=False)
+    data: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
 
     @property
     def ok(self) -> bool:
@@ -138,15 +149,20 @@ class RunResult:
     def from_compare(cls, out: Mapping[str, Any], metric_names: Iterable[str],
                      scenario: Any = None, record: Any = None,
                      timestep_source: str = "") -> RunResult:
-        """From the object :func:`impactbench.evaluate.compare` returns (``run --json``'s)."""
+        """From the object :func:`impactbench.evaluate.compare` returns (``run --json``'s);
+        ``timestep_source`` (where it is not in ``out`` already) goes beside the step."""
+        out = dict(out)
+        source = str(out.pop("timestep_source", "") or timestep_source)
+        at = list(out).index("timestep_s") + 1 if "timestep_s" in out else len(out)
+        out = dict([*list(out.items())[:at], ("timestep_source", source),
+                    *list(out.items())[at:]])
         names = [k for k in metric_names if k in out]
         known = {*_RUN_HEAD, *_RUN_TAIL, *names, "timestep_source"}
         return cls(**{k: out.get(k) for k in _RUN_HEAD},
                    metrics={k: out[k] for k in names},
                    **{k: dict(out.get(k) or {}) for k in _RUN_TAIL},
                    extra={k: v for k, v in out.items() if k not in known},
-                   timestep_source=timestep_source or str(out.get("timestep_source", "")),
-                   scenario=scenario, record=record)
+                   timestep_source=source, scenario=scenario, record=record, data=out)
 
     def to_dict(self) -> dict[str, Any]:
         """The object ``impactbench run --json`` prints: JSON-ready (NaN and inf are None,
@@ -163,11 +179,12 @@ class RunResult:
         """
         from impactbench.cliutil import _jsonable
 
+        if self.data:  # the comparison's own key order (details before rel_error)
+            return _jsonable(self.data)
         head = {k: getattr(self, k) for k in _RUN_HEAD}
-        if self.timestep_source:  # beside the step it explains, as the command prints it
-            at = list(head).index("timestep_s") + 1
-            head = dict([*list(head.items())[:at], ("timestep_source", self.timestep_source),
-                         *list(head.items())[at:]])
+        at = list(head).index("timestep_s") + 1  # beside the step it explains
+        head = dict([*list(head.items())[:at], ("timestep_source", self.timestep_source),
+                     *list(head.items())[at:]])
         obj = {**head, **self.metrics, **{k: getattr(self, k) for k in _RUN_TAIL},
                **self.extra}
         return _jsonable(obj)
@@ -220,6 +237,69 @@ class TuneFit:
         return _jsonable(self.data)
 
 
+# ------------------------------------------------------------------------------ spelling
+
+
+@dataclass(frozen=True)
+class _Caller:
+    """Who calls: Python (errors name the keywords, ``timestep_s = 0.0``, ``mode='custom'``)
+    or the command line (:func:`command_line`: errors name its flags, ``timestep = 0.0``,
+    ``--mode custom``, and a lone run stuck in an engine's C code ends the process)."""
+
+    flags: Mapping[str, str] = field(default_factory=dict)
+    """keyword → its flag (``timestep_s`` → ``--timestep``); empty: Python's keywords."""
+
+    @property
+    def command(self) -> bool:
+        return bool(self.flags)
+
+    def name(self, keyword: str) -> str:
+        """What a value is called in ``NAME = value: rule`` (``timestep`` / ``timestep_s``)."""
+        return self.flags[keyword].lstrip("-") if keyword in self.flags else keyword
+
+    def option(self, keyword: str) -> str:
+        """How the caller gives it (``--param`` / ``params``)."""
+        return self.flags.get(keyword, keyword)
+
+    def setting(self, keyword: str, value: Any) -> str:
+        """How the caller sets it to ``value`` (``--mode custom`` / ``mode='custom'``;
+        ``True``: ``--yes`` / ``yes=True``)."""
+        if keyword not in self.flags:
+            return f"{keyword}={value!r}"
+        return self.flags[keyword] if value is True else f"{self.flags[keyword]} {value}"
+
+    def value(self, value: Any) -> str:
+        """A value as the caller writes it (``native`` / ``'native'``)."""
+        return str(value) if self.command else repr(value)
+
+
+_PYTHON = _Caller()
+_CALLER: ContextVar[_Caller | None] = ContextVar("impactbench_api_caller", default=None)
+
+
+def _say() -> _Caller:
+    """The caller of the function running now (:func:`command_line`, else Python)."""
+    return _CALLER.get() or _PYTHON
+
+
+@contextlib.contextmanager
+def command_line(flags: Mapping[str, str]) -> Iterator[None]:
+    """Within the block the functions serve the command line: an error names the flag a
+    value came from (``flags``: keyword → flag, e.g. ``{"timestep_s": "--timestep"}``) and a
+    lone run stuck in an engine's C code past its timeout ends the process
+    (:func:`impactbench.cluster.deadline`). The commands call the API inside it."""
+    token = _CALLER.set(_Caller(dict(flags)))
+    try:
+        yield
+    finally:
+        _CALLER.reset(token)
+
+
+def _g(value: Any) -> str:
+    """A number as ``%g`` (anything else as its repr), for error messages."""
+    return f"{value:g}" if isinstance(value, int | float) else repr(value)
+
+
 # ------------------------------------------------------------------------------ keywords
 
 
@@ -232,18 +312,8 @@ def _one_of(what: str, value: Any, allowed: Sequence[str]) -> None:
     """One-line ValueError unless ``value`` is in ``allowed`` (with a "did you mean")."""
     if value not in allowed:
         hint = _hint(value, allowed) if isinstance(value, str) else ""
-        raise ValueError(f"{what} = {value!r}: must be one of {', '.join(allowed)}{hint}")
-
-
-@cache
-def _options(name: str) -> dict[str, Any]:
-    """Every field and further option of scenario ``name`` as its command-line flags have
-    them (dest → default: fields None, the ball's ``material`` None, ``gravity_m_s2`` 0)."""
-    from impactbench.flags import add_parameter_flags
-
-    parser = argparse.ArgumentParser(add_help=False)
-    add_parameter_flags(parser, name)
-    return {a.dest: a.default for a in parser._actions}
+        raise ValueError(f"{_say().name(what)} = {value!r}: must be one of "
+                         f"{', '.join(allowed)}{hint}")
 
 
 def _scenario_name(scenario: str | None, study: str = "") -> str:
@@ -259,11 +329,13 @@ def _scenario_name(scenario: str | None, study: str = "") -> str:
 
 def _scenario_keywords(name: str, *, point: bool = True) -> tuple[str, ...]:
     """The scenario keywords of scenario ``name``: its fields (axes first; ``point = False``
-    leaves the axes out) and its further options."""
+    leaves the axes out) and its further options (:func:`impactbench.flags.option_names`)."""
+    from impactbench.flags import option_names
+
     spec = scenarios.get(name)
     axes = spec.axis_names if point else ()
     fields = [f for f in spec.cls.field_names() if f not in spec.axis_names]
-    return tuple(dict.fromkeys([*axes, *fields, *_options(name)]))
+    return tuple(dict.fromkeys([*axes, *fields, *option_names(name)]))
 
 
 def _check_keywords(where: str, given: Mapping[str, Any], valid: Sequence[str]) -> None:
@@ -276,38 +348,111 @@ def _check_keywords(where: str, given: Mapping[str, Any], valid: Sequence[str]) 
 def _build(name: str, values: Mapping[str, Any]) -> Any:
     """The scenario ``name`` with ``values`` (fields, axes, further options) over its
     defaults, validated: further options go through the spec's ``from_args`` (a material
-    gives mass and stiffness), then :meth:`ScenarioSpec.build`."""
+    gives mass and stiffness; it reads them from a plain namespace), then
+    :meth:`ScenarioSpec.build`. Bad values are a one-line ValueError."""
     spec = scenarios.get(name)
     fields = set(spec.cls.field_names())
     given = {k: v for k, v in values.items() if k in fields}
-    if spec.has_options:
-        args = argparse.Namespace(**{**_options(name), **values})
-        given = spec.from_args(args, given)
-    point = {a: given.pop(a) for a in spec.axis_names if a in given}
-    return spec.build(point, given)
+    try:
+        if spec.has_options:
+            given = spec.from_args(SimpleNamespace(**values), given)
+        point = {a: given.pop(a) for a in spec.axis_names if a in given}
+        return spec.build(point, given)
+    except ValueError as exc:  # (validation's own subclasses: the plain type, one line)
+        raise ValueError(str(exc)) from None
 
 
-def _timestep(engine: str, mode: str, timestep_s: float | None) -> tuple[float | None, str]:
-    """(step, where it comes from), ``impactbench run``'s rule: the given step; in
-    ``default`` mode without one the engine's own default step (the first of its spec's
-    ``customary_timesteps_s``); otherwise None, the adapter's step for the scenario."""
+ENGINE_DEFAULT, GIVEN, ADAPTER_DEFAULT = ("engine default", "given",
+                                         "adapter default for the scenario")
+"""The values of ``timestep_source`` (``run --json``) the step rule gives."""
+
+
+def run_timestep(engine: str, mode: str, timestep_s: float | None
+                 ) -> tuple[float | None, str]:
+    """(step, where it comes from): the given step; in ``default`` mode without one the
+    engine's own default step (the first of its spec's ``customary_timesteps_s``: MuJoCo 2 ms,
+    PyBullet 1/240 s, Drake 1 ms, pymunk 1/60 s), so "default" means the engine as it comes;
+    otherwise None, the adapter's step for the scenario (engines without customary steps).
+    (A measured scenario steps by its own fields: :meth:`ScenarioSpec.at_timestep`.)"""
     if timestep_s is not None:
-        return timestep_s, "given"
+        return timestep_s, GIVEN
     if mode == "default":
         from impactbench.engines.registry import spec
 
         customary = spec(engine).customary_timesteps_s
         if customary:
-            return float(customary[0]), "engine default"
-    return None, "adapter default for the scenario"
+            return float(customary[0]), ENGINE_DEFAULT
+    return None, ADAPTER_DEFAULT
 
 
 def _yes(fn, *args: Any) -> Any:
-    """Call a cost check; its ``--yes`` advice becomes this API's ``yes=True``."""
+    """Call something that checks the cost; its ``--yes`` advice in the caller's spelling
+    (``yes=True`` from Python)."""
     try:
         return fn(*args)
     except ValueError as exc:
-        raise ValueError(str(exc).replace("pass --yes", "pass yes=True")) from None
+        yes = _say().setting("yes", True)
+        raise ValueError(str(exc).replace("pass --yes", f"pass {yes}")) from None
+
+
+def _run_mode(spec: Any, mode: str | None, params: Mapping[str, Any], param_set: str | None,
+              tuned_file: Any) -> str:
+    """The mode of a run and its checks: the given one, else ``custom`` with engine
+    parameters (or a parameter set), ``tuned`` with a tuned file, else the scenario's
+    default (``native``; a measured scenario's ``default``)."""
+    from impactbench.engines.registry import MODES
+
+    say = _say()
+    mode = mode or ("custom" if params or param_set is not None
+                    else "tuned" if tuned_file is not None else spec.default_mode)
+    _one_of("mode", mode, MODES)
+    if params and mode != "custom":
+        raise ValueError(f"{say.name('params')} = {next(iter(params))}: "
+                         f"{say.option('params')} needs {say.setting('mode', 'custom')} "
+                         f"(got {say.value(mode)})")
+    if tuned_file is not None and mode != "tuned":
+        raise ValueError(f"{say.name('tuned_file')} = {str(tuned_file)!r}: "
+                         f"{say.option('tuned_file')} needs {say.setting('mode', 'tuned')} "
+                         f"(got {say.value(mode)})")
+    return mode
+
+
+def _run_checks(engine: str, spec: Any, params: Mapping[str, Any], param_set: str | None,
+                limits: Mapping[str, float]) -> None:
+    """What a run's engine settings must satisfy for this scenario: a parameter set and no
+    plausibility limits only for a measured scenario (its replay checks its own keys), the
+    engine's own parameter names for every other."""
+    from impactbench.engines.base import parameter_keys
+
+    say = _say()
+    if param_set is not None and not spec.measured:
+        raise ValueError(f"{say.name('param_set')} = {param_set!r}: {spec.name} has no "
+                         "parameter sets (they come with a data-driven scenario's "
+                         "measurements)")
+    if spec.measured:
+        for key, value in limits.items():
+            raise ValueError(f"{say.name(key)} = {_g(value)}: {spec.name} is judged against "
+                             "its measurements, not by plausibility limits")
+        return
+    valid = parameter_keys(engine)
+    for key in params:
+        if key not in valid:
+            raise ValueError(f"{say.name('params')} = {key!r}: not a {engine} parameter; "
+                             f"valid keys: {', '.join(valid) or '(none)'}{_hint(key, valid)}")
+
+
+def _timeout(timeout_s: float | None, steps: float, spec: Any) -> float | None:
+    """The run's timeout (s): the given one, else max(60 s, 20 × the run's estimate); a
+    replay without an estimate (its length varies with its tosses) has none."""
+    from impactbench import cluster
+    from impactbench.cliutil import timeout_option
+
+    given = timeout_option(timeout_s, name=_say().name("timeout_s"))
+    if given is not None:
+        return given
+    if steps or not spec.owns_timestep:
+        return cluster.default_timeout(cluster.run_estimate_s(steps))
+    return None
 
 
 # ------------------------------------------------------------------------------ functions
@@ -357,8 +502,10 @@ def reference_solution(scenario: str | None = None, **fields: Any) -> dict[str, 
 
 
 def run(engine: str, scenario: str | None = None, mode: str | None = None, *,
-        params: Mapping[str, Any] | None = None, tuned_file: str | Path | None = None,
-        timestep_s: float | None = None, yes: bool = False, timeout_s: float | None = None,
+        params: Mapping[str, Any] | None = None, param_set: str | None = None,
+        tuned_file: str | Path | None = None, timestep_s: float | None = None,
+        yes: bool = False, timeout_s: float | None = None,
+        max_penetration_ratio: float | None = None, max_energy_ratio: float | None = None,
         **fields: Any) -> RunResult:
     """Run one scenario in one engine and compare it with the reference (``impactbench run``).
 
@@ -367,19 +514,27 @@ def run(engine: str, scenario: str | None = None, mode: str | None = None, *,
             and the extras').
         scenario: the scenario's registry name (default: the first, ``ball-on-plate``).
         mode: ``native``, ``injected``, ``tuned``, ``default`` or ``custom`` (default:
-            ``custom`` with ``params``, ``tuned`` with ``tuned_file``, else ``native``).
+            ``custom`` with ``params`` or ``param_set``, ``tuned`` with ``tuned_file``, else
+            the scenario's: ``native``, a measured scenario's ``default``).
         params: ``custom`` mode: engine parameters by the engine's own names (``run
-            --param``'s keys: ``solref``, ``contactStiffness``, ``elasticity``, …).
+            --param``'s keys: ``solref``, ``contactStiffness``, ``elasticity``, …; a measured
+            scenario's replay keys, ``board.contactStiffness``).
+        param_set: ``custom`` mode of a measured scenario: a parameter set published with its
+            data (the cube tosses' ``dair2022``), overlaid by ``params``.
         tuned_file: ``tuned`` mode: a tuned file (``tune(out=...)``); default the packaged
             one fitted at ``timestep_s``. It applies only to the scenario and step it was
             fitted for (else the status is ``unsupported``, naming the difference).
         timestep_s: the integration step (s); default: in ``default`` mode the engine's own
             default step (MuJoCo 2 ms, PyBullet 1/240 s, Drake 1 ms, pymunk 1/60 s), otherwise
-            the adapter's for the scenario.
+            the adapter's for the scenario (:func:`run_timestep`). A measured scenario maps
+            it to its own step (the cube tosses: a whole fraction of the sample interval).
         yes: run even when the estimate exceeds 1e7 integration steps.
         timeout_s: stop a run still going after this many seconds (status ``timeout``, no
             record; SIGALRM, so only from the main thread and only Python code: an engine
-            stuck in C is stopped when it returns). Default: no limit.
+            stuck in C is stopped when it returns). Default: max(60 s, 20 × the run's
+            estimate); none for a replay of measured data.
+        max_penetration_ratio, max_energy_ratio: the plausibility limits (default 0.1 and
+            1.01; :mod:`impactbench.plausibility`); a measured scenario has none.
         **fields: the scenario's fields, axes and further options (``velocity_m_s``,
             ``mass_kg``, ``material``, …).
 
@@ -406,48 +561,57 @@ def run(engine: str, scenario: str | None = None, mode: str | None = None, *,
     >>> t.status, abs(t.rel_error["restitution"]) < abs(r.rel_error["restitution"])
     ('ok', True)
     """
-    from impactbench.engines.base import RunSettings, parameter_keys
-    from impactbench.engines.registry import MODES, engine_names, stdout_to_stderr
+    from impactbench.cliutil import check_cost
+    from impactbench.engines.base import RunSettings
+    from impactbench.engines.registry import engine_names, stdout_to_stderr
     from impactbench.evaluate import compare, reference_metrics
+    from impactbench.matrix import estimated_steps_of
 
+    say = _say()
     name = _scenario_name(scenario)
+    spec = scenarios.get(name)
+    velocity = fields.get("velocity_m_s")
+    if velocity is not None and "velocity_m_s" not in spec.axis_names:
+        raise ValueError(f"{say.name('velocity_m_s')} = {_g(velocity)}: {name} has no impact "
+                         f"velocity (drop {say.option('velocity_m_s')})")
     _check_keywords(f"impactbench.run(scenario={name!r})", fields,
                     (*RUN_KEYWORDS, *_scenario_keywords(name)))
     _one_of("engine", engine, engine_names())
-    mode = mode or ("custom" if params else "tuned" if tuned_file is not None else "native")
-    _one_of("mode", mode, MODES)
-    if params and mode != "custom":
-        raise ValueError(f"params = {dict(params)!r}: engine parameters need mode='custom' "
-                         f"(got {mode!r})")
-    if tuned_file is not None and mode != "tuned":
-        raise ValueError(f"tuned_file = {str(tuned_file)!r}: needs mode='tuned' "
-                         f"(got {mode!r})")
-    if params:
-        valid = parameter_keys(engine)
-        for key in params:
-            if key not in valid:
-                raise ValueError(f"params = {key!r}: not a {engine} parameter"
-                                 f"{_hint(key, valid)}; valid keys: "
-                                 f"{', '.join(valid) or '(none)'}")
+    params = dict(params or {})
+    mode = _run_mode(spec, mode, params, param_set, tuned_file)
+    limits = {k: v for k, v in (("max_penetration_ratio", max_penetration_ratio),
+                                ("max_energy_ratio", max_energy_ratio)) if v is not None}
+    _run_checks(engine, spec, params, param_set, limits)
+    if param_set is not None:
+        params["param_set"] = param_set  # the replay's builder says which modes take it
     built = _build(name, fields)
-    timestep_s, timestep_source = _timestep(engine, mode, timestep_s)
-    if mode == "tuned":
+    if spec.owns_timestep:  # the scenario's fields carry the step (a replay's substeps)
+        timestep_s, timestep_source = timestep_s, ""
+    else:
+        timestep_s, timestep_source = run_timestep(engine, mode, timestep_s)
+    at_step = spec.at_timestep(built, timestep_s)[0]
+    settings = RunSettings(timestep_s=timestep_s, params=params or None)
+    if mode == "tuned":  # bound to the scenario at this step
         from impactbench.tuned import tuned_settings
 
-        tuned, provenance = tuned_settings(engine, built, timestep_s, tuned_file)
-        settings = RunSettings(timestep_s=timestep_s, tuned=tuned, tuned_for=provenance)
-    else:
-        settings = RunSettings(timestep_s=timestep_s, params=dict(params or {}) or None)
-    from impactbench.cliutil import check_cost
-    from impactbench.matrix import estimated_steps_of
+        tuned, provenance = tuned_settings(engine, at_step, timestep_s, tuned_file)
+        settings = RunSettings(timestep_s=timestep_s, tuned=tuned, tuned_for=provenance,
+                               params=params or None)
+    if limits:
+        from impactbench.plausibility import Limits, judge
 
-    ref = reference_metrics(built)
-    _yes(check_cost, estimated_steps_of(ref, timestep_s), f"timestep_s = {timestep_s!r}", yes,
-         "integration steps")
+        judged = Limits(**limits)  # (validated before the run)
+    ref = reference_metrics(at_step)
+    steps = estimated_steps_of(ref, timestep_s)
+    check_cost(steps, f"{say.name('timestep_s')} = {timestep_s!r}", yes, "integration steps",
+               yes_flag=say.setting("yes", True))
+    limit = _timeout(timeout_s, steps, spec)
     with stdout_to_stderr():  # engines print banners on stdout
-        out, record = compare(engine, built, mode, settings, ref, timeout_s=timeout_s)
-    return RunResult.from_compare(out, scenarios.get(name).metrics, built, record,
-                                  timestep_source)
+        out, record = compare(engine, built, mode, settings, ref, timeout_s=limit,
+                              backstop=say.command)
+    if limits:
+        out = judge(out, judged)
+    return RunResult.from_compare(out, spec.metrics, built, record, timestep_source)
 
 
 def tune(engine: str, scenario: str | None = None, *,
@@ -575,11 +739,12 @@ def tune(engine: str, scenario: str | None = None, *,
 
 
 def build_report(config: str | Path | Mapping[str, Any] | None = None,
-                 out: str | Path = "reports",
-           *, engines: Sequence[str] | str | None = None, workers: int | None = None,
-           scheduler: str | None = None, store: str | Path | bool | None = None,
-           fresh: bool = False, yes: bool = False, progress: bool = True,
-           timeout_s: float | None = None) -> Any:
+                 out: str | Path = "reports", *, engines: Sequence[str] | str | None = None,
+                 workers: int | None = None, scheduler: str | None = None,
+                 store: str | Path | bool | None = None, fresh: bool = False,
+                 yes: bool = False, progress: bool = True, timeout_s: float | None = None,
+                 scenario_file: str | Path | None = None,
+                 keep_unchanged: bool = False) -> Any:
     """Run a comparison matrix and write its report (``impactbench report``).
 
     Args:
@@ -600,10 +765,14 @@ def build_report(config: str | Path | Mapping[str, Any] | None = None,
         timeout_s: the per-run timeout (a run outlasting it is a ``timeout`` row, its worker
             restarted; default ``[execution] timeout_s``, else max(60 s, 20 × the run's
             estimate)).
+        scenario_file: a TOML file of scenario fields (``impactbench calibrate``'s) replacing
+            the config's ball parameters (the calibration study's scenario table).
+        keep_unchanged: leave the folder as it is when its report has the same results apart
+            from wall times.
 
     Returns the :class:`impactbench.report.Report`: ``results`` (the tidy DataFrame, one row
-    per run and metric, as ``results.csv``), ``files`` (every file written), ``out_dir`` and
-    ``wall_s``.
+    per run and metric, as ``results.csv``), ``files`` (every file written), ``out_dir``,
+    ``wall_s`` and ``kept``.
 
     >>> import impactbench, tempfile
     >>> small = {"report": {"engines": ["pymunk"], "modes": ["native"]},
@@ -619,9 +788,11 @@ def build_report(config: str | Path | Mapping[str, Any] | None = None,
     from impactbench import config as config_mod
     from impactbench import publish
     from impactbench import report as report_mod
-    from impactbench.cliutil import check_workers, execution_options
+    from impactbench.cliutil import execution_options, timeout_option
+    from impactbench.cluster import run_timeout
     from impactbench.engines.registry import engine_names
 
+    say = _say()
     out = Path(out)
     publish.check_dir_target(out, "out")
     if isinstance(config, Mapping):
@@ -631,24 +802,24 @@ def build_report(config: str | Path | Mapping[str, Any] | None = None,
     else:
         raise ValueError(f"config = {config!r}: must be None, a TOML file's path or a dict "
                          "of its tables")
+    if scenario_file is not None:
+        from impactbench.scenario_file import load_scenario_file
+
+        table = scenarios.for_study("calibrate").table
+        raw = dict(cfg.raw)
+        raw[table] = {**raw.get(table, {}), **load_scenario_file(scenario_file)}
+        cfg = config_mod.parse(raw, source=f"{cfg.source} + {scenario_file}")
     chosen = None
     if engines is not None:
-        chosen = [e.strip() for e in engines.split(",")] if isinstance(engines, str) \
-            else list(engines)
+        chosen = [e.strip() for e in engines.split(",") if e.strip()] \
+            if isinstance(engines, str) else list(engines)
         for e in chosen:
             _one_of("engines", e, engine_names())
-    args = argparse.Namespace(workers=None, scheduler=scheduler, fresh=fresh, yes=yes,
-                              store=Path(store) if store not in (None, True, False) else None)
-    opts = execution_options(args, cfg)  # the [execution] table under the arguments
-    if workers is not None:
-        opts["workers"] = check_workers(workers)
+    opts = execution_options(cfg, workers=workers, scheduler=scheduler, fresh=fresh, yes=yes,
+                             store=None if store in (None, True, False) else Path(store))
     if store is False:
         opts["store"] = None
-    from impactbench.cliutil import timeout_option
-    from impactbench.cluster import run_timeout
-
-    limit = timeout_option(argparse.Namespace(timeout=timeout_s), cfg)
+    limit = timeout_option(timeout_s, cfg, name=say.name("timeout_s"))
     with run_timeout(limit):
-        return _yes(lambda: report_mod.build(cfg, out, engines=chosen,
-                                             show_progress=progress, **opts))
-
+        return _yes(lambda: report_mod.build(cfg, out, engines=chosen, show_progress=progress,
+                                             keep_unchanged=keep_unchanged, **opts))

@@ -89,13 +89,16 @@ class _VersionAction(argparse.Action):
         parser.exit()
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = Parser(
-        prog="impactbench",
-        description="Cross-validate physics engines on impact against Hunt–Crossley and "
-        "rigid–flexible reference solutions.",
-    )
-    parser.add_argument("--version", action=_VersionAction)
+DESCRIPTION = ("Cross-validate physics engines on impact: against Hunt–Crossley and "
+               "rigid–flexible reference solutions, the oblique impact with friction and spin "
+               "(rigid Coulomb theory, Mindlin, Kharaz et al.'s measurements) and 456 real "
+               "cube tosses (DAIR's ContactNets data).")
+
+
+def add_commands(parser: argparse.ArgumentParser
+                 ) -> tuple[argparse._SubParsersAction, dict[str, argparse._SubParsersAction]]:
+    """The top-level subcommands of ``parser`` and the scenario-keyed groups (``reference``,
+    ``sweep``: one subcommand per scenario) under it: (top, groups)."""
     top = parser.add_subparsers(dest="command", required=True, parser_class=Parser,
                                 metavar="COMMAND")
     groups = {}
@@ -103,6 +106,13 @@ def build_parser() -> argparse.ArgumentParser:
         group = top.add_parser(name, help=help_text, description=help_text)
         groups[name] = group.add_subparsers(dest="scenario", required=True, metavar="SCENARIO",
                                             parser_class=Parser)
+    return top, groups
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = Parser(prog="impactbench", description=DESCRIPTION)
+    parser.add_argument("--version", action=_VersionAction)
+    top, groups = add_commands(parser)
     from impactbench import scenarios
 
     for spec in scenarios.specs():  # each scenario's own subcommands (reference NAME, …)
@@ -159,6 +169,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the console script; returns the exit code."""
     previous = _install_stop_handlers()
     try:
+        from impactbench.commands.run import scenario_first
+
+        argv = scenario_first(sys.argv[1:] if argv is None else argv)
         args = build_parser().parse_args(argv)
         if getattr(args, "store_reset", False):
             from impactbench import store

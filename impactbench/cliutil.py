@@ -93,6 +93,29 @@ def print_table(rows: Iterable[Mapping[str, Any]], columns: Sequence[str] | None
                    floatfmt=floatfmt))
 
 
+def damping_text(scenario: Any) -> str:
+    """The damping of a Hunt–Crossley scenario as the reference commands print it
+    (``nominal e = 0.8`` when set from a nominal restitution, else ``b = 0.1 s/m``)."""
+    if scenario.nominal_restitution is not None:
+        return f"nominal e = {scenario.nominal_restitution:g}"
+    return f"b = {scenario.damping_s_per_m:g} s/m"
+
+
+def print_points(results: Sequence[Mapping[str, Any]], as_json: bool, header: str,
+                 columns: Sequence[str]) -> int:
+    """A reference command's output, exit 0: JSON (one object, or a list for several points)
+    or the ``header`` line, a table of ``columns`` and each point's message on stderr."""
+    if as_json:
+        print_json(results[0] if len(results) == 1 else list(results))
+        return 0
+    print(header)
+    print_table(results, columns, floatfmt=".8g")
+    for r in results:
+        if r["message"]:
+            print(f"{r['status']}: {r['message']}", file=sys.stderr)
+    return 0
+
+
 def interruptible(fn: Any, *args: Any) -> Any:
     """``fn(*args)`` in a daemon thread while this (main) thread waits in short joins, so
     Ctrl-C (and SIGTERM or SIGHUP, routed to KeyboardInterrupt by the CLI) stops the command
@@ -236,26 +259,31 @@ COST_LIMIT = 10_000_000
 """Runs over this many integration steps, or sweeps over this many points, need ``--yes``."""
 
 
-def check_cost(count: float, what: str, yes: bool, detail: str = "") -> None:
+def check_cost(count: float, what: str, yes: bool, detail: str = "",
+               yes_flag: str = "--yes") -> None:
     """Refuse (one line, exit 2) a job of more than :data:`COST_LIMIT` steps or points
-    unless ``--yes`` was given."""
+    unless ``--yes`` was given (``yes_flag``: how the caller says yes, ``yes=True`` in
+    Python)."""
     if count > COST_LIMIT and not yes:
         more = f" ({detail})" if detail else ""
         raise ValueError(f"{what}: about {count:.3g}{more}, more than {COST_LIMIT:.0e}; "
-                         "pass --yes to run it anyway")
+                         f"pass {yes_flag} to run it anyway")
 
 
 def add_execution_flags(p: argparse.ArgumentParser, *, yes: bool = True,
-                        in_process: bool = False, timeout: bool = False) -> None:
-    """``--workers``, ``--scheduler``, ``--fresh``, ``--store``, ``--store-reset``, (``yes``)
-    ``--yes`` and (``timeout``) ``--timeout``; ``in_process``: ``--workers 0`` runs in this
-    process."""
+                        in_process: bool = False, timeout: bool = False,
+                        config: bool = True, workers_aliases: Sequence[str] = ()) -> None:
+    """``--workers`` (and ``workers_aliases``), ``--scheduler``, ``--fresh``, ``--store``,
+    ``--store-reset``, (``yes``) ``--yes`` and (``timeout``) ``--timeout`` (``config``: a
+    config's ``[execution] timeout_s`` is its default); ``in_process``: ``--workers 0`` runs
+    in this process."""
     g = p.add_argument_group("execution and results store")
-    g.add_argument("--workers", type=int, default=None, metavar="N",
+    g.add_argument("--workers", *workers_aliases, type=int, default=None, dest="workers",
+                   metavar="N",
                    help="local worker processes (default and at most: one per core available"
                    + ("; 0: in this process, without crash isolation)" if in_process else ")"))
     if timeout:
-        add_timeout_flag(g)
+        add_timeout_flag(g, config)
     g.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="run on an existing Dask scheduler, e.g. tcp://10.0.0.5:8786 "
                    "(default: a local cluster; also $IMPACTBENCH_SCHEDULER)")
@@ -266,18 +294,21 @@ def add_execution_flags(p: argparse.ArgumentParser, *, yes: bool = True,
                    "~/.cache/impactbench/results.duckdb")
     add_store_reset_flag(g)
     if yes:
-        g.add_argument("--yes", action="store_true",
-                       help=f"run even when the estimate exceeds {COST_LIMIT:.0e} steps "
-                       "(or sweep points)")
+        add_yes_flag(g, f"the estimate exceeds {COST_LIMIT:.0e} steps (or sweep points)")
 
 
-def add_timeout_flag(g: Any, config: bool = True) -> None:
-    """``--timeout S``: the per-run timeout of engine runs (``config``: a config's
-    ``[execution] timeout_s`` is the default)."""
-    g.add_argument("--timeout", type=number, default=None, metavar="S", dest="timeout",
-                   help="cancel an engine run after S seconds (a `timeout` row; its worker "
-                   "is restarted); default " + ("[execution] timeout_s, else " if config
-                                                 else "")
+def add_yes_flag(g: Any, what: str) -> None:
+    """``--yes``: run even when ``what`` (the cost check, :func:`check_cost`)."""
+    g.add_argument("--yes", action="store_true", help=f"run even when {what}")
+
+
+def add_timeout_flag(g: Any, config: bool = True, help: str | None = None) -> None:
+    """``--timeout S`` (``timeout_s``): the per-run timeout of engine runs (``config``: a
+    config's ``[execution] timeout_s`` is the default; ``help``: another text)."""
+    g.add_argument("--timeout", type=number, default=None, metavar="S", dest="timeout_s",
+                   help=help or "cancel an engine run after S seconds (a `timeout` row; its "
+                   "worker is restarted); default " + ("[execution] timeout_s, else "
+                                                       if config else "")
                    + "max(60 s, 20 x the run's estimate)")
 
 
@@ -308,14 +339,23 @@ def check_workers(workers: int | None, scheduler: str | None = None) -> int | No
     return workers
 
 
-def timeout_option(args: argparse.Namespace, cfg: Any = None) -> float | None:
-    """The per-run timeout (s): ``--timeout``, else ``[execution] timeout_s``, else None
-    (each run's default, :func:`impactbench.cluster.default_timeout`)."""
-    value = getattr(args, "timeout", None)
+def flag_names(parser: argparse.ArgumentParser) -> dict[str, str]:
+    """Each option's keyword (its ``dest``) → its flag (``timestep_s`` → ``--timestep``): how
+    :func:`impactbench.api.command_line` names the flags in errors."""
+    return {a.dest: a.option_strings[0] for a in parser._actions
+            if a.option_strings and a.dest != argparse.SUPPRESS}
+
+
+def timeout_option(value: float | None, cfg: Any = None, name: str = "timeout"
+                   ) -> float | None:
+    """The per-run timeout (s): ``value`` (``--timeout``), else the config's ``[execution]
+    timeout_s``, else None (each run's default, :func:`impactbench.cluster.default_timeout`);
+    ``name`` is what a bad value is called in the error."""
     if value is None:
         value = dict(getattr(cfg, "execution", {}) or {}).get("timeout_s")
-    if value is not None and not (math.isfinite(value) and value > 0):
-        raise ValueError(f"timeout = {value!r}: must be a number of seconds > 0")
+    if value is not None and (isinstance(value, bool) or not isinstance(value, int | float)
+                              or not (math.isfinite(value) and value > 0)):
+        raise ValueError(f"{name} = {value!r}: must be a number of seconds > 0")
     return None if value is None else float(value)
 
 
@@ -325,16 +365,18 @@ def _path(text: str):
     return Path(text)
 
 
-def execution_options(args: argparse.Namespace, cfg: Any = None) -> dict[str, Any]:
-    """Keyword arguments for :func:`impactbench.matrix.run_jobs` from the flags, then the
-    config's ``[execution]`` table (scheduler, workers, store), then the defaults. (The
-    timeout: :func:`timeout_option`.)"""
+def execution_options(cfg: Any = None, *, workers: int | None = None,
+                      scheduler: str | None = None, store: Any = None, fresh: bool = False,
+                      yes: bool = False) -> dict[str, Any]:
+    """Keyword arguments for :func:`impactbench.matrix.run_jobs`: the given ones (the flags),
+    then the config's ``[execution]`` table (scheduler, workers, store), then the defaults.
+    (The timeout: :func:`timeout_option`.)"""
     from impactbench.store import Store, default_path
 
     table = dict(getattr(cfg, "execution", {}) or {})
-    scheduler = args.scheduler or table.get("scheduler")
-    workers = args.workers if args.workers is not None else table.get("workers")
-    workers = check_workers(workers, scheduler)
-    path = args.store or (table.get("store") and _path(table["store"])) or default_path()
+    scheduler = scheduler or table.get("scheduler")
+    workers = check_workers(workers if workers is not None else table.get("workers"),
+                            scheduler)
+    path = store or (table.get("store") and _path(table["store"])) or default_path()
     return {"workers": workers, "scheduler": scheduler,
-            "store": Store(path), "fresh": bool(args.fresh), "yes": bool(args.yes)}
+            "store": Store(path), "fresh": bool(fresh), "yes": bool(yes)}

@@ -57,6 +57,32 @@ def add_axis_flags(parser: argparse.ArgumentParser, scenario: str, *,
                                 help=f"{axis.column} law; {which}")
 
 
+class _OptionNames:
+    """Stands in for an argument group to read which keywords a scenario's further options
+    take (its :meth:`~impactbench.scenarios.spec.ScenarioSpec.add_options`): each flag's
+    ``dest``, in order. Nothing is parsed and no parser is built."""
+
+    def __init__(self) -> None:
+        self.names: list[str] = []
+        self._option_string_actions: dict[str, str] = {}  # (what add_options may look up)
+
+    def add_argument(self, *flags: str, dest: str | None = None, **_: Any) -> None:
+        name = dest or flags[0].lstrip("-").replace("-", "_")
+        self.names.append(name)
+        self._option_string_actions.update(dict.fromkeys(flags, name))
+
+
+def option_names(scenario: str) -> tuple[str, ...]:
+    """The keywords of ``scenario``'s further options (the ball's ``material``,
+    ``scenario_file``, …; the cube tosses' ``data``, ``tosses``), as its flags name them."""
+    spec = get(scenario)
+    if not spec.has_options:
+        return ()
+    names = _OptionNames()
+    spec.add_options(names, True)  # type: ignore[arg-type]  # (only add_argument is used)
+    return tuple(names.names)
+
+
 def scenario_from_args(scenario: str, args: argparse.Namespace, **overrides: Any) -> Any:
     """Build and validate the scenario from parsed flags (overrides win)."""
     spec = get(scenario)

@@ -614,6 +614,8 @@ def load_gates(path: str | Path) -> GateFile:
         text = path.read_text()
     except OSError as exc:
         raise ValueError(f"gate file {path}: cannot be read ({exc.strerror})") from None
+    except UnicodeDecodeError:
+        raise ValueError(f"gate file {path}: not a gate file (not UTF-8 text)") from None
     return parse_gates(text, path)
 
 
@@ -740,10 +742,21 @@ def load_baseline(path: str | Path | None) -> dict[str, dict[str, Any]]:
         return {}
     try:
         data = json.loads(Path(path).read_text())
+    except UnicodeDecodeError:
+        raise ValueError(f"baseline {path}: not a baseline (not UTF-8 text; a file of "
+                         "`impactbench gate --update-baseline`)") from None
     except json.JSONDecodeError as exc:
         raise ValueError(f"baseline {path}:{exc.lineno}: not valid JSON ({exc.msg})") from None
     if not isinstance(data, dict) or not isinstance(data.get("checks"), dict):
         raise ValueError(f"baseline {path}: checks: missing (expected {{\"checks\": {{…}}}})")
+    for check_id, entry in data["checks"].items():
+        # a NaN or missing baseline error would turn the regression check off for that check
+        error = entry.get("rel_error") if isinstance(entry, dict) else None
+        if isinstance(error, bool) or not isinstance(error, int | float) \
+                or not math.isfinite(error):
+            raise ValueError(f"baseline {path}: checks.{check_id}.rel_error = {error!r}: must "
+                             "be a finite number (a measured error; a check without one is "
+                             "left out of the baseline)")
     return data["checks"]
 
 

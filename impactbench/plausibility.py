@@ -1,4 +1,4 @@
-"""Is a run physically plausible? Penetration relative to the body's size, and energy.
+"""Is a run physically plausible? Penetration relative to the ball's radius, and energy.
 
 An engine can reproduce a restitution while its contact is absurd: a ball buried ten radii
 deep in the plate for 100 ms bounces back at the right speed. Such a setting would wreck a
@@ -8,7 +8,7 @@ tables can show what happened), which the tables, the scoreboard, the gates and 
 
 Each scenario measures (its spec's ``plausibility`` function, from the record and metrics):
 
-- ``penetration_ratio``: the largest overlap over the body's size (the ball: x_max/R). The
+- ``penetration_ratio``: the largest overlap over the ball's radius, x_max/R. The
   contact laws are small-indentation laws: Hertz's theory assumes a contact radius
   a = √(R·x) much smaller than R, and at x = 0.1·R it is already 0.32·R; past that the
   geometry the law describes is gone (and an engine's ball sinking by more than a tenth of
@@ -38,7 +38,7 @@ class Limits:
     """The plausibility limits (dimensionless).
 
     Attributes:
-        max_penetration_ratio: the largest overlap over the body's size (ball: radius).
+        max_penetration_ratio: the largest overlap over the ball's radius (x_max/R).
         max_energy_ratio: the largest kinetic energy after the impact over before.
     """
 
@@ -62,7 +62,7 @@ def problems(measures: dict[str, float], limits: Limits = DEFAULT) -> list[str]:
     out = []
     p = measures.get("penetration_ratio", math.nan)
     if math.isfinite(p) and p > limits.max_penetration_ratio:
-        out.append(f"penetration {p:.3g} of the body's size (limit "
+        out.append(f"penetration {p:.3g} of its radius (limit "
                    f"{limits.max_penetration_ratio:g})")
     e = measures.get("energy_ratio", math.nan)
     if math.isfinite(e) and e > limits.max_energy_ratio:

@@ -22,6 +22,7 @@ import numpy as np
 import pandas as pd
 from matplotlib.colors import LogNorm
 
+from impactbench import report_render
 from impactbench.engines.registry import engine_names, fallback_color, spec
 
 REFERENCE_COLOR = "black"
@@ -71,8 +72,9 @@ LABELS = {"restitution": "restitution k", "duration_s": "duration", "peak_force_
 MODE_ORDER = ("native", "injected", "tuned", "default", "custom")
 BAND_LINES = (0.01, 0.05)
 """The report's error bands (1 %, 5 %), marked on the heatmap's colour bar."""
-ROUND_OFF = 1e-10
-"""Relative errors below this are round-off: the heatmap's colour scale starts no lower."""
+ROUND_OFF = report_render.ROUND_OFF
+"""Relative errors below this are round-off (the tables print 0): the heatmap's colour scale
+starts no lower."""
 
 History = Mapping[str, np.ndarray]
 
@@ -215,10 +217,9 @@ def _point_label(row, spec) -> str:
 
 
 def _error_text(err: float) -> str:
-    if err == 0:
-        return "0"
-    pct = 100 * err
-    return f"{pct:+.0f}%" if abs(pct) >= 10 else f"{pct:+.2g}%"
+    """A heatmap cell's signed error: the tables' number (:func:`report_render.format_error`),
+    without the space."""
+    return report_render.format_error(err).replace(" ", "")
 
 
 def error_heatmap(df: pd.DataFrame, spec: Any, how: str, path: Path) -> Path:

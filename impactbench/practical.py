@@ -122,43 +122,57 @@ def intro(df: pd.DataFrame) -> str:
 
 
 def plot(df: pd.DataFrame, damping_s_per_m: float, how: str, path: Path) -> Path:
-    """Restitution against V0 per engine (one panel each) at its customary steps, beside the
-    Hunt–Crossley reference k(b·V0); failed runs drawn as × at the bottom of the panel."""
+    """Restitution against V0 per engine (one panel each, one above the other, for the page's
+    full width) at its customary steps, beside the Hunt–Crossley reference k(b·V0). Each
+    panel's legend sits to its right, 8 pt: the reference, one entry per mode, settings and
+    step, and one per failure status; a failed run is drawn at the bottom of the panel in its
+    setting's colour, its marker the status's (× implausible, + diverged, …)."""
     import matplotlib.pyplot as plt
+    from matplotlib.lines import Line2D
 
     from impactbench.plots import ENGINE_COLORS, _save
     from impactbench.reference.hunt_crossley import restitution
 
     rows = _rows(df)
     engines = sorted(rows.engine.unique())
-    fig, axes = plt.subplots(1, max(1, len(engines)), figsize=(4.2 * max(1, len(engines)), 4),
-                             squeeze=False)
+    statuses = sorted(set(rows.status) - {"ok"}, key=lambda st: (st != "implausible", st))
+    failed_marker = dict(zip(statuses, "x+12348", strict=False))
+    n = max(1, len(engines))
+    fig, axes = plt.subplots(n, 1, figsize=(11, 2.7 * n + 0.9), squeeze=False, sharex=True)
     v = np.linspace(0.0, max(float(rows.velocity_m_s.max()) if len(rows) else 5.0, 1.0) * 1.05,
                     200)
     markers = "os^vDP*Xh<>"
-    for ax, engine in zip(axes[0], engines, strict=False):
+    cmap = plt.get_cmap("tab10")
+    for ax, engine in zip(axes[:, 0], engines, strict=False):
         ax.plot(v, restitution(damping_s_per_m * v), color="black", lw=2,
-                label="Hunt–Crossley")
+                label="Hunt–Crossley reference")
         g = rows[rows.engine == engine].copy()
         g["label"] = g.apply(column, axis=1)
-        cmap = plt.get_cmap("tab10")
+        failures: set[str] = set()
         for i, (label, h) in enumerate(g.groupby("label", sort=True)):
             h = h.sort_values("velocity_m_s")
             ok = h[h.status == "ok"]
             style = dict(color=cmap(i % 10), marker=markers[i % len(markers)], ms=5)
             ax.plot(ok.velocity_m_s, ok.value, "-", lw=1, label=label, **style)
-            bad = h[h.status != "ok"]
-            if len(bad):
-                ax.plot(bad.velocity_m_s, np.full(len(bad), -0.05), "x", color=style["color"],
-                        ms=7, label=f"{label}: {', '.join(sorted(set(bad.status)))}")
+            for status, b in h[h.status != "ok"].groupby("status"):
+                ax.plot(b.velocity_m_s, np.full(len(b), -0.05), ls="",
+                        marker=failed_marker.get(status, "x"), color=style["color"], ms=7)
+                failures.add(status)
+        handles, labels = ax.get_legend_handles_labels()
+        for status in (st for st in statuses if st in failures):
+            handles.append(Line2D([], [], ls="", marker=failed_marker.get(status, "x"),
+                                  color="dimgray", ms=7))
+            labels.append(f"{status} (at the bottom)")
+        ax.legend(handles, labels, fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0),
+                  borderaxespad=0.0, frameon=False)
         ax.set_ylim(-0.1, 1.1)
-        ax.set_title(engine, color=ENGINE_COLORS.get(engine, "black"))
-        ax.set_xlabel("impact velocity V0 (m/s)")
+        ax.set_title(engine, color=ENGINE_COLORS.get(engine, "black"), loc="left",
+                     fontsize=10)
+        ax.set_ylabel("restitution k (–)")
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=5.5)
-    axes[0][0].set_ylabel("restitution k (–)")
-    fig.suptitle("Restitution at practical timesteps (×: run failed, status in the legend)\n"
-                 + how, fontsize=9)
+    axes[-1][0].set_xlabel("impact velocity V0 (m/s)")
+    fig.suptitle("Restitution at practical timesteps (a failed run: at the bottom in its "
+                 "setting's colour, its marker the status's)\n" + how, fontsize=9)
     return _save(fig, path)
 
 
@@ -185,7 +199,7 @@ def section(ctx) -> dict[str, object] | None:
         return Cell(format_error(err), band(err))
 
     def worst(x: float) -> Cell:
-        return Cell(f"{100.0 * x:.2g} %", band(x)) if math.isfinite(x) \
+        return Cell(format_error(x, signed=False), band(x)) if math.isfinite(x) \
             else Cell("none plausible", "fail")
 
     found = summary(df)
@@ -283,7 +297,7 @@ def your_timestep(ctx) -> dict[str, object] | None:
         bad = sorted(r.job.velocity_m_s for r in runs if r.run["status"] != "ok")
         ok_text = f"{n_ok}/{len(runs)}" + (f" (not at {', '.join(f'{v:g}' for v in bad)} m/s)"
                                            if bad else "")
-        err = Cell(f"{100 * worst:.2g} %", band(worst)) if math.isfinite(worst) \
+        err = Cell(format_error(worst, signed=False), band(worst)) if math.isfinite(worst) \
             else Cell("none plausible", "fail")
         pen = max(pens) if pens else math.nan
         pen_cell = Cell(f"{pen:.2g} R", "good" if pen <= limits.max_penetration_ratio
@@ -295,7 +309,8 @@ def your_timestep(ctx) -> dict[str, object] | None:
         words, snippet = settings_snippet(runs)
         settings.append({"title": f"{engine} at {_step(dt)}: {label}",
                          "words": f"{words}; max |restitution error| "
-                                  + (format_error(worst).lstrip("+") if math.isfinite(worst)
+                                  + (format_error(worst, signed=False)
+                                     if math.isfinite(worst)
                                      else "— (no plausible run)")
                                   + f" over {n_ok} plausible of {len(runs)} runs.",
                          "snippet": snippet})

@@ -17,6 +17,7 @@ To add a section: write ``templates/sections/NAME.j2``, a data function, and put
 from __future__ import annotations
 
 import html
+import math
 import re
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -24,6 +25,7 @@ from pathlib import Path
 from typing import Any
 
 import jinja2
+import numpy as np
 import pandas as pd
 
 BANDS: tuple[tuple[str, float, str], ...] = (
@@ -99,6 +101,9 @@ class ReportContext:
     figures: list[FigureRef] = field(default_factory=list)
     show_progress: bool = False
     """Whether a section that runs work of its own reports its progress on stderr."""
+    store: Any = None
+    """The report's results store (:class:`impactbench.report_store.KeepWhatFits`), which a
+    section that runs work of its own uses when its store is the same file."""
 
     @property
     def fig_dir(self) -> Path:
@@ -236,10 +241,23 @@ def render_documents(ctx: ReportContext, sections: Sequence[Section], title: str
     return out
 
 
-def format_error(err: float) -> str:
-    """A signed relative error in percent, two significant digits (+0.0012 %, −25 %, +100 %)."""
-    if err == 0.0:
+ROUND_OFF = 1e-9
+"""A relative error smaller than this is floating-point round-off: printed as 0."""
+
+
+def format_error(err: float, *, signed: bool = True) -> str:
+    """A relative error in percent, as a plain number (never an exponent): two significant
+    digits below 10 %, whole percent above (+0.000046 %, −1.2 %, −25 %, +100 %, +130 %);
+    |err| below :data:`ROUND_OFF` is 0 %. ``signed=False``: a magnitude (1.2 %)."""
+    if not math.isfinite(err):
+        return f"{err} %"
+    if abs(err) < ROUND_OFF:
         return "0 %"
-    pct = 100.0 * err
-    text = f"{pct:+.0f}" if abs(pct) >= 10 else f"{pct:+.2g}"
+    pct = 100.0 * (err if signed else abs(err))
+    if abs(pct) >= 9.95:  # two significant digits would round to 10 or more
+        text = f"{pct:+.0f}"
+    else:
+        text = np.format_float_positional(pct, precision=2, unique=False, fractional=False,
+                                          trim="-", sign=True)
+    text = text if signed else text.lstrip("+")
     return f"{text} %".replace("-", "−")

@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 import re
 from functools import partial
+from pathlib import Path
 from typing import Any
 
 import pandas as pd
@@ -153,7 +154,8 @@ def verdict(rows: pd.DataFrame, scenario: str) -> str:
         else:
             rest = [abs(x) for mm, x, _ in measured if mm != m]
             word = "Noticeably off" if name == "fair" else "Far off"
-            tail = f"; the others within {format_error(max(rest))[1:]}" if rest else ""
+            tail = (f"; the others within {format_error(max(rest), signed=False)}"
+                    if rest else "")
             parts.append(f"{word}: {LABELS[m]} {format_error(e)} at {point_label(r)}{tail}")
     if missing:
         parts.append(f"{' and '.join(missing)} not comparable")
@@ -276,6 +278,8 @@ def scenario_section(scenario: str, ctx: ReportContext) -> dict[str, Any] | None
         "engines": scenario_tables(ctx, scenario),
         "figures": ctx.figures_in(f"history:{scenario}"),
         "extra": ctx.figures_in(f"extra:{scenario}"),
+        "papers": (papers := paper_figures_of(ctx, spec)),
+        "paper_links": paper_links(papers),
     }
 
 
@@ -505,18 +509,75 @@ def contact_models(ctx: ReportContext) -> dict[str, Any] | None:
                            prose_columns=0), "figure": fig, "used": used}
 
 
-def paper_caption(stem: str) -> str | None:
-    """The caption of one of ``impactbench figures``' PNGs, from its file name."""
+KHARAZ_FIGURE = "oblique_kharaz2001"
+"""The stem of ``impactbench figures``' Kharaz, Gorham & Salman (2001) figure."""
+
+
+def paper_figure(stem: str) -> dict[str, str] | None:
+    """One of ``impactbench figures``' PNGs, from its file name: ``caption``, the papers'
+    ``source`` and a short ``label`` (a link's text), and the ``scenario`` (its title in
+    lower case) it belongs to ("" for none); None for another file."""
     if stem in HC_FIGURES:
         num = re.search(r"fig(\d+)", stem).group(1)
-        return f"Borovin et al. Fig. {num}: {HC_FIGURES[stem]} (ball on plate, reference)"
+        return {"caption": f"Borovin et al. Fig. {num}: {HC_FIGURES[stem]} (ball on plate, "
+                           "reference)", "source": "Borovin et al.", "label": f"Fig. {num}",
+                "scenario": "ball on plate"}
     if stem == "zoo_restitution":
-        return "Contact models: effective against nominal restitution (reference, exact)"
+        return {"caption": "Contact models: effective against nominal restitution "
+                           "(reference, exact)", "source": "", "label": "contact models",
+                "scenario": ""}
     m = re.fullmatch(r"rf_fig(\d+)_(history|peak_force|pulse_width|impulse)_(\w+)", stem)
     if m and m.group(3) in RF_OVER:
-        return (f"Zhou & Xiao Fig. {int(m.group(1))}: {RF_WHAT[m.group(2)]} against "
-                f"{RF_OVER[m.group(3)]} (rigid–flexible, reference)")
+        num = int(m.group(1))
+        return {"caption": f"Zhou & Xiao Fig. {num}: {RF_WHAT[m.group(2)]} against "
+                           f"{RF_OVER[m.group(3)]} (rigid–flexible, reference)",
+                "source": "Zhou & Xiao", "label": f"Fig. {num}", "scenario": "rigid–flexible"}
+    if stem == KHARAZ_FIGURE:
+        return {"caption": "Kharaz, Gorham & Salman (2001): measured rebound angle, spin and "
+                           "tangential restitution of alumina spheres on glass against "
+                           "incidence angle, beside the rigid Coulomb and Mindlin references "
+                           "(oblique impact, measured)",
+                "source": "Kharaz, Gorham & Salman (2001)",
+                "label": "measured rebounds beside both references",
+                "scenario": "oblique impact"}
     return None
+
+
+def paper_caption(stem: str) -> str | None:
+    """The caption of one of ``impactbench figures``' PNGs, from its file name."""
+    found = paper_figure(stem)
+    return found["caption"] if found else None
+
+
+def paper_figures_of(ctx: ReportContext, spec: scenarios.ScenarioSpec) -> list[FigureRef]:
+    """The papers' figures of one scenario that ``impactbench figures`` wrote into the report
+    folder's ``figures/`` (none when it did not): their paths, captions and sources."""
+    out = []
+    for p in sorted(ctx.fig_dir.glob("*.png")) if ctx.fig_dir.is_dir() else []:
+        found = paper_figure(p.stem)
+        if found and found["scenario"] == spec.title.lower():
+            out.append(FigureRef(p.relative_to(ctx.out_dir).as_posix(), found["caption"],
+                                 found["source"]))
+    return sorted(out, key=lambda f: (f.group, _figure_number(f.caption), f.path))
+
+
+def _figure_number(caption: str) -> int:
+    m = re.search(r"Fig\. (\d+)", caption)
+    return int(m.group(1)) if m else 0
+
+
+def paper_links(figures: list[FigureRef]) -> str:
+    """One line linking a scenario's papers' figures, by source: ``Zhou & Xiao: [Fig. 3](…),
+    [Fig. 4](…)``; "" without any."""
+    by_source: dict[str, list[str]] = {}
+    for f in figures:
+        found = paper_figure(Path(f.path).stem) or {"label": f.caption}
+        by_source.setdefault(f.group, []).append(f"[{found['label']}]({f.path})")
+    if not by_source:
+        return ""
+    return ("The papers' figures for this scenario (written by `impactbench figures`): "
+            + "; ".join(f"{src}: {', '.join(links)}" for src, links in by_source.items())
+            + ".")
 
 
 def tuning_caption(engine: str) -> str:
@@ -583,16 +644,20 @@ def your_timestep_section(ctx: ReportContext) -> dict[str, Any] | None:
 # ----------------------------------------------------------------------------- real tosses
 
 
-def _section_store(cfg: Any) -> Any:
+def _section_store(ctx: ReportContext) -> Any:
     """The results store of a report's replays: the config's ``[execution] store``, else the
     default one (``$IMPACTBENCH_STORE`` or the per-user cache). ``report --store`` does not
-    reach a section."""
-    from pathlib import Path
-
+    reach a section. Where that is the report's own store file, the report's
+    :class:`~impactbench.report_store.KeepWhatFits` (a full disk is found, and said, once);
+    else one of its own."""
+    from impactbench.report_store import KeepWhatFits
     from impactbench.store import Store, default_path
 
-    path = (getattr(cfg, "execution", None) or {}).get("store")
-    return Store(Path(path) if path else default_path())
+    path = (getattr(ctx.cfg, "execution", None) or {}).get("store")
+    path = Path(path) if path else default_path()
+    if ctx.store is not None and Path(ctx.store.path).resolve() == path.resolve():
+        return ctx.store
+    return KeepWhatFits(Store(path))
 
 
 def _quartiles(out: dict[str, Any], metric: str, fmt: str) -> Cell:
@@ -621,7 +686,8 @@ def _picks(per_toss: list[dict[str, Any]]) -> list[tuple[str, int]]:
 
 def _replay_row(who: str, mode: str, param_set: str, out: dict[str, Any]) -> list[Cell]:
     """One row of the real-tosses table: who ran, mode, parameter set, tosses ok, the
-    quartiles of both errors, their means and the run's message."""
+    quartiles of both errors, their means and the run's message (a note under the table:
+    :func:`footnoted`)."""
     status = str(out["status"])
     numbers = status in ("ok", "partial")
     n_ok = out.get("tosses", 0) - len(out.get("failed") or [])
@@ -634,6 +700,28 @@ def _replay_row(who: str, mode: str, param_set: str, out: dict[str, Any]) -> lis
             Cell(f"{out['position_error_mean']:.3f} / {out['rotation_error_deg_mean']:.1f}")
             if numbers else na,
             Cell(str(out.get("message") or ""), wrap=True)]
+
+
+_SUPERSCRIPTS = str.maketrans("0123456789", "⁰¹²³⁴⁵⁶⁷⁸⁹")
+
+
+def footnoted(rows: list[list[Cell]], at: int) -> tuple[list[list[Cell]], list[str]]:
+    """A table's trailing note column as numbered notes under it: each row without its last
+    cell; a row with a note gets the note's number (superscript) after the text of its cell
+    ``at``, the note as that cell's tooltip. The same note is one note. Returns the rows and
+    the notes (``¹ text``), in order of first use."""
+    numbers: dict[str, int] = {}
+    out = []
+    for row in rows:
+        *cells, note = row
+        text = (note.text if isinstance(note, Cell) else str(note)).strip()
+        if text:
+            n = numbers.setdefault(text, len(numbers) + 1)
+            c = cells[at]
+            cells[at] = Cell(f"{c.text} {str(n).translate(_SUPERSCRIPTS)}", c.band,
+                             c.title or text, c.wrap)
+        out.append(cells)
+    return out, [f"{str(n).translate(_SUPERSCRIPTS)} {text}" for text, n in numbers.items()]
 
 
 def _real_tosses_part(ctx: ReportContext, spec: scenarios.ScenarioSpec, sm: Any
@@ -650,7 +738,7 @@ def _real_tosses_part(ctx: ReportContext, spec: scenarios.ScenarioSpec, sm: Any
     modes = table.get("modes", list(REPLAY_MODES))
     sets = table.get("param_sets", [])
     scenario = spec.build(parameters=sm.parameters)
-    store = _section_store(ctx.cfg)
+    store = _section_store(ctx)
     which = _selection_text(scenario.tosses)
     rows, cdf, done = [], [], []
     from impactbench.cliutil import progress_bar
@@ -686,6 +774,8 @@ def _real_tosses_part(ctx: ReportContext, spec: scenarios.ScenarioSpec, sm: Any
             cdf.append((MODEL_LABEL, "reference", "fitted", out["per_toss"]))
     with stdout_to_stderr():
         results = run_jobs(jobs, 0, progress=lambda n: tick(n) if n else None, store=store)
+    if store.full is not None:  # said once per store: the report's own may have said it
+        store.say_full(store.kept_of(jobs), len(jobs), f"{spec.name} replays")
     by_engine: dict[str, list] = {}
     for job in jobs:  # in the config's order (results come sorted by job id)
         by_engine.setdefault(job.engine, []).append(job)
@@ -743,7 +833,8 @@ def _real_tosses_part(ctx: ReportContext, spec: scenarios.ScenarioSpec, sm: Any
                                     f"position error; {how}", f"real_tosses:{spec.name}"))
     columns = ["engine", "mode", "parameter set", "tosses ok",
                "position error / width: median [q1–q3]",
-               "rotation error (°): median [q1–q3]", "mean: position / rotation", "note"]
+               "rotation error (°): median [q1–q3]", "mean: position / rotation"]
+    rows, notes = footnoted(rows, at=columns.index("tosses ok"))
     intro = (f"{spec.title}: {spec.summary}. Replayed: {which} of "
              + ("the packaged ContactNets tosses (DAIR Lab, BSD-3; 89 test and 367 training "
                 "tosses by a hash of the toss id)" if not scenario.data
@@ -770,7 +861,7 @@ def _real_tosses_part(ctx: ReportContext, spec: scenarios.ScenarioSpec, sm: Any
              "friction, integrated to convergence (scipy LSODA), fitted on training tosses "
              "(`impactbench/data/tuned/cube_toss/reference.toml`).")
     return {"title": f"{spec.title}: {which}", "intro": intro,
-            "table": Table(columns, rows, text_columns=3, prose_columns=1),
+            "table": Table(columns, rows, text_columns=3), "notes": notes,
             "cdf": figures, "trajectories": trajs}
 
 

@@ -63,6 +63,8 @@ def load_tuned_file(path: Path | str) -> dict[str, Any] | None:
         return None
     try:
         data = tomllib.loads(path.read_text())
+    except UnicodeDecodeError:
+        raise ValueError(f"tuned = {str(path)!r}: not a tuned file (not UTF-8 text)") from None
     except tomllib.TOMLDecodeError as exc:
         raise ValueError(f"{path}: not valid TOML ({exc})") from None
     params = data.get("parameters")

@@ -1,7 +1,10 @@
 """One-line input errors that name the field, the value and the rule.
 
-Every check raises :class:`ValueError` with a message of the form
-``"mass_kg = -1.0: must be > 0 and finite"`` so the CLI can print it as it is and exit 2.
+Every check raises :class:`InvalidValue`, a :class:`ValueError`, with a message of the form
+``"mass_kg = -1.0: must be > 0 and finite"`` so the CLI can print it as it is and exit 2. An
+engine adapter that validates the user's engine parameters with these checks inside a run
+raises the same type, which :func:`impactbench.engines.base.run_safely` hands on as bad input
+(not a ``crashed`` run).
 """
 
 from __future__ import annotations
@@ -10,9 +13,13 @@ import math
 from numbers import Real
 
 
+class InvalidValue(ValueError):
+    """A value that breaks its field's rule (the message names both): bad input."""
+
+
 def _number(field: str, value: object) -> float:
     if isinstance(value, bool) or not isinstance(value, Real):
-        raise ValueError(f"{field} = {value!r}: must be a real number")
+        raise InvalidValue(f"{field} = {value!r}: must be a real number")
     return float(value)
 
 
@@ -20,7 +27,7 @@ def positive(field: str, value: object) -> float:
     """Return ``value`` as float; raise unless it is finite and > 0."""
     v = _number(field, value)
     if not (math.isfinite(v) and v > 0.0):
-        raise ValueError(f"{field} = {value!r}: must be > 0 and finite")
+        raise InvalidValue(f"{field} = {value!r}: must be > 0 and finite")
     return v
 
 
@@ -28,7 +35,7 @@ def non_negative(field: str, value: object) -> float:
     """Return ``value`` as float; raise unless it is finite and ≥ 0."""
     v = _number(field, value)
     if not (math.isfinite(v) and v >= 0.0):
-        raise ValueError(f"{field} = {value!r}: must be >= 0 and finite")
+        raise InvalidValue(f"{field} = {value!r}: must be >= 0 and finite")
     return v
 
 
@@ -36,7 +43,7 @@ def finite(field: str, value: object) -> float:
     """Return ``value`` as float; raise unless it is finite."""
     v = _number(field, value)
     if not math.isfinite(v):
-        raise ValueError(f"{field} = {value!r}: must be finite")
+        raise InvalidValue(f"{field} = {value!r}: must be finite")
     return v
 
 
@@ -48,4 +55,4 @@ def one_of(field: str, value: object, choices: tuple[str, ...]) -> str:
 
     hint = difflib.get_close_matches(str(value), choices, n=1)
     extra = f" (did you mean {hint[0]!r}?)" if hint else ""
-    raise ValueError(f"{field} = {value!r}: must be one of {', '.join(choices)}{extra}")
+    raise InvalidValue(f"{field} = {value!r}: must be one of {', '.join(choices)}{extra}")

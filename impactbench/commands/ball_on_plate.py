@@ -28,11 +28,11 @@ import time
 from pathlib import Path
 
 from impactbench.cliutil import (
+    damping_text,
     grid,
     number,
     number_list,
-    print_json,
-    print_table,
+    print_points,
     table_format,
     write_table,
 )
@@ -77,19 +77,10 @@ def reference_main(args: argparse.Namespace) -> int:
     velocities = args.velocities or [1.0]
     scenarios = [scenario_from_args("ball-on-plate", args, velocity_m_s=v) for v in velocities]
     results = [_with_status(s, solve(s)) for s in scenarios]
-    if args.json:
-        print_json(results[0] if len(results) == 1 else results)
-        return 0
     s = scenarios[0]
-    damping = (f"nominal e = {s.nominal_restitution:g}" if s.nominal_restitution is not None
-               else f"b = {s.damping_s_per_m:g} s/m")
-    print(f"{s.model} ball on plate: m = {s.mass_kg:g} kg, c = {s.stiffness:g} N/m^n, "
-          f"n = {s.exponent:g}, {damping}")
-    print_table(results, ("velocity_m_s", *BALL_METRICS, "status"), floatfmt=".8g")
-    for r in results:
-        if r["message"]:
-            print(f"{r['status']}: {r['message']}", file=sys.stderr)
-    return 0
+    return print_points(results, args.json, f"{s.model} ball on plate: m = {s.mass_kg:g} kg, "
+                        f"c = {s.stiffness:g} N/m^n, n = {s.exponent:g}, {damping_text(s)}",
+                        ("velocity_m_s", *BALL_METRICS, "status"))
 
 
 def _with_status(scenario, metrics: dict) -> dict:

@@ -4,7 +4,7 @@ The cube tosses' reference is the measurement itself (MODELS.md §4): this print
 (and its SHA-256), the selection (``--tosses``, default the test split; with ``--data``, every
 toss of the file) and its ids, the split's sizes in the file, samples, the sample interval, the
 tosses' initial speed and spin and resting height (medians) and the box. Engines replay the
-tosses with ``impactbench run --scenario cube-toss``.
+tosses with ``impactbench run cube-toss``.
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ def register(top: argparse._SubParsersAction, groups: dict) -> None:
     help_ref = "real cube tosses (DAIR's ContactNets data): what the selected tosses hold"
     p = groups["reference"].add_parser(NAME, help=help_ref, description=help_ref + ". The "
                                        "measurement is the reference; `impactbench run "
-                                       "--scenario cube-toss` replays it in an engine.")
+                                       f"{NAME}` replays it in an engine.")
     add_parameter_flags(p, NAME)
     p.add_argument("--json", action="store_true",
                    help="print one JSON object: data, data_sha256, selection, tosses, ids, "

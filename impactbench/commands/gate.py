@@ -12,7 +12,7 @@ import os
 import sys
 from pathlib import Path
 
-from impactbench.cliutil import COST_LIMIT, add_store_reset_flag, add_timeout_flag
+from impactbench.cliutil import add_execution_flags
 
 HELP = "check engines against the reference with the tolerances of a gate file (CI)"
 
@@ -36,29 +36,15 @@ def register(top: argparse._SubParsersAction, groups: dict) -> None:
                    help="not-comparable checks (missing engine, unsupported mode) fail too")
     p.add_argument("--select", action="append", default=[], metavar="TEXT",
                    help="only checks whose id contains TEXT (repeatable)")
-    g = p.add_argument_group("execution and results store")
-    g.add_argument("--workers", "--jobs", type=int, default=None, dest="jobs", metavar="N",
-                   help="local worker processes (default: one per core; 0: in this process, "
-                   "without crash isolation)")
-    g.add_argument("--scheduler", default=None, metavar="ADDRESS",
-                   help="run on an existing Dask scheduler (default: a local cluster)")
-    g.add_argument("--fresh", action="store_true",
-                   help="ignore stored runs and run every check again")
-    g.add_argument("--store", type=Path, default=None, metavar="FILE",
-                   help="results store (DuckDB); default $IMPACTBENCH_STORE or "
-                   "~/.cache/impactbench/results.duckdb")
-    add_store_reset_flag(g)
-    add_timeout_flag(g, config=False)
-    g.add_argument("--yes", action="store_true",
-                   help=f"run even when the runs' estimate exceeds {COST_LIMIT:.0e} "
-                   "integration steps in all")
+    add_execution_flags(p, in_process=True, timeout=True, config=False,
+                        workers_aliases=("--jobs",))
     p.set_defaults(func=main)
 
 
 def _where(args: argparse.Namespace) -> str:
     from impactbench.cluster import Runner
 
-    return Runner(args.jobs, args.scheduler).describe()
+    return Runner(args.workers, args.scheduler).describe()
 
 
 def _check_cost(runs: list, yes: bool) -> dict:
@@ -96,8 +82,8 @@ def main(args: argparse.Namespace) -> int:
     from impactbench.publish import check_file_target
     from impactbench.store import Store, default_path
 
-    args.jobs = check_workers(args.jobs, args.scheduler)
-    timeout_s = timeout_option(args)
+    args.workers = check_workers(args.workers, args.scheduler)
+    timeout_s = timeout_option(args.timeout_s)
     if args.baseline is not None and not args.baseline.is_file() and not args.update_baseline:
         raise ValueError(f"baseline = '{args.baseline}': no such file (omit --baseline for "
                          "the default, or add --update-baseline to create it)")
@@ -121,7 +107,7 @@ def main(args: argparse.Namespace) -> int:
 
     update, close = progress_bar(len(runs), unit="gate run")
     try:
-        outcomes = gates.evaluate(checks, baseline, jobs=args.jobs, progress=update,
+        outcomes = gates.evaluate(checks, baseline, jobs=args.workers, progress=update,
                                   store=Store(args.store or default_path()), fresh=args.fresh,
                                   scheduler=args.scheduler, yes=args.yes, timeout_s=timeout_s,
                                   references=references)

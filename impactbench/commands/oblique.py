@@ -29,7 +29,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from impactbench.cliutil import number, number_list, print_json, print_table
+from impactbench.cliutil import damping_text, number, number_list, print_points
 
 REFERENCE_HELP = ("sphere hitting a plate at an angle, with friction and spin: rigid-Coulomb "
                   "closed form or Mindlin reference")
@@ -157,37 +157,21 @@ def reference_main(args: argparse.Namespace) -> int:
             point = {k: x for k, x in (("angle_deg", a), ("velocity_m_s", v)) if x is not None}
             scenarios.append(scenario_from_args(args, **point))
     results = [_with_status(s, spec.reference_metrics(s)) for s in scenarios]
-    if args.json:
-        print_json(results[0] if len(results) == 1 else results)
-        return 0
     s = scenarios[0]
-    damping = (f"nominal e = {s.nominal_restitution:g}" if s.nominal_restitution is not None
-               else f"b = {s.damping_s_per_m:g} s/m")
-    print(f"oblique impact, {s.tangential} tangential contact: m = {s.mass_kg:g} kg, "
-          f"R = {s.radius_m:g} m, c = {s.stiffness:g} N/m^n, n = {s.exponent:g}, {s.model} "
-          f"{damping}, μ = {s.friction:g}, ω0 = {s.spin_rad_s:g} rad/s")
-    print_table(results, ("angle_deg", "velocity_m_s", *spec.metrics, "status"),
-                floatfmt=".8g")
-    for r in results:
-        if r["message"]:
-            print(f"{r['status']}: {r['message']}", file=sys.stderr)
-    return 0
+    return print_points(results, args.json, f"oblique impact, {s.tangential} tangential "
+                        f"contact: m = {s.mass_kg:g} kg, R = {s.radius_m:g} m, c = "
+                        f"{s.stiffness:g} N/m^n, n = {s.exponent:g}, {s.model} "
+                        f"{damping_text(s)}, μ = {s.friction:g}, ω0 = {s.spin_rad_s:g} rad/s",
+                        ("angle_deg", "velocity_m_s", *spec.metrics, "status"))
 
 
 def build_parser() -> argparse.ArgumentParser:
     """An ``impactbench`` parser with only this command (the scenario need not be
     registered)."""
-    from impactbench.cli import GROUPS, Parser
+    from impactbench.cli import Parser, add_commands
 
     parser = Parser(prog="impactbench")
-    top = parser.add_subparsers(dest="command", required=True, parser_class=Parser,
-                                metavar="COMMAND")
-    groups = {}
-    for name, help_text in GROUPS.items():
-        group = top.add_parser(name, help=help_text, description=help_text)
-        groups[name] = group.add_subparsers(dest="scenario", required=True, metavar="SCENARIO",
-                                            parser_class=Parser)
-    register(top, groups)
+    register(*add_commands(parser))
     return parser
 
 

@@ -11,8 +11,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from impactbench import scenarios
-from impactbench.cliutil import add_execution_flags, execution_options, timeout_option
+from impactbench.cliutil import add_execution_flags, flag_names
 
 HELP = "run the comparison matrix and write the report (tables, plots, CSV/Parquet)"
 
@@ -34,35 +33,19 @@ def register(top: argparse._SubParsersAction, groups: dict) -> None:
                    help="leave the folder as it is when its report has the same results "
                    "apart from wall times (make report: a committed report stays unchanged)")
     add_execution_flags(p, in_process=True, timeout=True)
-    p.set_defaults(func=main)
+    p.set_defaults(func=main, flags=flag_names(p))
 
 
 def main(args: argparse.Namespace) -> int:
-    from impactbench import config, publish, report
-    from impactbench.engines.registry import engine_names
+    """``impactbench.build_report`` with the flags, then one summary line."""
+    from impactbench import api
 
-    publish.check_dir_target(args.out, "out")
-    cfg = config.load(args.config)
-    if args.scenario_file is not None:
-        from impactbench.scenario_file import load_scenario_file
-
-        fields = load_scenario_file(args.scenario_file)
-        raw = dict(cfg.raw)
-        table = scenarios.for_study("calibrate").table
-        raw[table] = {**raw.get(table, {}), **fields}
-        cfg = config.parse(raw, source=f"{cfg.source} + {args.scenario_file}")
-    engines = None
-    if args.engines:
-        engines = [e.strip() for e in args.engines.split(",") if e.strip()]
-        for e in engines:
-            if e not in engine_names():
-                raise ValueError(f"--engines: {e!r} is not one of {', '.join(engine_names())}")
-    opts = execution_options(args, cfg)
-    from impactbench.cluster import run_timeout
-
-    with run_timeout(timeout_option(args, cfg)):
-        rep = report.build(cfg, args.out, engines=engines, keep_unchanged=args.keep_unchanged,
-                           **opts)
+    with api.command_line(args.flags):
+        rep = api.build_report(args.config, args.out, engines=args.engines,
+                               workers=args.workers, scheduler=args.scheduler,
+                               store=args.store, fresh=args.fresh, yes=args.yes,
+                               timeout_s=args.timeout_s, scenario_file=args.scenario_file,
+                               keep_unchanged=args.keep_unchanged)
     from impactbench.report_sections import run_keys
 
     keys = [c for c in run_keys() if c in rep.results.columns]

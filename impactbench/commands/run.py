@@ -1,195 +1,187 @@
-"""``impactbench run``: one engine, one scenario, one mode, compared with the reference."""
+"""``impactbench run SCENARIO``: one engine, one scenario, one mode, compared with the reference.
+
+A thin layer over :func:`impactbench.run`: each scenario is a subcommand with its own flags
+(``impactbench run cube-toss --help`` lists the cube tosses' only), the flags become the
+function's keywords, and the function holds every rule (default mode, mode checks, the step,
+tuned files, cost, timeout, plausibility limits). What is left here is the presentation: the
+JSON object or the text table, and the exit code (``--allow-status``).
+
+``impactbench run --scenario NAME …``, the spelling before subcommands, still works for one
+release (one line on stderr says so): :func:`scenario_first` rewrites it.
+"""
 
 from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
+from collections.abc import Sequence
 
 from impactbench import scenarios
 from impactbench.cliutil import (
-    check_cost,
+    add_timeout_flag,
+    add_yes_flag,
+    flag_names,
     key_value,
     number,
     print_json,
     print_table,
-    stdout_to_stderr,
-    timeout_option,
 )
 from impactbench.engines.registry import MODES, engine_names
-from impactbench.flags import add_axis_flags, add_parameter_flags, scenario_from_args
+from impactbench.flags import add_axis_flags, add_parameter_flags
 
 HELP = "run one scenario in one engine and compare it with the reference"
+DEPRECATED = "impactbench: --scenario is deprecated; write `impactbench run NAME …`"
+"""The note ``run --scenario NAME`` prints on stderr (the spelling goes in the next release)."""
 
 
 def register(top: argparse._SubParsersAction, groups: dict) -> None:
-    p = top.add_parser("run", help=HELP, description=HELP + ". Parameter flags of every "
-                       "scenario are accepted; those of the other scenarios are ignored.")
-    p.add_argument("--engine", required=True, choices=engine_names(),
-                   help="the engine to run")
-    names = scenarios.names()
-    p.add_argument("--scenario", required=True, choices=names,
-                   help="; ".join(f"{n}: {scenarios.get(n).summary}" for n in names))
+    p = top.add_parser("run", help=HELP, description=HELP + ": `impactbench run SCENARIO "
+                       "--engine E …`; `impactbench run SCENARIO --help` lists that "
+                       "scenario's flags.")
+    sub = p.add_subparsers(dest="scenario", required=True, metavar="SCENARIO",
+                           parser_class=type(p))
+    for spec in scenarios.specs():
+        s = sub.add_parser(spec.name, help=spec.summary,
+                           description=f"{spec.title}: {spec.summary}. {HELP[0].upper()}"
+                           f"{HELP[1:]}.")
+        add_run_flags(s, spec)
+
+
+def add_run_flags(p: argparse.ArgumentParser, spec: scenarios.ScenarioSpec) -> None:
+    """The flags of ``run NAME``: the engine settings, the scenario's axes, fields and
+    further options, and the output. A run flag that does not apply to the scenario
+    (``--velocity`` without a velocity axis, ``--param-set`` without published sets, the
+    plausibility limits of measured data) is accepted but hidden, so the function's one-line
+    error says why."""
+    hidden = argparse.SUPPRESS
+
+    def shown(applies: bool, text: str) -> str:
+        return text if applies else hidden
+
+    p.add_argument("--engine", required=True, choices=engine_names(), help="the engine to run")
     p.add_argument("--mode", default=None, choices=MODES,
                    help="native: the engine's contact model with mapped parameters; "
                    "injected: the reference law driven through the engine; tuned: fitted "
                    "parameters; default: the engine's out-of-the-box contact; custom: "
-                   "default plus your --param (or --param-set) settings (default native; "
-                   "tuned with --tuned; a data-driven scenario: default)")
+                   "default plus your --param" + (" or --param-set" if spec.measured else "")
+                   + f" settings (without --mode: {spec.default_mode}; custom with --param"
+                   + (" or --param-set" if spec.measured else "") + ", tuned with --tuned)")
     p.add_argument("--param", type=key_value, action="append", default=[], dest="params",
                    metavar="KEY=VALUE",
                    help="custom mode: one engine parameter by the engine's own name "
-                   "(repeatable), e.g. solref=0.02,1 or contactStiffness=1e5; a data-driven "
-                   "scenario takes its replay's keys, e.g. board.contactStiffness=1e5")
+                   "(repeatable), e.g. " + ("board.contactStiffness=1e5 (the replay's keys)"
+                                            if spec.measured
+                                            else "solref=0.02,1 or contactStiffness=1e5"))
     p.add_argument("--param-set", default=None, dest="param_set", metavar="NAME",
-                   help="custom mode of a data-driven scenario: a parameter set published "
-                   "with the data (e.g. dair2022: DAIR's fitted values), overlaid by --param")
-    p.add_argument("--tuned", type=Path, default=None, dest="tuned_file", metavar="FILE",
+                   help=shown(spec.measured, "custom mode: a parameter set published with the "
+                              "data (e.g. dair2022: DAIR's fitted values), overlaid by --param"))
+    p.add_argument("--tuned", default=None, dest="tuned_file", metavar="FILE",
                    help="tuned mode with this tuned file (written by `impactbench tune "
                    "--out`); it applies only to the scenario and timestep it was fitted for")
-    with_v = ", ".join(n for n in names if "velocity_m_s" in scenarios.get(n).axis_names)
+    velocity = "velocity_m_s" in spec.axis_names
     p.add_argument("--velocity", type=number, default=None, dest="velocity_m_s",
-                   metavar="V", help=f"impact velocity V0 or v1 (m/s); required by the "
-                   f"scenarios with a velocity axis ({with_v})")
+                   metavar="V", required=velocity,
+                   help=shown(velocity, f"impact velocity {spec.velocity_symbol} (m/s)"))
     p.add_argument("--timestep", type=number, default=None, dest="timestep_s", metavar="S",
-                   help="integration step (s); default: in default mode the engine's own "
-                   "default step (MuJoCo 2 ms, PyBullet 1/240 s, Drake 1 ms, pymunk 1/60 s), "
-                   "otherwise the adapter's for the scenario; a data-driven scenario steps "
-                   "at a whole fraction of its sample interval (cube tosses: 1/148 s / "
-                   "round(1/148 s / S); default 1/1480 s, DAIR's)")
-    axes: set[str] = set()
-    flags: set[str] = set()
-    for name in names:
-        add_axis_flags(p, name, added=axes)
-    for name in names:
-        add_parameter_flags(p, name, added=flags)
-    p.add_argument("--timeout", type=number, default=None, metavar="S", dest="timeout",
-                   help="stop the run after S seconds: status timeout, exit 1 (default "
-                   "max(60 s, 20 x the run's estimate); a run stuck inside an engine's C code "
-                   "is ended as long again later (at least 5 s) with a dump of where it hung)")
-    p.add_argument("--json", action="store_true", help="print one JSON object")
-    p.add_argument("--allow-status", default="", metavar="LIST",
+                   help="integration step (s); default: " + (
+                       "the scenario steps at a whole fraction of its sample interval "
+                       "(cube tosses: 1/148 s / round(1/148 s / S); default 1/1480 s, DAIR's)"
+                       if spec.owns_timestep else
+                       "in default mode the engine's own default step (MuJoCo 2 ms, PyBullet "
+                       "1/240 s, Drake 1 ms, pymunk 1/60 s), otherwise the adapter's for the "
+                       "scenario"))
+    before = {a.dest for a in p._actions}
+    add_axis_flags(p, spec.name)
+    add_parameter_flags(p, spec.name)
+    fields = tuple(a.dest for a in p._actions if a.dest not in before)
+    g = p.add_argument_group("the run")
+    add_timeout_flag(g, config=False, help="stop the run after S seconds: status timeout, "
+                     "exit 1 (default max(60 s, 20 x the run's estimate); a run stuck inside "
+                     "an engine's C code is ended as long again later (at least 5 s) with a "
+                     "dump of where it hung)")
+    add_yes_flag(g, "the estimate exceeds 1e7 integration steps")
+    g.add_argument("--max-penetration-ratio", type=number, default=None, metavar="R",
+                   help=shown(not spec.measured, "plausibility: the largest overlap over the "
+                              "body's size before a run is implausible (default 0.1)"))
+    g.add_argument("--max-energy-ratio", type=number, default=None, metavar="E",
+                   help=shown(not spec.measured, "plausibility: the largest kinetic energy "
+                              "after over before (default 1.01)"))
+    g.add_argument("--json", action="store_true", help="print one JSON object")
+    g.add_argument("--allow-status", default="", metavar="LIST",
                    help="comma list of non-ok statuses that still exit 0, e.g. "
                    "max_time,unsupported (default: any status but ok exits 1)")
-    p.add_argument("--yes", action="store_true",
-                   help="run even when the estimate exceeds 1e7 integration steps")
-    p.add_argument("--max-penetration-ratio", type=number, default=None, metavar="R",
-                   help="plausibility: the largest overlap over the body's size before a run "
-                   "is implausible (default 0.1)")
-    p.add_argument("--max-energy-ratio", type=number, default=None, metavar="E",
-                   help="plausibility: the largest kinetic energy after over before "
-                   "(default 1.01)")
-    p.set_defaults(func=main)
+    p.set_defaults(func=main, fields=("velocity_m_s", *fields), flags=flag_names(p))
 
 
 def main(args: argparse.Namespace) -> int:
-    from impactbench.engines.base import RunSettings
-    from impactbench.evaluate import compare
+    """:func:`impactbench.run` with the flags; the JSON object or a table, exit 0 for ``ok``
+    (or an allowed status), else 1."""
+    from impactbench import api
 
-    spec = scenarios.get(args.scenario)
-    if "velocity_m_s" in spec.axis_names and args.velocity_m_s is None:
-        raise ValueError(f"velocity: --velocity V (m/s) is required for {spec.name}")
-    if "velocity_m_s" not in spec.axis_names and args.velocity_m_s is not None:
-        raise ValueError(f"velocity = {args.velocity_m_s:g}: {spec.name} has no impact "
-                         "velocity (drop --velocity)")
-    scenario = scenario_from_args(args.scenario, args)
-    mode = args.mode or ("tuned" if args.tuned_file else spec.default_mode)
-    if args.params and mode != "custom":
-        raise ValueError(f"param = {args.params[0][0]}: --param needs --mode custom "
-                         f"(got {mode})")
-    if args.tuned_file and mode != "tuned":
-        raise ValueError(f"tuned = {str(args.tuned_file)!r}: --tuned needs --mode tuned "
-                         f"(got {mode})")
-    params = dict(args.params)
-    if args.param_set is not None:
-        if not spec.measured:
-            raise ValueError(f"param-set = {args.param_set!r}: {spec.name} has no parameter "
-                             "sets (they come with a data-driven scenario's measurements)")
-        params["param_set"] = args.param_set  # the builder says which modes take it
-    if spec.measured:
-        for flag, value in (("max-penetration-ratio", args.max_penetration_ratio),
-                            ("max-energy-ratio", args.max_energy_ratio)):
-            if value is not None:
-                raise ValueError(f"{flag} = {value:g}: {spec.name} is judged against its "
-                                 "measurements, not by plausibility limits")
-    own_step = spec.owns_timestep  # the scenario's fields carry the step (cube tosses)
-    if own_step:
-        timestep_s, timestep_source = args.timestep_s, ""
-    else:
-        _check_param_keys(args.engine, args.params)
-        timestep_s, timestep_source = run_timestep(args.engine, mode, args.timestep_s)
-    settings = RunSettings(timestep_s=timestep_s, params=params or None)
-    if mode == "tuned":  # bound to the scenario at this step (a replay's substeps)
-        from impactbench.tuned import tuned_settings
-
-        tuned, provenance = tuned_settings(args.engine, spec.at_timestep(scenario, timestep_s)[0],
-                                           timestep_s, args.tuned_file)
-        settings = RunSettings(timestep_s=timestep_s, tuned=tuned, tuned_for=provenance,
-                               params=params or None)
     allowed = _allowed_statuses(args.allow_status, ("timeout",))
-    from impactbench import cluster
-    from impactbench.evaluate import reference_metrics
-    from impactbench.matrix import estimated_steps_of
-
-    reference = reference_metrics(spec.at_timestep(scenario, timestep_s)[0])
-    steps = estimated_steps_of(reference, timestep_s)
-    check_cost(steps, f"timestep = {timestep_s!r}", args.yes, "integration steps")
-    # a run without an estimate (a replay, whose length varies with its tosses) has no
-    # default timeout
-    limit = timeout_option(args) or (cluster.default_timeout(cluster.run_estimate_s(steps))
-                                     if steps or not own_step else None)
-    with stdout_to_stderr():
-        out, _ = compare(args.engine, scenario, mode, settings, reference, timeout_s=limit,
-                         backstop=True)
-    limits = {k: v for k, v in (("max_penetration_ratio", args.max_penetration_ratio),
-                                ("max_energy_ratio", args.max_energy_ratio)) if v is not None}
-    if limits:
-        from impactbench.plausibility import Limits, judge
-
-        out = judge(out, Limits(**limits))
-    timestep_source = out.pop("timestep_source", "") or timestep_source
-    at = list(out).index("timestep_s") + 1  # beside the step it explains
-    out = dict([*list(out.items())[:at], ("timestep_source", timestep_source),
-                *list(out.items())[at:]])
-    code = 0 if out["status"] == "ok" or out["status"] in allowed else 1
+    fields = {k: getattr(args, k) for k in args.fields if getattr(args, k) is not None}
+    with api.command_line(args.flags):
+        result = api.run(args.engine, args.scenario, args.mode, params=dict(args.params),
+                         param_set=args.param_set, tuned_file=args.tuned_file,
+                         timestep_s=args.timestep_s, yes=args.yes, timeout_s=args.timeout_s,
+                         max_penetration_ratio=args.max_penetration_ratio,
+                         max_energy_ratio=args.max_energy_ratio, **fields)
+    said = f" ({result.message})" if result.message else ""
+    code = 0 if result.ok or result.status in allowed else 1
     if code:
-        print(f"impactbench: run status {out['status']}"
-              + (f" ({out['message']})" if out["message"] else "")
-              + "; exit 1 (--allow-status to accept it)", file=sys.stderr)
+        print(f"impactbench: run status {result.status}{said}; exit 1 (--allow-status to "
+              "accept it)", file=sys.stderr)
     if args.json:
-        print_json(out)
+        print_json(result.to_dict())
         return code
-    print(f"{out['engine']} {out['engine_version']}  mode {out['mode']}  "
-          f"timestep {out['timestep_s']} s ({timestep_source})  status {out['status']}"
-          + (f" ({out['message']})" if out["message"] else "")
-          + f"  wall {out['wall_s']:.3g} s")
-    rows = [{"metric": k, "engine": out[k], "reference": out["reference"][k],
-             "rel_error": out["rel_error"][k] if out["resolved"][k] else "not resolved"}
-            for k in out["rel_error"]]
-    print_table(rows)
+    print(f"{result.engine} {result.engine_version}  mode {result.mode}  timestep "
+          f"{result.timestep_s} s ({result.timestep_source})  status {result.status}{said}"
+          f"  wall {result.wall_s:.3g} s")
+    print_table([{"metric": k, "engine": result.metrics.get(k),
+                  "reference": result.reference.get(k),
+                  "rel_error": v if result.resolved.get(k, True) else "not resolved"}
+                 for k, v in result.rel_error.items()])
     return code
 
 
-ENGINE_DEFAULT, GIVEN, ADAPTER_DEFAULT = ("engine default", "given",
-                                         "adapter default for the scenario")
-"""The values of ``timestep_source`` in ``run``'s output."""
+def scenario_first(argv: Sequence[str]) -> list[str]:
+    """``run`` arguments with the scenario first, as the subcommands take it.
 
-
-def run_timestep(engine: str, mode: str, timestep_s: float | None
-                 ) -> tuple[float | None, str]:
-    """(step, where it comes from): the given step; in ``default`` mode without one the
-    engine's own default step (the first of its spec's ``customary_timesteps_s``: MuJoCo 2 ms,
-    PyBullet 1/240 s, Drake 1 ms, pymunk 1/60 s), so "default" means the engine as it comes;
-    otherwise None, the adapter's step for the scenario (engines without customary steps)."""
-    if timestep_s is not None:
-        return timestep_s, GIVEN
-    if mode == "default":
-        from impactbench.engines.registry import spec
-
-        customary = spec(engine).customary_timesteps_s
-        if customary:
-            return float(customary[0]), ENGINE_DEFAULT
-    return None, ADAPTER_DEFAULT
+    ``run --scenario NAME …`` (the spelling before ``run NAME``, kept for one release)
+    becomes ``run NAME …`` with :data:`DEPRECATED` on stderr; ``run --engine E NAME …`` becomes
+    ``run NAME --engine E …``; ``run`` with flags and no scenario runs the first registered
+    one (the ball, as before), with a note too. Anything else is left as it is."""
+    argv = list(argv)
+    if argv[:1] != ["run"]:
+        return argv
+    rest = argv[1:]
+    names = scenarios.names()
+    for i, word in enumerate(rest):
+        if word == "--":
+            break
+        if word == "--scenario" or word.startswith("--scenario="):
+            name = word.partition("=")[2] if "=" in word else (
+                rest[i + 1] if i + 1 < len(rest) else None)
+            if not name:
+                raise ValueError("scenario: --scenario needs a NAME (deprecated: write "
+                                 "`impactbench run NAME …`)")
+            if rest[:1] and rest[0] in names:
+                raise ValueError(f"scenario = {name!r}: given twice (`run {rest[0]}` and "
+                                 "--scenario); write `impactbench run NAME …`")
+            del rest[i:i + (1 if "=" in word else 2)]
+            print(DEPRECATED, file=sys.stderr)
+            return ["run", name, *rest]
+    if not rest or not rest[0].startswith("-"):
+        return argv  # the new spelling (or a bad name, argparse's to refuse)
+    named = next((i for i, word in enumerate(rest) if word in names), None)
+    if named is not None:
+        return ["run", rest[named], *rest[:named], *rest[named + 1:]]
+    if {"-h", "--help"} & set(rest):
+        return argv
+    default = names[0]
+    print(f"impactbench: `run` without a scenario is deprecated (it runs {default}); write "
+          f"`impactbench run {default} …`", file=sys.stderr)
+    return ["run", default, *rest]
 
 
 def _allowed_statuses(text: str, extra: tuple[str, ...] = ()) -> set[str]:
@@ -203,15 +195,3 @@ def _allowed_statuses(text: str, extra: tuple[str, ...] = ()) -> set[str]:
         if name not in valid:
             raise ValueError(f"allow-status = {name!r}: must be one of {', '.join(valid)}")
     return names
-
-
-def _check_param_keys(engine: str, params: list[tuple[str, object]]) -> None:
-    """An unknown --param key is a one-line error listing the engine's keys."""
-    from impactbench.config import did_you_mean
-    from impactbench.engines.base import parameter_keys
-
-    valid = parameter_keys(engine)
-    for key, _ in params:
-        if key not in valid:
-            raise ValueError(f"param = {key!r}: not a {engine} parameter; valid keys: "
-                             f"{', '.join(valid) or '(none)'}{did_you_mean(key, valid)}")

@@ -292,9 +292,10 @@ def key_inputs(engine: str, scenario: Any, mode: str) -> dict[str, Any]:
     the parameters its contact maps to in ``engine``)."""
     out: dict[str, Any] = {"data_sha256": data_sha256(data_path(scenario))}
     if mode == "native":
-        from impactbench.cube_tosses.model_modes import native_parameters
+        from impactbench.cube_tosses.model_modes import NATIVE_ENGINES, native_parameters
 
-        out["mapped"] = native_parameters(engine, None, box_of(scenario))
+        if engine in NATIVE_ENGINES:  # (another engine's run is unsupported: nothing mapped)
+            out["mapped"] = native_parameters(engine, None, box_of(scenario))
     if mode in ("native", "injected"):
         import impactbench.cube_tosses.reference_model as reference_model
 

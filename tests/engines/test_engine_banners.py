@@ -33,12 +33,12 @@ def test_a_silenced_import_still_raises_and_restores_output(capfd) -> None:
 
 
 @pytest.mark.parametrize(("engine", "argv", "noise"), [
-    ("newton", ["--scenario", "ball-on-plate", "--velocity", "1"], "CUDA"),
-    ("drake", ["--scenario", "ball-on-plate", "--velocity", "1", "--mode", "custom",
+    ("newton", ["ball-on-plate", "--velocity", "1"], "CUDA"),
+    ("drake", ["ball-on-plate", "--velocity", "1", "--mode", "custom",
                "--timestep", "1e-3", "--param", "discrete_contact_approximation=tamsi"],
      "TAMSI"),
-    ("drake", ["--scenario", "cube-toss", "--tosses", "0"], "half spaces"),
-    ("pybullet", ["--scenario", "cube-toss", "--tosses", "0"], "build time"),
+    ("drake", ["cube-toss", "--tosses", "0"], "half spaces"),
+    ("pybullet", ["cube-toss", "--tosses", "0"], "build time"),
 ])
 def test_a_cpu_run_says_nothing_that_means_nothing(engine: str, argv: list[str],
                                                    noise: str) -> None:

@@ -113,7 +113,7 @@ RUNS = [
 def test_run_to_dict_is_the_run_json(capsys, engine, scenario, kwargs, flags) -> None:
     require_engine(engine)
     result = impactbench.run(engine=engine, scenario=scenario, **kwargs)
-    cli = cli_json(capsys, "run", "--engine", engine, "--scenario", scenario, *flags)
+    cli = cli_json(capsys, "run", scenario, "--engine", engine, *flags)
     got = result.to_dict()
     assert got.pop("wall_s") > 0 and cli.pop("wall_s") > 0
     assert got == cli
@@ -213,8 +213,9 @@ def test_an_unknown_keyword_is_named_with_a_suggestion_and_the_valid_ones() -> N
     text = one_line_error(impactbench.run, engine="pymunk", scenario="ball-on-plate",
                           velocity=2.0)
     assert "unknown keyword 'velocity'" in text and "did you mean 'velocity_m_s'?" in text
-    assert "valid: engine, scenario, mode, params, tuned_file, timestep_s, yes, timeout_s, " \
-           "velocity_m_s, mass_kg" in text and "material" in text
+    assert "valid: engine, scenario, mode, params, param_set, tuned_file, timestep_s, yes, " \
+           "timeout_s, max_penetration_ratio, max_energy_ratio, velocity_m_s, mass_kg" in text
+    assert "material" in text
     text = one_line_error(impactbench.run, engine="pymunk", timestep=1e-3)
     assert "'timestep'" in text and "did you mean 'timestep_s'?" in text
     # another scenario, other fields: the ball's are not the 2-DOF model's
@@ -240,8 +241,8 @@ def test_bad_names_and_values_are_one_line_errors() -> None:
                                                       mode="defualt")
     text = one_line_error(impactbench.run, engine="pymunk", params={"elastcity": 0.8})
     assert "not a pymunk parameter" in text and "did you mean 'elasticity'" in text
-    assert "need mode='custom'" in one_line_error(impactbench.run, engine="pymunk",
-                                                   mode="native", params={"elasticity": 0.8})
+    assert "params needs mode='custom' (got 'native')" in one_line_error(
+        impactbench.run, engine="pymunk", mode="native", params={"elasticity": 0.8})
     assert "needs mode='tuned'" in one_line_error(impactbench.run, engine="pymunk",
                                                   mode="native", tuned_file="x.toml")
     assert one_line_error(impactbench.run, engine="pymunk", mass_kg=-1.0).startswith(

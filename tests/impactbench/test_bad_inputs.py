@@ -68,7 +68,7 @@ def test_unwritable_outputs_and_missing_inputs_are_one_line(capsys, blocked: Pat
 
 
 def test_costly_runs_and_sweeps_need_yes(capsys, tmp_path: Path) -> None:
-    code, _, err = run(capsys, "run", "--engine", "mujoco", "--scenario", "ball-on-plate",
+    code, _, err = run(capsys, "run", "ball-on-plate", "--engine", "mujoco",
                        "--velocity", "1", "--timestep", "1e-12")
     assert code == 2
     one_line(err, "timestep = 1e-12", "--yes")
@@ -109,7 +109,7 @@ def test_velocity_ranges_where_the_physics_breaks(capsys) -> None:
 
 def test_run_exits_1_unless_the_status_is_ok_or_allowed(capsys) -> None:
     require_engine("pymunk")
-    argv = ["run", "--engine", "pymunk", "--scenario", "ball-on-plate", "--velocity", "1e6",
+    argv = ["run", "ball-on-plate", "--engine", "pymunk", "--velocity", "1e6",
             "--json"]
     code, out, err = run(capsys, *argv)
     assert code == 1 and json.loads(out)["status"] == "unsupported"

@@ -1,4 +1,4 @@
-"""The cube-toss scenario wired in (issue 23): ``run --scenario cube-toss`` on the real engines,
+"""The cube-toss scenario wired in (issue 23): ``run cube-toss`` on the real engines,
 its one-line errors, the data gates and the report's "Against real tosses" section.
 
 A handful of tosses (0, 1, 57) keeps every engine run well under a second; the replays
@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from pathlib import Path
 
 import pandas as pd
@@ -42,7 +43,7 @@ def one_line(err: str, *needles: str) -> None:
 
 
 def run_json(capsys, engine: str, *flags: str) -> tuple[int, dict]:
-    code, out, _ = run(capsys, "run", "--engine", engine, "--scenario", NAME, *flags, "--json")
+    code, out, _ = run(capsys, "run", NAME, "--engine", engine, *flags, "--json")
     return code, json.loads(out)
 
 
@@ -139,14 +140,13 @@ def test_the_users_box_reaches_the_engine_and_the_errors(capsys, engine: str) ->
     ("newton", ("--mode", "injected"), "captured warp CPU graphs"),
 ])
 def test_unsupported_engines_and_modes_say_why(capsys, engine, flags, words) -> None:
-    code, out, err = run(capsys, "run", "--engine", engine, "--scenario", NAME, *flags,
-                         "--json")
+    code, out, err = run(capsys, "run", NAME, "--engine", engine, *flags, "--json")
     got = json.loads(out)
     assert code == 1 and got["status"] == "unsupported" and words in got["message"]
     assert math.isnan(got["position_error_median"] if got["position_error_median"] is not None
                       else math.nan)
     assert "exit 1 (--allow-status" in err
-    code, _, _ = run(capsys, "run", "--engine", engine, "--scenario", NAME, *flags,
+    code, _, _ = run(capsys, "run", NAME, "--engine", engine, *flags,
                      "--allow-status", "unsupported")
     assert code == 0
 
@@ -155,28 +155,28 @@ def test_unsupported_engines_and_modes_say_why(capsys, engine, flags, words) -> 
 
 
 @pytest.mark.parametrize("argv, needles", [
-    (["--engine", "mujoco", "--scenario", NAME, "--velocity", "2"],
+    ([NAME, "--engine", "mujoco", "--velocity", "2"],
      ["velocity = 2", NAME, "no impact velocity"]),
-    (["--engine", "mujoco", "--scenario", "ball-on-plate"], ["--velocity", "ball-on-plate"]),
-    (["--engine", "mujoco", "--scenario", NAME, "--mode", "custom", "--param-set", "dair22"],
+    (["ball-on-plate", "--engine", "mujoco"], ["--velocity", "ball-on-plate"]),
+    ([NAME, "--engine", "mujoco", "--mode", "custom", "--param-set", "dair22"],
      ["param-set = 'dair22'", "dair2022, dair2022x3", "did you mean 'dair2022'"]),
-    (["--engine", "drake", "--scenario", NAME, "--mode", "default", "--param-set",
-      "dair2022"], ["default mode sets no engine parameters"]),
-    (["--engine", "drake", "--scenario", NAME, "--mode", "custom"], ["--param-set (dair2022)"]),
-    (["--engine", "mujoco", "--scenario", NAME, "--tosses", "0,x"], ["tosses = '0,x'"]),
-    (["--engine", "mujoco", "--scenario", NAME, "--tosses", "3"], ["toss 3 not in the data"]),
-    (["--engine", "mujoco", "--scenario", NAME, "--data", "/nonexistent.csv"],
+    ([NAME, "--engine", "drake", "--mode", "default", "--param-set", "dair2022"],
+     ["default mode sets no engine parameters"]),
+    ([NAME, "--engine", "drake", "--mode", "custom"], ["--param-set (dair2022)"]),
+    ([NAME, "--engine", "mujoco", "--tosses", "0,x"], ["tosses = '0,x'"]),
+    ([NAME, "--engine", "mujoco", "--tosses", "3"], ["toss 3 not in the data"]),
+    ([NAME, "--engine", "mujoco", "--data", "/nonexistent.csv"],
      ["data = '/nonexistent.csv'", "no such file"]),
-    (["--engine", "mujoco", "--scenario", NAME, "--mass", "-1"], ["mass_kg = -1"]),
-    (["--engine", "pybullet", "--scenario", NAME, "--mode", "custom", "--param",
-      "board.stiffness=1"], ["board.stiffness", "not a pybullet cube parameter"]),
-    (["--engine", "mujoco", "--scenario", NAME, "--param", "board.solref=1,1"],
-     ["--param needs --mode custom"]),
-    (["--engine", "mujoco", "--scenario", NAME, "--allow-status", "partal"],
+    ([NAME, "--engine", "mujoco", "--mass", "-1"], ["mass_kg = -1"]),
+    ([NAME, "--engine", "pybullet", "--mode", "custom", "--param", "board.stiffness=1"],
+     ["board.stiffness", "not a pybullet cube parameter"]),
+    ([NAME, "--engine", "mujoco", "--mode", "default", "--param", "board.solref=1,1"],
+     ["--param needs --mode custom (got default)"]),
+    ([NAME, "--engine", "mujoco", "--allow-status", "partal"],
      ["allow-status = 'partal'"]),
-    (["--engine", "mujoco", "--scenario", "ball-on-plate", "--velocity", "1", "--param-set",
+    (["ball-on-plate", "--engine", "mujoco", "--velocity", "1", "--param-set",
       "dair2022"], ["ball-on-plate has no parameter sets"]),
-    (["--engine", "mujoco", "--scenario", NAME, "--max-energy-ratio", "1.1"],
+    ([NAME, "--engine", "mujoco", "--max-energy-ratio", "1.1"],
      ["judged against its measurements"]),
 ])
 def test_bad_input_is_one_line_exit_2(capsys, argv, needles) -> None:
@@ -328,7 +328,9 @@ def test_report_section_renders_with_a_tiny_config(tmp_path) -> None:
     assert "## Against real tosses" in md and "tosses 0,1,57" in md
     want = replay("pybullet", "custom", tosses=IDS, param_set="dair2022")
     assert f"| {want['position_error_median']:.3f} [" in md
-    assert "| pymunk | all | — | unsupported |" in md and "2D engine" in md
+    # the reason is a numbered note under the table (no note column)
+    mark = re.search(r"\| pymunk \| all \| — \| unsupported (\S) \|\n", md)
+    assert mark and f"\n> {mark.group(1)} pymunk is a 2D engine" in md
     names = sorted(p.name for p in (tmp_path / "rep" / "figures").glob("*.png"))
     # trajectories: every run's here ("all"); by default only each engine's best run's
     assert names == ["report_cube_toss_error_cdf.png",

@@ -26,7 +26,7 @@ TRAIN_IDS = [1, 2, 4]
 
 
 def run_json(capsys, *argv: str) -> tuple[int, dict]:
-    code = main(["run", "--scenario", NAME, *argv, "--json"])
+    code = main(["run", NAME, *argv, "--json"])
     out = capsys.readouterr().out
     return code, json.loads(out)
 
@@ -85,7 +85,7 @@ def test_a_tuned_file_binds_to_its_engine_step_and_cube(capsys) -> None:
      "tuned = '/nonexistent.toml': no such file"),
 ])
 def test_bad_tuned_input_is_one_line(capsys, argv: list[str], needle: str) -> None:
-    assert main(["run", "--scenario", NAME, *argv]) == 2
+    assert main(["run", NAME, *argv]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and needle in err, err
 
@@ -93,7 +93,7 @@ def test_bad_tuned_input_is_one_line(capsys, argv: list[str], needle: str) -> No
 def test_a_file_that_is_not_a_tuned_file_is_one_line(capsys, tmp_path: Path) -> None:
     bad = tmp_path / "bad.toml"
     bad.write_text("[parameters\n")
-    assert main(["run", "--scenario", NAME, "--engine", "mujoco", "--mode", "tuned",
+    assert main(["run", NAME, "--engine", "mujoco", "--mode", "tuned",
                  "--tuned", str(bad)]) == 2
     err = capsys.readouterr().err
     assert "not a cube-toss tuned file" in err and err.count("\n") == 1

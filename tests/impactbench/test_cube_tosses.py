@@ -274,7 +274,7 @@ def test_default_mode_records_the_engines_own_settings(df: pd.DataFrame) -> None
      "param-set = 'dair2023': mujoco has dair2022, dair2022x3"),
     ({"engine": "mujoco", "mode": "default", "param_set": "dair2022"},
      "default mode sets no engine parameters"),
-    ({"engine": "mujoco", "mode": "custom"}, "mode = 'custom': needs a parameter set"),
+    ({"engine": "mujoco", "mode": "custom"}, "mode = 'custom': needs --param-set (dair2022"),
     ({"engine": "mujoco", "mode": "mapped"},
      "mode = 'mapped': must be one of native, injected, tuned, default, custom"),
     ({"engine": "mujoco", "mode": "native", "param_set": "dair2022"},

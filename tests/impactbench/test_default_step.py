@@ -10,13 +10,13 @@ from conftest import require_engine
 from impactbench.engines.registry import spec
 
 from impactbench.cli import main
-from impactbench.commands.run import ADAPTER_DEFAULT, ENGINE_DEFAULT, GIVEN, run_timestep
+from impactbench.api import ADAPTER_DEFAULT, ENGINE_DEFAULT, GIVEN, run_timestep
 
 
 def run(capsys, *argv: str) -> tuple[int, str]:
     """(exit code, stdout); the code is 1 for a non-ok status (a 2 ms MuJoCo default contact
     sinks far into the plate), which these tests do not judge."""
-    code = main(["run", "--scenario", "ball-on-plate", "--velocity", "2", *argv])
+    code = main(["run", "ball-on-plate", "--velocity", "2", *argv])
     return code, capsys.readouterr().out
 
 

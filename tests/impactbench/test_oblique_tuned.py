@@ -64,6 +64,24 @@ def test_packaged_file_is_no_worse_than_native(engine: str) -> None:
     assert prov["objective_start"] == prov["objective_native"]  # start = the native run
 
 
+def test_every_engines_spaces_are_named_by_its_spec() -> None:
+    """One place per engine: its EngineSpec names its ball parameterisations (``tuning``) and
+    its oblique friction and cube-toss knobs (``spaces``); the knob tables read the specs."""
+    from impactbench.engines import oblique_tuned, registry
+
+    from impactbench.cube_tosses import spaces as toss_spaces
+
+    for name, spec in registry.SPECS.items():
+        spaces = dict(spec.spaces)
+        assert set(spaces) <= set(registry.FITS) and spec.tuning, name
+        assert (name in oblique_tuned.SPACES) == ("friction" in spaces)
+        assert (name in toss_spaces.SPACES) == ("tosses" in spaces)
+    assert oblique_tuned.SPACES["mjx"] is oblique_tuned.MUJOCO  # MJX runs MuJoCo's model
+    assert set(oblique_tuned.SPACES) == set(ENGINES)
+    assert registry.tuning_space("pymunk", "tosses") is None  # a 2D engine: no cube tosses
+    assert registry.tuning_space("no-such-engine", "friction") is None
+
+
 def test_tuned_at_the_start_values_is_the_native_run() -> None:
     require_engine("pybullet")
     from impactbench.engines import oblique_tuned

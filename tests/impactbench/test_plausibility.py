@@ -93,7 +93,7 @@ def test_rigid_flexible_measures_body_1_energy() -> None:
 def test_a_gate_fails_an_implausible_run_whatever_its_error(base_err, mark) -> None:
     check = gates.Check(RunKey("mujoco", "ball-on-plate", (("velocity_m_s", 2.0),), "tuned",
                                2e-3), "restitution", 0.05)
-    result = {"status": "implausible", "message": "penetration 2 of the body's size (limit "
+    result = {"status": "implausible", "message": "penetration 2 of its radius (limit "
               "0.1)", "restitution": 0.8, "reference": {"restitution": 0.8},
               "rel_error": {"restitution": 0.0}}
     baseline = {check.id: {"rel_error": base_err}} if base_err is not None else None

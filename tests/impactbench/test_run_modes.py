@@ -29,7 +29,7 @@ def run(capsys, *argv: str) -> tuple[int, str, str]:
 @pytest.mark.parametrize(("engine", "dt"), CUSTOMARY)
 def test_default_mode_json_at_the_customary_step(capsys, engine, dt):
     require_engine(engine)
-    code, out, _ = run(capsys, "run", "--engine", engine, "--scenario", "ball-on-plate",
+    code, out, _ = run(capsys, "run", "ball-on-plate", "--engine", engine,
                        "--mode", "default", "--velocity", "2", "--timestep", dt, "--json")
     obj = json.loads(out)
     # measured either way; out of the box at these steps the paper's 14.5 mm ball often sinks
@@ -42,7 +42,7 @@ def test_default_mode_json_at_the_customary_step(capsys, engine, dt):
 
 def test_custom_param_reaches_mujoco(capsys):
     require_engine("mujoco")
-    code, out, _ = run(capsys, "run", "--engine", "mujoco", "--scenario", "ball-on-plate",
+    code, out, _ = run(capsys, "run", "ball-on-plate", "--engine", "mujoco",
                        "--mode", "custom", "--param", "solref=0.01,0.5", "--velocity", "2",
                        "--timestep", "2e-3", "--json")
     obj = json.loads(out)
@@ -57,13 +57,13 @@ def test_custom_param_reaches_mujoco(capsys):
     ["--mode", "custom", "--param", "novalue"],
 ])
 def test_bad_param_use_exits_2_with_one_line(capsys, argv):
-    code, out, err = run(capsys, "run", "--engine", "mujoco", "--scenario", "ball-on-plate",
+    code, out, err = run(capsys, "run", "ball-on-plate", "--engine", "mujoco",
                          "--velocity", "1", *argv)
     assert code == 2 and out == "" and len(err.strip().splitlines()) == 1
 
 
 def test_unknown_key_lists_the_valid_ones(capsys):
-    _, _, err = run(capsys, "run", "--engine", "pybullet", "--scenario", "ball-on-plate",
+    _, _, err = run(capsys, "run", "ball-on-plate", "--engine", "pybullet",
                     "--mode", "custom", "--param", "stiffness=1", "--velocity", "1")
     assert "contactStiffness" in err and "restitutionVelocityThreshold" in err
 
@@ -78,7 +78,7 @@ def test_param_values():
 
 def test_tuned_with_a_changed_scenario_is_unsupported_naming_the_field(capsys):
     require_engine("mujoco")
-    _, out, _ = run(capsys, "run", "--engine", "mujoco", "--scenario", "ball-on-plate",
+    _, out, _ = run(capsys, "run", "ball-on-plate", "--engine", "mujoco",
                        "--mode", "tuned", "--velocity", "2", "--mass", "0.072",
                        "--stiffness", "1.4e6", "--json")
     obj = json.loads(out)
@@ -109,10 +109,10 @@ def test_tuned_file_from_tune_out_runs_with_run_tuned(capsys, tmp_path):
                      "--targets", "restitution", "--timestep", "1e-3", "--max-evals", "3",
                      "--out", str(path), "--no-plot")
     assert code == 0
-    code, out, _ = run(capsys, "run", "--engine", "pymunk", "--scenario", "ball-on-plate",
+    code, out, _ = run(capsys, "run", "ball-on-plate", "--engine", "pymunk",
                        "--tuned", str(path), "--velocity", "2", "--timestep", "1e-3", "--json")
     assert json.loads(out)["status"] == "ok"
-    code, out, _ = run(capsys, "run", "--engine", "pymunk", "--scenario", "ball-on-plate",
+    code, out, _ = run(capsys, "run", "ball-on-plate", "--engine", "pymunk",
                        "--tuned", str(path), "--velocity", "2", "--timestep", "1e-4", "--json")
     assert json.loads(out)["status"] == "unsupported"
 

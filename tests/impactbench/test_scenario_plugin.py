@@ -89,7 +89,10 @@ def test_registry_lists_the_plugin_after_the_builtins(plugin) -> None:
     assert NAME in names[len(scenarios.BUILTIN):]
     spec = scenarios.get(NAME)
     assert spec.title == "Sphere on sphere" and spec.table == "sphere_on_sphere"
-    assert not spec.studies and not spec.commands
+    assert not spec.studies and not spec.measured and not spec.owns_timestep
+    # its behaviour is methods of its spec class; the defaults where it brings none
+    assert type(spec).register_commands is scenarios.ScenarioSpec.register_commands
+    assert spec.reference_metrics(spec.build())["restitution"] > 0
     assert scenarios.by_table("sphere_on_sphere") is spec
 
 

@@ -137,7 +137,7 @@ def test_oblique_sweep_from_zero_keeps_its_grid(capsys, tmp_path):
 
 @pytest.mark.parametrize(("argv", "message"), [
     # before: "argument --timestep: expected one argument" (argparse read -1e-3 as an option)
-    (("run", "--engine", "mujoco", "--scenario", "ball-on-plate", "--mode", "default",
+    (("run", "ball-on-plate", "--engine", "mujoco", "--mode", "default",
       "--velocity", "2", "--timestep", "-1e-3"), "timestep_s = -0.001: must be > 0"),
     (("reference", "ball-on-plate", "--velocity", "-1e0"), "velocity_m_s = -1.0: must be > 0"),
     (("reference", "rigid-flexible", "--m2", "-2.5E+1"), "m2_kg = -25.0: must be > 0"),

@@ -44,12 +44,12 @@ def test_a_misspelt_tuned_key_is_refused_not_ignored(capsys, tmp_path: Path) -> 
     bad = tmp_path / "mine.toml"
     bad.write_text(good.read_text().replace("\nsolimp =", "\nsolimpp ="))
     assert "solimpp" in bad.read_text()
-    one_line(capsys, ["run", "--engine", "mujoco", "--scenario", "ball-on-plate", "--tuned",
+    one_line(capsys, ["run", "ball-on-plate", "--engine", "mujoco", "--tuned",
                       bad, "--velocity", "2", "--timestep", "2e-3"],
              "parameters.solimpp: not a mujoco tuned key (did you mean 'solimp'?)",
              "valid keys: solref, solimp")
     # the good file still runs
-    assert main(["run", "--engine", "mujoco", "--scenario", "ball-on-plate", "--tuned",
+    assert main(["run", "ball-on-plate", "--engine", "mujoco", "--tuned",
                  str(good), "--velocity", "2", "--timestep", "2e-3", "--json"]) in (0, 1)
     capsys.readouterr()
 
@@ -66,7 +66,7 @@ def test_tune_param_must_be_a_tuned_key(capsys, tmp_path: Path) -> None:
 
 
 def test_run_param_says_did_you_mean(capsys) -> None:
-    one_line(capsys, ["run", "--engine", "mujoco", "--scenario", "ball-on-plate", "--mode",
+    one_line(capsys, ["run", "ball-on-plate", "--engine", "mujoco", "--mode",
                       "custom", "--param", "solreff=0.02,1", "--velocity", "2"],
              "param = 'solreff': not a mujoco parameter",
              "valid keys: solref, solimp, integrator", "(did you mean 'solref'?)")
