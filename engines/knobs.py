@@ -19,7 +19,6 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
-
 from impactbench.reference import validation as check
 
 PER = ("", "friction", "start")

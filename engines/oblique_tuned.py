@@ -5,8 +5,10 @@ fitted against the rigid reference over an angle sweep at one timestep
 
 :data:`MUJOCO`, :data:`PYBULLET`, … (one tuple per engine, named by the engine's
 :class:`~impactbench.engines.registry.EngineSpec` under ``spaces["friction"]``; :data:`SPACES`
-reads them from the specs) state what a fit moves, in the engine's own keys (what its
-``custom`` mode spells them, or its API's name where ``custom`` has none): the scale (``log``,
+reads them from the specs) state what a fit moves as :class:`~impactbench.engines.knobs.Knob`
+(the one knob type of every fit; here relative to the scenario, resolved per scenario and step),
+named by the engine's own keys (what its ``custom`` mode spells them, or its API's name where
+``custom`` has none), its ``note`` what the key does: the scale (``log``,
 ``linear`` or a ``choice``), the bounds (absolute, or multiples of the scenario's μ or of the
 start value) and the start, which is the native run's own value — so a tuned run at the start
 values is the native run, and a fit that keeps its best evaluation is never worse than native
@@ -21,91 +23,20 @@ to them yet (it still returns ``unsupported`` for ``tuned``).
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Iterator, Mapping
-from dataclasses import dataclass
 from typing import Any
 
 from impactbench.engines import registry
-from impactbench.reference import validation as check
+from impactbench.engines.knobs import Knob, scenario_friction
 from impactbench.reference.record import ImpactRecord, Status
 
 SCALES = ("log", "linear", "choice")
-
-
-@dataclass(frozen=True)
-class Knob:
-    """One fitted parameter of an engine's oblique friction.
-
-    Attributes:
-        key: the engine's own name (the tuned file's ``[parameters]`` key).
-        scale: ``log`` (searched in ln), ``linear`` or ``choice`` (categorical).
-        lower, upper: the search box, in units of ``per``.
-        per: ``""`` (absolute), ``"friction"`` (multiples of the scenario's μ) or
-            ``"start"`` (multiples of the start value).
-        start: the native run's value: a constant, ``"friction"`` (the scenario's μ) or a
-            function ``(scenario, dt) -> value``.
-        choices: the values of a ``choice``.
-        meaning: what the key does in the engine, in a line.
-    """
-
-    key: str
-    scale: str
-    lower: float = math.nan
-    upper: float = math.nan
-    per: str = ""
-    start: Any = None
-    choices: tuple[Any, ...] = ()
-    meaning: str = ""
-
-    def start_value(self, scenario: Any, dt: float | None) -> Any:
-        """The native run's value of this key."""
-        if self.start == "friction":
-            return float(scenario.friction)
-        if callable(self.start):
-            return self.start(scenario, dt)
-        return self.start
-
-    def bounds(self, scenario: Any, dt: float | None) -> tuple[float, float]:
-        """The absolute search box (NaN, NaN for a ``choice``)."""
-        if self.scale == "choice":
-            return math.nan, math.nan
-        unit = {"": 1.0, "friction": float(scenario.friction),
-                "start": float(self.start_value(scenario, dt))}[self.per]
-        return self.lower * unit, self.upper * unit
-
-    def describe(self, scenario: Any, dt: float | None) -> str:
-        """The knob in one line (the tuned file's ``[space]``)."""
-        start = self.start_value(scenario, dt)
-        if self.scale == "choice":
-            return (f"choice of {', '.join(repr(c) for c in self.choices)}; start {start!r}; "
-                    f"{self.meaning}")
-        lo, hi = self.bounds(scenario, dt)
-        per = {"": "", "friction": f" ({self.lower:g}–{self.upper:g} × μ)",
-               "start": f" ({self.lower:g}–{self.upper:g} × start)"}[self.per]
-        return f"{self.scale} in [{lo:.6g}, {hi:.6g}]{per}; start {start:.6g}; {self.meaning}"
-
-    def check(self, value: Any, engine: str) -> Any:
-        """The value validated (one-line ValueError naming the key)."""
-        name = f"tuned.{self.key}"
-        if self.scale == "choice":
-            for c in self.choices:  # 1 == True in Python: match the type too
-                if value == c and type(value) is type(c):
-                    return c
-                if isinstance(c, int) and not isinstance(c, bool) and isinstance(value, float) \
-                        and value == c:
-                    return c
-            raise ValueError(f"{name} = {value!r}: must be one of "
-                             f"{', '.join(repr(c) for c in self.choices)} ({engine})")
-        if isinstance(value, bool) or not isinstance(value, int | float):
-            raise ValueError(f"{name} = {value!r}: must be a number ({engine})")
-        if self.scale == "log":
-            return check.positive(name, float(value))
-        return check.non_negative(name, float(value))
+"""A knob's :attr:`~impactbench.engines.knobs.Knob.scale`."""
 
 
 def _mu(meaning: str, key: str) -> Knob:
-    return Knob(key, "linear", 0.5, 2.0, per="friction", start="friction", meaning=meaning)
+    return Knob(key, 0.5, 2.0, log=False, per="friction", initial=scenario_friction,
+                note=meaning)
 
 
 def _newton_kf(scenario: Any, dt: float | None) -> float:
@@ -118,10 +49,10 @@ def _newton_kf(scenario: Any, dt: float | None) -> float:
 
 
 MUJOCO = (
-    Knob("cone", "choice", start="pyramidal", choices=("pyramidal", "elliptic"),
-         meaning="MuJoCo's friction cone (option cone; native: its default pyramidal)"),
-    Knob("impratio", "log", 1.0, 1e4, start=1.0,
-         meaning="friction-to-normal impedance ratio (option impratio): the friction rows' "
+    Knob("cone", choices=("pyramidal", "elliptic"), initial="pyramidal",
+         note="MuJoCo's friction cone (option cone; native: its default pyramidal)"),
+    Knob("impratio", 1.0, 1e4, initial=1.0,
+         note="friction-to-normal impedance ratio (option impratio): the friction rows' "
                  "regulariser is the normal's / impratio (native: MuJoCo's default 1)"),
     _mu("the geoms' sliding friction (both geoms; MuJoCo takes the larger: the pair's μ)",
         "friction"),
@@ -129,8 +60,8 @@ MUJOCO = (
 """MuJoCo's and MJX's knobs. Left out: ``solreffriction`` (it needs an explicit ``<pair>``;
 the elliptic cone with a large ``impratio`` already sticks to 1e-4)."""
 PYBULLET = (
-    Knob("frictionAnchor", "choice", start=0, choices=(0, 1),
-         meaning="changeDynamics frictionAnchor on the ball: keep the contact point where "
+    Knob("frictionAnchor", choices=(0, 1), initial=0,
+         note="changeDynamics frictionAnchor on the ball: keep the contact point where "
                  "it was created (native: Bullet's default, off)"),
     _mu("changeDynamics lateralFriction on the ball (the plate's is 1; Bullet multiplies: "
         "the pair's μ)", "lateralFriction"),
@@ -139,8 +70,8 @@ DRAKE = (
     _mu("CoulombFriction(μ, μ) of both geometries (proximity property material/"
         "coulomb_friction, static = dynamic; Drake's pair rule 2ab/(a + b) gives μ)",
         "coulomb_friction"),
-    Knob("stiction_tolerance", "log", 1e-6, 1e-2, start=1e-4,
-         meaning="MultibodyPlant.set_stiction_tolerance (m/s): the regularised Stribeck "
+    Knob("stiction_tolerance", 1e-6, 1e-2, initial=1e-4,
+         note="MultibodyPlant.set_stiction_tolerance (m/s): the regularised Stribeck "
                  "friction rises to μ·F_n over this slip speed (native: Drake's 1e-4)"),
 )
 SAPIEN = (
@@ -157,8 +88,8 @@ DART = (
 )
 NEWTON = (
     _mu("ShapeConfig mu of both shapes (Newton averages)", "mu"),
-    Knob("kf", "log", 1e-3, 1.0, per="start", start=_newton_kf,
-         meaning="ShapeConfig kf (N·s/m): F_t = −kf·v_slip capped at μ·F_n; start the "
+    Knob("kf", 1e-3, 1.0, per="start", initial=_newton_kf,
+         note="ShapeConfig kf (N·s/m): F_t = −kf·v_slip capped at μ·F_n; start the "
                  "deadbeat m_s/dt, the stiffest that does not overshoot the stick (above "
                  "it the slip alternates in sign each step, beyond 2·m_s/dt it diverges)"),
 )
@@ -209,12 +140,12 @@ def knobs(engine: str) -> tuple[Knob, ...]:
 def tuned_keys(engine: str) -> tuple[str, ...] | None:
     """The keys an oblique tuned file's ``[parameters]`` may hold for ``engine`` (None: an
     engine without an oblique space, whose files are not checked)."""
-    return tuple(k.key for k in SPACES[engine]) if engine in SPACES else None
+    return tuple(k.name for k in SPACES[engine]) if engine in SPACES else None
 
 
 def start_values(engine: str, scenario: Any, dt: float | None) -> dict[str, Any]:
     """The native run's value of every knob (the fit's start)."""
-    return {k.key: k.start_value(scenario, dt) for k in knobs(engine)}
+    return {k.name: k.start_value(scenario, dt) for k in knobs(engine)}
 
 
 def refused(engine: str, settings: Any) -> ImpactRecord | None:
@@ -246,8 +177,8 @@ def friction(engine: str, settings: Any, scenario: Any, dt: float | None = None
     given = settings.tuned or {}
     out = {}
     for k in knobs(engine):
-        out[k.key] = (k.check(given[k.key], engine) if k.key in given
-                      else k.start_value(scenario, dt))
+        out[k.name] = (k.check(given[k.name], engine) if k.name in given
+                       else k.start_value(scenario, dt))
     return out
 
 

@@ -116,65 +116,75 @@ class EngineSpec:
         return self.color or fallback_color(self.name)
 
 
-_TUNE = "impactbench.tuning.spaces"
-_MORE = "impactbench.tuning.spaces_extras"
-_FRICTION = "impactbench.engines.oblique_tuned"
-_TOSSES = "impactbench.cube_tosses.spaces"
-
 FITS: dict[str, str] = {
     "friction": "the oblique impact's friction knobs (impactbench.tuning.oblique)",
     "tosses": "the cube tosses' contact knobs (impactbench.cube_tosses.tune)",
 }
 """The fits whose knobs an :class:`EngineSpec` lists in ``spaces`` (besides ``tuning``)."""
 
-
-def _spaces(const: str, friction: bool = True, tosses: bool = True
-            ) -> tuple[tuple[str, str], ...]:
-    """The ``spaces`` entries of an engine whose knobs are ``const`` in each fit's module."""
-    return ((("friction", f"{_FRICTION}:{const}"),) if friction else ()) + (
-        (("tosses", f"{_TOSSES}:{const}"),) if tosses else ())
-
-
+# Every tuning space is an engine-layer module's (impactbench.engines.tuning_spaces and
+# tuning_spaces_extras: the ball's; oblique_tuned: the oblique friction knobs;
+# cube_toss_spaces: the cube tosses'), spelled out in full: tests/impactbench/
+# test_architecture.py reads these strings as import arrows.
 BUILTIN: tuple[EngineSpec, ...] = (
     EngineSpec("mujoco", "impactbench.engines.mujoco_adapter:MujocoAdapter",
                "pip install mujoco", "mujoco", "mujoco", "mujoco",
-               (("solref+solimp", f"{_TUNE}:mujoco_space"), ("solref", f"{_TUNE}:mujoco_space")),
-               (2e-3, 1e-3), color="tab:blue", spaces=_spaces("MUJOCO")),
+               (("solref+solimp", "impactbench.engines.tuning_spaces:mujoco_space"),
+                ("solref", "impactbench.engines.tuning_spaces:mujoco_space")),
+               (2e-3, 1e-3), color="tab:blue",
+               spaces=(("friction", "impactbench.engines.oblique_tuned:MUJOCO"),
+                       ("tosses", "impactbench.engines.cube_toss_spaces:MUJOCO"))),
     EngineSpec("pybullet", "impactbench.engines.pybullet_adapter:PybulletAdapter",
                "pip install pybullet", "pybullet", "pybullet", "pybullet",
-               (("stiffness+damping", f"{_TUNE}:pybullet_space"),), (1 / 240,),
-               color="tab:orange", spaces=_spaces("PYBULLET")),
+               (("stiffness+damping", "impactbench.engines.tuning_spaces:pybullet_space"),),
+               (1 / 240,), color="tab:orange",
+               spaces=(("friction", "impactbench.engines.oblique_tuned:PYBULLET"),
+                       ("tosses", "impactbench.engines.cube_toss_spaces:PYBULLET"))),
     EngineSpec("pymunk", "impactbench.engines.pymunk_adapter:PymunkAdapter",
                "pip install pymunk", "pymunk", "pymunk", "pymunk",
-               (("elasticity", f"{_TUNE}:pymunk_space"),
-                ("restitution-law", f"{_TUNE}:pymunk_space")),
-               (1 / 60, 1e-3), color="tab:green", spaces=_spaces("PYMUNK", tosses=False)),
+               (("elasticity", "impactbench.engines.tuning_spaces:pymunk_space"),
+                ("restitution-law", "impactbench.engines.tuning_spaces:pymunk_space")),
+               (1 / 60, 1e-3), color="tab:green",
+               spaces=(("friction", "impactbench.engines.oblique_tuned:PYMUNK"),)),
     EngineSpec("drake", "impactbench.engines.drake_adapter:DrakeAdapter",
                "pip install drake", "drake", "drake", "pydrake",
-               (("stiffness+dissipation", f"{_TUNE}:drake_space"),
-                ("stiffness+relaxation", f"{_TUNE}:drake_relaxation_space")),
-               (1e-3,), color="tab:red", spaces=_spaces("DRAKE")),
+               (("stiffness+dissipation", "impactbench.engines.tuning_spaces:drake_space"),
+                ("stiffness+relaxation",
+                 "impactbench.engines.tuning_spaces:drake_relaxation_space")),
+               (1e-3,), color="tab:red",
+               spaces=(("friction", "impactbench.engines.oblique_tuned:DRAKE"),
+                       ("tosses", "impactbench.engines.cube_toss_spaces:DRAKE"))),
     EngineSpec("sapien", "impactbench.engines.sapien_adapter:SapienAdapter",
                "pip install sapien", "sapien", "sapien", "sapien",
-               (("compliant-stiffness", f"{_MORE}:sapien_space"),
-                ("restitution", f"{_MORE}:sapien_space")), color="tab:purple",
-               spaces=_spaces("SAPIEN")),
+               (("compliant-stiffness", "impactbench.engines.tuning_spaces_extras:sapien_space"),
+                ("restitution", "impactbench.engines.tuning_spaces_extras:sapien_space")),
+               color="tab:purple",
+               spaces=(("friction", "impactbench.engines.oblique_tuned:SAPIEN"),
+                       ("tosses", "impactbench.engines.cube_toss_spaces:SAPIEN"))),
     EngineSpec("dart", "impactbench.engines.dart_adapter:DartAdapter",
                "pip install dartpy", "dart", "dartpy", "dartpy",
-               (("restitution", f"{_MORE}:dart_space"),), color="tab:brown",
-               spaces=_spaces("DART")),
+               (("restitution", "impactbench.engines.tuning_spaces_extras:dart_space"),),
+               color="tab:brown",
+               spaces=(("friction", "impactbench.engines.oblique_tuned:DART"),
+                       ("tosses", "impactbench.engines.cube_toss_spaces:DART"))),
     EngineSpec("box2d", "impactbench.engines.box2d_adapter:Box2dAdapter",
                "pip install box2d", "box2d", "box2d", "Box2D",
-               (("restitution", f"{_MORE}:box2d_space"),), color="tab:pink",
-               spaces=_spaces("BOX2D", tosses=False)),
+               (("restitution", "impactbench.engines.tuning_spaces_extras:box2d_space"),),
+               color="tab:pink",
+               spaces=(("friction", "impactbench.engines.oblique_tuned:BOX2D"),)),
     EngineSpec("mjx", "impactbench.engines.mjx_adapter:MjxAdapter",
                "pip install mujoco-mjx jax", "mjx", "mujoco-mjx", "mujoco.mjx",
-               (("solref+solimp", f"{_TUNE}:mujoco_space"), ("solref", f"{_TUNE}:mujoco_space")),
-               color="tab:cyan", spaces=_spaces("MUJOCO")),
+               (("solref+solimp", "impactbench.engines.tuning_spaces:mujoco_space"),
+                ("solref", "impactbench.engines.tuning_spaces:mujoco_space")),
+               color="tab:cyan",
+               spaces=(("friction", "impactbench.engines.oblique_tuned:MUJOCO"),
+                       ("tosses", "impactbench.engines.cube_toss_spaces:MUJOCO"))),
     EngineSpec("newton", "impactbench.engines.newton_adapter:NewtonAdapter",
                "pip install newton", "newton", "newton", "newton",
-               (("ke+kd", f"{_MORE}:newton_space"),), color="tab:olive",
-               spaces=_spaces("NEWTON")),
+               (("ke+kd", "impactbench.engines.tuning_spaces_extras:newton_space"),),
+               color="tab:olive",
+               spaces=(("friction", "impactbench.engines.oblique_tuned:NEWTON"),
+                       ("tosses", "impactbench.engines.cube_toss_spaces:NEWTON"))),
 )
 """The packaged engines, in the report's order (colours: matplotlib's tab10, one each)."""
 

@@ -339,10 +339,15 @@ class Runner:
         if workers is not None and (isinstance(workers, bool) or workers < 0):
             raise ValueError(f"workers = {workers!r}: must be an integer >= 0")
         self.workers = workers
-        self.min_dispatch_s = min_dispatch_s
-        """Work estimated below this (s) runs in this process: a cluster start (~1 s) and a
-        round trip to a worker (~10–30 ms) would cost more than it saves."""
         self.scheduler = scheduler or os.environ.get(SCHEDULER_ENV) or None
+        self.scheduler_source = ("" if not self.scheduler else "--scheduler" if scheduler
+                                 else f"${SCHEDULER_ENV}")
+        """Where the scheduler address came from (what a connection error names)."""
+        self.min_dispatch_s = 0.0 if self.scheduler else min_dispatch_s
+        """Work estimated below this (s) runs in this process: a cluster start (~1 s) and a
+        round trip to a worker (~10–30 ms) would cost more than it saves. A scheduler the user
+        named (``--scheduler`` or ``$IMPACTBENCH_SCHEDULER``) gets all the work: so it runs
+        where the user said, and an address nothing listens on is an error, not ignored."""
         self._stack: contextlib.ExitStack | None = None
         self._client: Any = None
         self.dispatched = 0
@@ -396,7 +401,12 @@ class Runner:
         if self._client is None:
             n = self.size if at_most is None else max(1, min(self.size, at_most))
             stack = contextlib.ExitStack()
-            self._client = stack.enter_context(client(n, self.scheduler))
+            try:
+                self._client = stack.enter_context(client(n, self.scheduler))
+            except ValueError as exc:
+                if self.scheduler_source.startswith("$"):  # say where the address came from
+                    raise ValueError(f"{exc} (from {self.scheduler_source})") from None
+                raise
             self._stack = stack
         return self._client
 

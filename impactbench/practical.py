@@ -253,8 +253,8 @@ def settings_snippet(runs: list) -> tuple[str, str]:
                 "# impactbench run --mode native")
     if job.mode != "tuned":
         return job.mode, ""
+    from impactbench.engines.tuning_spaces import make_space
     from impactbench.matrix import job_settings
-    from impactbench.tuning.spaces import make_space
 
     settings = job_settings(job)
     tuned, prov = settings.tuned or {}, settings.tuned_for or {}

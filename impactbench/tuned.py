@@ -91,8 +91,8 @@ def tuned_keys(engine: str, scenario: str | None = None) -> tuple[str, ...] | No
 
     from impactbench.engines.base import EngineUnavailable
     from impactbench.engines.registry import spec
+    from impactbench.engines.tuning_spaces import make_space
     from impactbench.scenarios import for_study
-    from impactbench.tuning.spaces import make_space
 
     engine_spec = spec(engine)
     keys: dict[str, None] = {}

@@ -1,10 +1,11 @@
 """Fitting an engine's contact parameters to the cube tosses, on the training split only.
 
-``tune(engine, budget)`` searches the engine's parameter space (:mod:`~impactbench.cube_tosses.
-spaces`, named by the engine's :class:`~impactbench.engines.registry.EngineSpec`) with the one
-tuner (:mod:`impactbench.tuning.search`: its ``nevergrad`` method; ``pip install nevergrad``;
-DAIR fitted with its ``NGOpt``) and returns a :class:`CubeTuneFit`; :func:`write_tuned` writes it
-as a packaged tuned file ``impactbench/data/tuned/cube_toss/<engine>.toml`` (``[parameters]`` in
+``tune(engine, budget)`` searches the engine's parameter space
+(:mod:`~impactbench.engines.cube_toss_spaces`, named by the engine's
+:class:`~impactbench.engines.registry.EngineSpec`) with the one tuner
+(:mod:`impactbench.tuning.search`: its ``nevergrad`` method; ``pip install nevergrad``; DAIR
+fitted with its ``NGOpt``) and returns a :class:`CubeTuneFit`; :func:`write_tuned` writes it as
+a packaged tuned file ``impactbench/data/tuned/cube_toss/<engine>.toml`` (``[parameters]`` in
 the engine's own keys, as ``replay(engine, "custom", params=…)`` takes them; :func:`load_tuned`
 reads them).
 
@@ -26,10 +27,11 @@ fails or goes non-finite counts :data:`FAILED_TOSS_ERROR` widths.
 - **Batches.** The optimiser asks a whole CMA-ES generation at once
   (:func:`impactbench.tuning.search.nevergrad`); its runs go to ``run_jobs`` together, which runs
   them in this process, or on Dask workers (``workers``; the same numbers).
-- **Parameter spaces** (:data:`SPACES`, :mod:`~impactbench.cube_tosses.spaces`): named knobs with
-  bounds, log-scaled where a knob spans decades, a categorical where the engine has a discrete
-  choice (MuJoCo's friction cone). The start is the middle of each box, never DAIR's fitted
-  values: those were fitted on all tosses, test tosses included.
+- **Parameter spaces** (:data:`SPACES`, :mod:`~impactbench.engines.cube_toss_spaces`, in the
+  engine layer): named knobs with bounds, log-scaled where a knob spans decades, a categorical
+  where the engine has a discrete choice (MuJoCo's friction cone). The start is the middle of
+  each box, never DAIR's fitted values: those were fitted on all tosses, test tosses
+  included.
 - **Optimiser**: nevergrad ``CMA`` by default (the ``cma`` package's CMA-ES; its candidates
   depend on the seed and the evaluations so far, never on the budget, so a longer budget repeats
   the shorter run's candidates — served from the store — and continues). Any nevergrad name
@@ -61,7 +63,7 @@ import pandas as pd
 import impactbench.cube_tosses.data as data_mod
 import impactbench.engines.cube_toss as engines_mod
 from impactbench.cube_tosses.protocol import Protocol, summarize
-from impactbench.cube_tosses.spaces import (
+from impactbench.engines.cube_toss_spaces import (
     DRAKE_APPROXIMATION,
     SPACES,
     Knob,
@@ -182,7 +184,7 @@ def data_file(data: pd.DataFrame | str | Path | None) -> str | None:
 class Replays:
     """The fit's batch objective (:class:`~impactbench.tuning.search.BatchObjective`): each
     candidate (knob name → value) is a ``custom`` run of ``scenario`` with the engine
-    parameters it maps to (:func:`~impactbench.cube_tosses.spaces.engine_params`), a batch's
+    parameters it maps to (:func:`~impactbench.engines.cube_toss_spaces.engine_params`), a batch's
     runs handed to :func:`impactbench.matrix.run_jobs` at once (served by ``store`` where it has
     them; the rest in this process, or on ``workers`` Dask workers / a ``scheduler``), then
     scored (:func:`evaluation_of`). Keeps every evaluation in order (``history``), the best,

@@ -76,7 +76,7 @@ class CubeToss:
         inertia_kg_m2: its moment of inertia about each principal axis (kg·m²).
         data: a CSV of tosses (:mod:`impactbench.cube_tosses.data`'s columns); "" for the
             packaged ContactNets tosses.
-        tosses: ``test``, ``train``, ``all`` or ids ``0,1,57``; "" (the default) is ``test`` for
+        tosses: ``test``, ``train``, ``all`` or ids ``0,1,57``; None (the default) is ``test`` for
             the packaged data and ``all`` for a user's file (normalised on construction).
         substeps: engine steps per sample interval (DAIR: 10; the engine step is
             sample_dt_s / substeps).
@@ -91,7 +91,7 @@ class CubeToss:
     mass_kg: float = MASS_KG
     inertia_kg_m2: float = INERTIA_KG_M2
     data: str = ""
-    tosses: str = ""
+    tosses: str | None = None
     substeps: int = SUBSTEPS
     start_rule: str = "drop"
     samples_before: int = 3
@@ -109,7 +109,7 @@ class CubeToss:
             raise ValueError(f"data = {self.data!r}: must be a path (a string)")
         if self.data and not os.path.isfile(self.data):
             raise ValueError(f"data = {self.data!r}: no such file")
-        if self.tosses == "":
+        if self.tosses is None:  # (an empty selection, "", is an error: parse_tosses)
             set_(self, "tosses", "all" if self.data else "test")
         selection = parse_tosses(self.tosses)
         set_(self, "tosses", selection if isinstance(selection, str)

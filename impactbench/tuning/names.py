@@ -19,7 +19,11 @@ DEFAULT_BUDGET_S = 120.0
 """Wall-time budget of one tuning run (s)."""
 
 SOLREF_FORMS = ("direct", "timeconst")
+"""MuJoCo's solref forms, for ``--solref-form`` (the same as
+:data:`impactbench.engines.tuning_spaces.SOLREF_FORMS`, which validates them: that module
+imports numpy, this one must not)."""
 
 VARIANTS: dict[str, tuple[str, ...]] = {s.name: s.variants for s in BUILTIN if s.variants}
 """Each tunable engine's parameter sets (the first is the default), from its
-:class:`~impactbench.engines.registry.EngineSpec`."""
+:class:`~impactbench.engines.registry.EngineSpec` (as
+:data:`impactbench.engines.tuning_spaces.VARIANTS`, without numpy)."""

@@ -32,6 +32,7 @@ from typing import Any
 
 import numpy as np
 
+from impactbench.engines.tuning_spaces import Space
 from impactbench.evaluate import compare, reference_metrics
 from impactbench.reference import validation as check
 from impactbench.reference.metrics import BALL_METRICS, relative_error
@@ -39,7 +40,6 @@ from impactbench.reference.record import Status
 from impactbench.reference.scenarios import BallOnPlate
 from impactbench.tuning.names import DEFAULT_TARGETS, TARGETS
 from impactbench.tuning.search import OutOfBudget
-from impactbench.tuning.spaces import Space
 
 FAILED_RESIDUAL = 10.0
 FLUSH_EVERY_S = 2.0

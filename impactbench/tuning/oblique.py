@@ -38,7 +38,7 @@ import numpy as np
 
 from impactbench.engines import oblique_tuned
 from impactbench.engines.base import RunSettings, get_adapter, run_safely
-from impactbench.engines.oblique_tuned import Knob
+from impactbench.engines.knobs import Knob
 from impactbench.reference import validation as check
 from impactbench.reference.record import Status
 from impactbench.tuning import search
@@ -256,13 +256,7 @@ def fit(engine: str, scenario: Any = None, angles_deg: Sequence[float] | None = 
 def knob_space(knobs: Sequence[Knob], scenario: Any, dt: float) -> search.KnobSpace:
     """The one tuner's space of the oblique knobs for ``scenario`` at step ``dt``: each knob's
     absolute box and its start (the native run's value)."""
-    out = []
-    for k in knobs:
-        lo, hi = k.bounds(scenario, dt)
-        out.append(search.Knob(k.key, lo, hi, log=k.scale == "log",
-                               choices=tuple(k.choices) if k.scale == "choice" else (),
-                               note=k.meaning, initial=k.start_value(scenario, dt)))
-    return search.KnobSpace(tuple(out))
+    return search.KnobSpace(tuple(k.resolve(scenario, dt) for k in knobs))
 
 
 @dataclass
@@ -335,8 +329,8 @@ def summary_rows(result: ObliqueFit) -> list[dict[str, Any]]:
 def parameter_rows(result: ObliqueFit) -> list[dict[str, Any]]:
     """Per knob: the native (start) and tuned value and the searched space."""
     s, dt = result.scenario, result.timestep_s
-    return [{"key": k.key, "native": result.start.parameters[k.key],
-             "tuned": result.tuned.parameters[k.key], "space": k.describe(s, dt)}
+    return [{"key": k.name, "native": result.start.parameters[k.name],
+             "tuned": result.tuned.parameters[k.name], "space": k.summary(s, dt)}
             for k in result.knobs]
 
 
@@ -392,7 +386,7 @@ def tables(result: ObliqueFit) -> dict[str, dict[str, Any]]:
         res[f"{k}_rel_error_native"] = [e[k] for e in result.native.rel_errors]
         res[f"{k}_tuned"] = [m[k] for m in result.tuned.metrics]
         res[f"{k}_rel_error_tuned"] = [e[k] for e in result.tuned.rel_errors]
-    space = {k.key: k.describe(s, result.timestep_s) for k in result.knobs}
+    space = {k.name: k.summary(s, result.timestep_s) for k in result.knobs}
     return {"parameters": result.parameters, "start": result.start_parameters, "space": space,
             "provenance": prov, "residuals": res}
 

@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from impactbench.engines.base import get_adapter
+from impactbench.engines.tuning_spaces import SAP_LIMIT, Space, make_space
 from impactbench.evaluate import reference_metrics
 from impactbench.reference import validation as check
 from impactbench.reference.metrics import BALL_METRICS, MIN_CONTACT_SAMPLES, TIME_RESOLVED
@@ -46,7 +47,6 @@ from impactbench.tuning.objective import (
     quiet,
 )
 from impactbench.tuning.search import SEED
-from impactbench.tuning.spaces import SAP_LIMIT, Space, make_space
 
 __all__ = ["COARSE_SCAN_POINTS", "SEED", "Interrupted", "TuneResult", "search", "tune"]
 COARSE_SCAN_POINTS = 64
@@ -159,7 +159,8 @@ def tune(engine: str, scenario: BallOnPlate | None = None,
         velocities_m_s: impact velocities of the objective (default the paper's 0.5–5 m/s).
         targets: metric names (:data:`~impactbench.tuning.objective.TARGETS`; default
             restitution, duration, peak_force) and ``weights`` (≥ 0, one per target).
-        parameters: the engine's parameter set (:data:`~impactbench.tuning.spaces.VARIANTS`).
+        parameters: the engine's parameter set
+            (:data:`~impactbench.engines.tuning_spaces.VARIANTS`).
         solref_form: MuJoCo's solref form, ``direct`` (−S, −D) or ``timeconst`` (τ, ζ).
         timestep_s: integration step (default: the adapter's, 1e-6 s for the ball).
         budget_s, max_evals: wall-time and evaluation budgets (stop cleanly, keep the best).
@@ -200,7 +201,7 @@ def tune(engine: str, scenario: BallOnPlate | None = None,
     adapter = get_adapter(engine)  # ValueError for an unknown engine; EngineUnavailable
     space = make_space(engine, scenario, parameters, solref_form, timestep_s)
     if start is not None:
-        from impactbench.tuning.spaces import with_start
+        from impactbench.engines.tuning_spaces import with_start
 
         space = with_start(space, tuple(start))
     if fixed:

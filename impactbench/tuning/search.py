@@ -6,8 +6,10 @@ contact parameters (:mod:`impactbench.cube_tosses.tune`, and the reference model
 :func:`search` of three parts:
 
 - **a space**: named knobs (:class:`Knob`: bounds, log or linear, a categorical's choices, the
-  start), as :class:`KnobSpace`; the ball's own :class:`impactbench.tuning.spaces.Space` (all
-  log knobs, mapped with numpy) is the other :class:`UnitSpace`. Where a knob set lives:
+  start), as :class:`KnobSpace` (both in the engine layer, :mod:`impactbench.engines.knobs`,
+  beside the engines' spaces; re-exported here); the ball's own
+  :class:`impactbench.engines.tuning_spaces.Space` (all log knobs, mapped with numpy) is the
+  other :class:`UnitSpace`. Where a knob set lives:
   the engine's :class:`~impactbench.engines.registry.EngineSpec` names it (``tuning``: the
   ball's parameterisations; ``spaces``: the oblique friction knobs and the cube tosses').
 - **an objective evaluated on a batch**: :class:`BatchObjective` ``evaluate_batch(candidates)
@@ -45,7 +47,6 @@ past its budget; the method stops there, keeping the best so far.
 
 from __future__ import annotations
 
-import itertools
 import math
 import time
 import warnings
@@ -54,6 +55,8 @@ from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 import numpy as np
+
+from impactbench.engines.knobs import Knob, KnobSpace
 
 SEED = 20240607
 """The default seed of every seeded stage (Sobol scans, nevergrad)."""
@@ -66,65 +69,6 @@ class OutOfBudget(Exception):
     """The time or evaluation budget is spent (the search stops, keeping the best)."""
 
 
-@dataclass(frozen=True)
-class Knob:
-    """One searched quantity: a number in [low, high], searched in ln when ``log``, or one of
-    ``choices``. ``initial`` is the start; None: the middle of the box (the geometric mean of a
-    log knob), a categorical's first choice. ``unit`` and ``note`` describe it."""
-
-    name: str
-    low: float = math.nan
-    high: float = math.nan
-    log: bool = True
-    choices: tuple[Any, ...] = ()
-    unit: str = ""
-    note: str = ""
-    initial: Any = None
-
-    @property
-    def scale(self) -> str:
-        """``choice``, ``log`` or ``linear``."""
-        return "choice" if self.choices else ("log" if self.log else "linear")
-
-    @property
-    def start(self) -> Any:
-        if self.initial is not None:
-            return self.initial
-        if self.choices:
-            return self.choices[0]
-        return math.sqrt(self.low * self.high) if self.log else 0.5 * (self.low + self.high)
-
-    def describe(self) -> dict[str, Any]:
-        """The knob as a table (a tuned file's ``[space]``)."""
-        if self.choices:
-            return {"name": self.name, "choices": list(self.choices), "start": self.start,
-                    "note": self.note}
-        return {"name": self.name, "low": self.low, "high": self.high, "scale": self.scale,
-                "start": self.start, "unit": self.unit, "note": self.note}
-
-    def from_unit(self, u: float) -> float:
-        """The value at unit coordinate ``u`` ∈ [0, 1] (clipped; the result kept in the box:
-        exp(log(high)) may round past it)."""
-        lo, hi = self.low, self.high
-        u = min(max(float(u), 0.0), 1.0)
-        if self.log:
-            value = math.exp(math.log(lo) + u * (math.log(hi) - math.log(lo)))
-        else:
-            value = lo + u * (hi - lo)
-        return float(min(max(value, lo), hi))
-
-    def to_unit(self, value: float) -> float:
-        """The unit coordinate of ``value`` (clipped into [0, 1])."""
-        lo, hi = self.low, self.high
-        if hi == lo:
-            return 0.0
-        if self.log:
-            u = (math.log(value) - math.log(lo)) / (math.log(hi) - math.log(lo))
-        else:
-            u = (value - lo) / (hi - lo)
-        return min(max(u, 0.0), 1.0)
-
-
 class UnitSpace(Protocol):
     """A space the coordinate-based methods search: its continuous knobs map to the unit box."""
 
@@ -135,69 +79,6 @@ class UnitSpace(Protocol):
 
     def from_unit(self, u: Sequence[float], fixed: Mapping[str, Any] | None = None
                   ) -> Candidate: ...
-
-
-@dataclass(frozen=True)
-class KnobSpace:
-    """Knobs searched together (:class:`UnitSpace`: the continuous knobs in unit coordinates,
-    each log or linear; the categorical ones enumerated by :meth:`combos`)."""
-
-    knobs: tuple[Knob, ...]
-
-    def __post_init__(self) -> None:
-        names = [k.name for k in self.knobs]
-        if len(set(names)) != len(names):
-            raise ValueError(f"knobs = {names}: each name once")
-        for k in self.knobs:
-            if k.choices:
-                continue
-            if not (math.isfinite(k.low) and math.isfinite(k.high) and k.low <= k.high):
-                raise ValueError(f"knob {k.name}: low = {k.low!r}, high = {k.high!r}: must be "
-                                 "finite with low <= high")
-            if k.log and k.low <= 0:
-                raise ValueError(f"knob {k.name}: low = {k.low!r}: a log knob must be > 0")
-
-    @property
-    def names(self) -> tuple[str, ...]:
-        return tuple(k.name for k in self.knobs)
-
-    @property
-    def continuous(self) -> tuple[Knob, ...]:
-        return tuple(k for k in self.knobs if not k.choices)
-
-    @property
-    def categorical(self) -> tuple[Knob, ...]:
-        return tuple(k for k in self.knobs if k.choices)
-
-    @property
-    def start_candidate(self) -> Candidate:
-        return {k.name: k.start for k in self.knobs}
-
-    def to_unit(self, candidate: Mapping[str, Any]) -> np.ndarray:
-        return np.array([k.to_unit(float(candidate[k.name])) for k in self.continuous])
-
-    def from_unit(self, u: Sequence[float], fixed: Mapping[str, Any] | None = None
-                  ) -> Candidate:
-        """The candidate at unit coordinates ``u`` of the continuous knobs, the categorical
-        ones from ``fixed`` (default their start); in the knobs' order. The start's own
-        coordinates give the start's values exactly (not through exp(log))."""
-        start = self.start_candidate
-        u = np.asarray(u, dtype=float)
-        at_start = np.array_equal(u, self.to_unit(start))
-        out = {k.name: (fixed or {}).get(k.name, start[k.name]) for k in self.categorical}
-        for k, ui in zip(self.continuous, u, strict=True):
-            out[k.name] = start[k.name] if at_start else k.from_unit(ui)
-        return {k.name: out[k.name] for k in self.knobs}
-
-    def combos(self, first: Mapping[str, Any] | None = None) -> list[dict[str, Any]]:
-        """Every combination of the categorical knobs, ``first``'s (default the start's)
-        first."""
-        cat = self.categorical
-        combos = [dict(zip([k.name for k in cat], values, strict=True))
-                  for values in itertools.product(*(k.choices for k in cat))]
-        base = self.start_candidate if first is None else first
-        head = {k.name: base[k.name] for k in cat}
-        return [head] + [c for c in combos if c != head]
 
 
 class BatchObjective(Protocol):

@@ -32,13 +32,49 @@ def modules() -> dict[str, Path]:
 
 STRING_ARROW = re.compile(r"^(impactbench(?:\.\w+)*):\w+(?:\.\w+)*$")
 """A ``"module:attr"`` string naming a project object (what a registry loads by name)."""
+UNKNOWN = "X"
+"""What an f-string's replacement field that is no module-level string constant reads as: a
+word, so ``f"{MODULE}:{name}"`` is still ``"module:attr"`` and ``f"impactbench.a.b_{x}:f"``
+names ``impactbench.a.b_X`` (not a module: the arrow goes to its package, ``impactbench.a``)."""
+
+
+def module_constants(tree: ast.AST) -> dict[str, str]:
+    """The module-level string constants of ``tree`` (``NAME = "text"``), by name."""
+    out: dict[str, str] = {}
+    for node in getattr(tree, "body", []):
+        if isinstance(node, ast.Assign | ast.AnnAssign) and isinstance(node.value, ast.Constant) \
+                and isinstance(node.value.value, str):
+            targets = node.targets if isinstance(node, ast.Assign) else [node.target]
+            out.update((t.id, node.value.value) for t in targets if isinstance(t, ast.Name))
+    return out
+
+
+def f_string_text(node: ast.JoinedStr, constants: dict[str, str]) -> str:
+    """The text of an f-string with each ``{NAME}`` of a module-level string constant filled
+    in (no conversion or format) and any other field :data:`UNKNOWN`."""
+    parts = []
+    for value in node.values:
+        if isinstance(value, ast.Constant):
+            parts.append(str(value.value))
+        elif isinstance(value, ast.FormattedValue) and isinstance(value.value, ast.Name) \
+                and value.value.id in constants and value.conversion == -1 \
+                and value.format_spec is None:
+            parts.append(constants[value.value.id])
+        else:
+            parts.append(UNKNOWN)
+    return "".join(parts)
 
 
 def string_arrows(tree: ast.AST) -> set[str]:
-    """The modules ``"module:attr"`` strings in ``tree`` name."""
-    return {m.group(1) for node in ast.walk(tree)
-            if isinstance(node, ast.Constant) and isinstance(node.value, str)
-            and (m := STRING_ARROW.match(node.value))}
+    """The modules ``"module:attr"`` strings in ``tree`` name: string constants, and f-strings
+    read through the module's string constants (``f"{_SPACES}:mujoco_space"`` with
+    ``_SPACES = "impactbench.x"`` names ``impactbench.x``; :func:`f_string_text`)."""
+    constants = module_constants(tree)
+    texts = [node.value if isinstance(node, ast.Constant) else f_string_text(node, constants)
+             for node in ast.walk(tree)
+             if (isinstance(node, ast.Constant) and isinstance(node.value, str))
+             or isinstance(node, ast.JoinedStr)]
+    return {m.group(1) for text in texts if (m := STRING_ARROW.match(text))}
 
 
 def import_graph(strings: bool = True) -> dict[str, set[str]]:
@@ -139,6 +175,32 @@ def test_a_string_arrow_the_wrong_way_would_be_found() -> None:
     graph = import_graph()
     assert "impactbench.scenarios.ball_on_plate" in graph["impactbench.scenarios"]
     assert "impactbench.engines.mujoco_adapter" in graph["impactbench.engines.registry"]
+
+
+def test_an_f_string_arrow_the_wrong_way_would_be_found() -> None:
+    """An f-string is read through the module's string constants: the registry's tuning spaces
+    as they were (``f"{_TUNE}:mujoco_space"``, ``f"{_TOSSES}:{const}"``, pointing into the
+    suite) are wrong-way arrows from the engine layer; a field that is no constant still leaves
+    the module's package."""
+    tree = ast.parse(
+        '_TUNE = "impactbench.tuning.spaces"\n'
+        '_TOSSES: str = "impactbench.cube_tosses.spaces"\n'
+        'A = (("solref", f"{_TUNE}:mujoco_space"),)\n'
+        'def _spaces(const):\n    return (("tosses", f"{_TOSSES}:{const}"),)\n'
+        'B = f"impactbench.commands.tune_{scenario}:main"\n'
+        'NOT = (f"{_TUNE}.{x}", f"{_TUNE!r}:a", f"{other}:b", f"impactbench.report {x}:y")\n')
+    found = string_arrows(tree)
+    assert found == {"impactbench.tuning.spaces", "impactbench.cube_tosses.spaces",
+                     "impactbench.commands.tune_X"}
+    engine = "impactbench.engines.registry"
+    assert all(layer(m) > layer(engine) for m in found)
+    # the registry itself: every tuning space it names is an engine-layer module
+    graph = import_graph()
+    named = string_arrows(ast.parse(modules()[engine].read_text()))
+    assert {"impactbench.engines.tuning_spaces", "impactbench.engines.tuning_spaces_extras",
+            "impactbench.engines.oblique_tuned", "impactbench.engines.cube_toss_spaces"} <= named
+    assert all(layer(m) == 1 for m in named) and named - {"impactbench.engines.plugins"} \
+        <= graph[engine]
 
 
 def test_one_string_per_registry_entry() -> None:

@@ -67,9 +67,8 @@ def test_packaged_file_is_no_worse_than_native(engine: str) -> None:
 def test_every_engines_spaces_are_named_by_its_spec() -> None:
     """One place per engine: its EngineSpec names its ball parameterisations (``tuning``) and
     its oblique friction and cube-toss knobs (``spaces``); the knob tables read the specs."""
+    from impactbench.engines import cube_toss_spaces as toss_spaces
     from impactbench.engines import oblique_tuned, registry
-
-    from impactbench.cube_tosses import spaces as toss_spaces
 
     for name, spec in registry.SPECS.items():
         spaces = dict(spec.spaces)

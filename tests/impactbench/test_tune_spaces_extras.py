@@ -1,5 +1,5 @@
-"""``impactbench tune`` for SAPIEN, DART, Box2D, MJX and Newton (``tuning/spaces_extras.py`` and
-MuJoCo's space for MJX): each recovers its own parameters from targets the engine made, is
+"""``impactbench tune`` for SAPIEN, DART, Box2D, MJX and Newton (``engines/tuning_spaces_extras.py``
+and MuJoCo's space for MJX): each recovers its own parameters from targets the engine made, is
 never worse than its start (the native conversion), and says what it cannot express."""
 
 from __future__ import annotations

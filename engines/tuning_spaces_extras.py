@@ -1,5 +1,6 @@
-"""Tuning spaces of SAPIEN (PhysX 5), DART, Box2D and Newton (see :mod:`.spaces` for the
-:class:`~impactbench.tuning.spaces.Space` contract and MuJoCo/MJX, PyBullet, pymunk, Drake).
+"""Tuning spaces of SAPIEN (PhysX 5), DART, Box2D and Newton (see :mod:`.tuning_spaces` for the
+:class:`~impactbench.engines.tuning_spaces.Space` contract and MuJoCo/MJX, PyBullet, pymunk,
+Drake).
 
 Force laws and units (x penetration, ẋ its rate, m the ball's mass, V0 the impact velocity):
 
@@ -34,10 +35,8 @@ from collections.abc import Callable
 from typing import Any
 
 import numpy as np
-
 from impactbench.engines.common import NATIVE_REFERENCE_VELOCITY_M_S
-from impactbench.reference.scenarios import BallOnPlate
-from impactbench.tuning.spaces import (
+from impactbench.engines.tuning_spaces import (
     ALL_METRICS,
     LINEAR_LIMITS,
     RIGID_LIMITS,
@@ -46,6 +45,7 @@ from impactbench.tuning.spaces import (
     _decades,
     _step_floor,
 )
+from impactbench.reference.scenarios import BallOnPlate
 
 SAPIEN_DIFF_STEP = 2e-2
 """PhysX's float32 compliant contact: duration and peak force jitter by ~1e-3 (relative)

@@ -50,7 +50,10 @@ Engines and their force laws (x penetration, ẋ its rate, m the ball's mass):
   shape ``ke`` (N/m) and ``kd`` (N·s/m), averaged over the two shapes; damping acts only while
   approaching, so e = exp(−ζφ/√(1−ζ²)) with ζ = kd/(2√(ke·m)), φ = atan2(√(1−ζ²), ζ).
 
-The last four (the optional extras) live in :mod:`~impactbench.tuning.spaces_extras`.
+The last four (the optional extras) live in :mod:`~impactbench.engines.tuning_spaces_extras`.
+Each engine's :class:`~impactbench.engines.registry.EngineSpec` names its functions here
+(``tuning``); :func:`make_space` builds the one asked for. Engine layer: the suite's tuner
+(:mod:`impactbench.tuning.optimize`) imports these, never the other way.
 """
 
 from __future__ import annotations
@@ -61,17 +64,20 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
-
 from impactbench.engines.base import RunSettings
-from impactbench.engines.registry import SPECS
+from impactbench.engines.knobs import Knob
+from impactbench.engines.registry import BUILTIN, SPECS
 from impactbench.reference import validation as check
 from impactbench.reference.metrics import BALL_METRICS
 from impactbench.reference.scenarios import BallOnPlate
-from impactbench.tuning.names import (
-    SOLREF_FORMS,
-    VARIANTS,
-)
-from impactbench.tuning.search import Knob
+
+SOLREF_FORMS = ("direct", "timeconst")
+"""MuJoCo's two solref forms (``--solref-form``; :mod:`impactbench.tuning.names` spells the
+same for the command line, which must not import numpy)."""
+
+VARIANTS: dict[str, tuple[str, ...]] = {s.name: s.variants for s in BUILTIN if s.variants}
+"""Each tunable packaged engine's parameter sets (the first is the default), from its
+:class:`~impactbench.engines.registry.EngineSpec`."""
 
 MUJOCO_DMAX = 0.95
 """solimp dmax of the tuned MuJoCo contact (MuJoCo's default); only dmin/dmax is tuned."""
@@ -196,7 +202,6 @@ def _fmt(values: list[float] | tuple[float, ...]) -> str:
 def _mujoco_diag_a(scenario: BallOnPlate, timestep_s: float | None) -> float:
     """efc_diagA of the ball's contact row, measured from the adapter's own model."""
     import mujoco
-
     from impactbench.engines.mujoco_adapter import BALL_TIMESTEP_S, ball_mjcf, measured_diag_a
 
     model = mujoco.MjModel.from_xml_string(ball_mjcf(scenario, timestep_s or BALL_TIMESTEP_S))
@@ -452,13 +457,13 @@ def make_space(engine: str, scenario: BallOnPlate, variant: str | None = None,
     """The engine's parameterisation ``variant`` (default: its spec's first): the function
     its :class:`~impactbench.engines.registry.EngineSpec` names for it, called with the
     options it takes (``variant``, ``timestep_s``, ``engine``, ``solref_form``)."""
+    import importlib
     import inspect
-
-    from impactbench.scenarios import load
 
     check.one_of("engine", engine, tuple(VARIANTS))
     variant = check.one_of("parameters", variant or VARIANTS[engine][0], VARIANTS[engine])
-    build = load(dict(SPECS[engine].tuning)[variant])
+    module, _, name = dict(SPECS[engine].tuning)[variant].partition(":")
+    build = getattr(importlib.import_module(module), name)
     options = {"variant": variant, "timestep_s": timestep_s, "engine": engine,
                "solref_form": solref_form}
     taken = inspect.signature(build).parameters

@@ -6,11 +6,12 @@ One :class:`TossSpace` per engine (:data:`PYBULLET`, :data:`MUJOCO` — MJX's to
 the one place per engine, beside its ball and oblique spaces. :data:`SPACES` reads them from
 the specs.
 
-Knobs (:class:`impactbench.tuning.search.Knob`): bounds, log-scaled where a knob spans decades,
-a categorical where the engine has a discrete choice (MuJoCo's friction cone). The start is
-the middle of each box (the geometric mean of a log knob), never DAIR's fitted values: those
-were fitted on all tosses, test tosses included. Each knob maps onto the engine's keys so that
-the *effective* pair value is the knob (both bodies set where the engine combines them).
+Knobs (:class:`impactbench.engines.knobs.Knob`, the one tuner's): bounds, log-scaled where a
+knob spans decades, a categorical where the engine has a discrete choice (MuJoCo's friction
+cone). The start is the middle of each box (the geometric mean of a log knob), never DAIR's
+fitted values: those were fitted on all tosses, test tosses included. Each knob maps onto the
+engine's keys so that the *effective* pair value is the knob (both bodies set where the engine
+combines them).
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from impactbench.engines import registry
-from impactbench.tuning.search import Knob
+from impactbench.engines.knobs import Knob
 
 FIT = "tosses"
 """The fit these spaces serve (the key of ``EngineSpec.spaces``)."""
