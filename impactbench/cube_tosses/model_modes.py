@@ -122,7 +122,8 @@ Measured on the 89 test tosses at DAIR's step 1/1480 s: the injected trajectory 
 the model's medians (0.100 / 9.5° against 0.101 / 9.3°). The gap is the stepping: it shrinks
 with the step (five test tosses in MuJoCo and Drake: a 10× finer step makes the position gaps
 5× to 280× smaller, 30× finer 16× to 750×; the engines' integrators are first order).
-MJX and Newton are ``unsupported`` (:data:`INJECTED_UNSUPPORTED`): they step inside compiled,
+MJX and Newton are ``unsupported`` (their cube-toss builders say why,
+:data:`impactbench.engines.base.CUBE_TOSS_NOT_INJECTED`): they step inside compiled,
 batched calls with no Python between steps.
 """
 
@@ -165,18 +166,6 @@ RESTING_SHARE = 0.25
 is matched there."""
 
 NATIVE_ENGINES = ("pybullet", "mujoco", "mjx", "drake", "sapien", "dart", "newton")
-INJECTED_ENGINES = ("pybullet", "mujoco", "drake", "sapien", "dart")
-INJECTED_UNSUPPORTED: dict[str, str] = {
-    "mjx": "injected mode needs the model's corner forces computed between steps; MJX steps "
-           "the tosses inside one compiled, vmapped jax call (no Python between steps): the "
-           "law would have to be written in jax",
-    "newton": "injected mode needs the model's corner forces computed between steps; Newton "
-              "steps every toss together in captured warp CPU graphs (no Python between "
-              "steps): the law would have to be a warp kernel",
-}
-"""engine → why injected mode does not run there."""
-
-
 # ------------------------------------------------------------------------------ operating point
 
 
@@ -489,15 +478,8 @@ def native_parameters(engine: str, params: BoxContactParams | None = None,
 # ------------------------------------------------------------------------------ injected
 
 
-def injected_reason(engine: str) -> str:
-    """Why ``engine`` has no injected mode ("" when it has one)."""
-    if engine in INJECTED_ENGINES:
-        return ""
-    return INJECTED_UNSUPPORTED.get(engine, f"no injected mode for {engine}")
-
-
-__all__ = ["FITTED_PATH", "INJECTED_ENGINES", "INJECTED_UNSUPPORTED", "MODES", "NATIVE_ENGINES",
+__all__ = ["FITTED_PATH", "MODES", "NATIVE_ENGINES",
            "REFERENCE_LEVER", "REFERENCE_SPEED_M_S", "CornerImpact", "CornerWrench",
            "NativeMapping", "OperatingPoint", "compression_damped", "compression_phase",
-           "corner_impact", "first_touch", "injected_reason", "load_model",
+           "corner_impact", "first_touch", "load_model",
            "measure_operating_point", "native_mapping", "native_parameters"]

@@ -63,6 +63,7 @@ from impactbench.cube_tosses.tune import (
     data_hash,
     ids_hash,
     search,
+    toml_ready,
     training_ids,
 )
 from impactbench.reference import box_contact as bc
@@ -403,18 +404,6 @@ def fit(budget: int = 200, tosses: str | Iterable[int] = "train", seed: int = SE
 # ------------------------------------------------------------------------------ files
 
 
-def _toml(v: Any) -> Any:
-    if isinstance(v, Mapping):
-        return {str(k): _toml(x) for k, x in v.items() if x is not None}
-    if isinstance(v, tuple | list):
-        return [_toml(x) for x in v]
-    if isinstance(v, np.generic):
-        return v.item()
-    if isinstance(v, float) and not math.isfinite(v):
-        return repr(v)
-    return v
-
-
 _SUMMARY_KEYS = ("tosses", "objective", "position_error_mean", "position_error_median",
                  "position_error_q1", "position_error_q3", "rotation_error_deg_mean",
                  "rotation_error_deg_median", "rotation_error_deg_q1", "rotation_error_deg_q3",
@@ -445,12 +434,12 @@ def write_fitted(fit_result: ReferenceFit, path: str | Path | None = None) -> Pa
     except ValueError:
         shown = out
     doc = {
-        "parameters": _toml(f.params.describe()),
-        "knobs": _toml(f.knobs),
-        "start": _toml(f.start_knobs),
-        "box": _toml({"half_width_m": f.box.half_width_m, "mass_kg": f.box.mass_kg,
+        "parameters": toml_ready(f.params.describe()),
+        "knobs": toml_ready(f.knobs),
+        "start": toml_ready(f.start_knobs),
+        "box": toml_ready({"half_width_m": f.box.half_width_m, "mass_kg": f.box.mass_kg,
                       "inertia_kg_m2": f.box.inertia.tolist()}),
-        "provenance": _toml({
+        "provenance": toml_ready({
             "model": "impactbench.reference.box_contact", "scenario": "cube-toss",
             "objective": OBJECTIVE, "loss": f.objective, "loss_start": f.objective_start,
             "optimizer": f.optimizer, "optimizer_version": f.optimizer_version,
@@ -465,11 +454,11 @@ def write_fitted(fit_result: ReferenceFit, path: str | Path | None = None) -> Pa
             "wall_time_s": round(f.wall_time_s, 1), "workers": f.workers,
             "command": fit_command(f, shown),
             "protocol": {k: v for k, v in f.protocol.items() if v is not None}}),
-        "fit": _toml(_short(f.fit_summary)),
-        "start_fit": _toml(_short(f.start_summary)),
-        "scored": {name: {split: _toml(_short(s)) for split, s in splits.items()}
+        "fit": toml_ready(_short(f.fit_summary)),
+        "start_fit": toml_ready(_short(f.start_summary)),
+        "scored": {name: {split: toml_ready(_short(s)) for split, s in splits.items()}
                    for name, splits in f.scored.items()},
-        "space": {k.name: _toml({x: y for x, y in k.describe().items() if x != "name"})
+        "space": {k.name: toml_ready({x: y for x, y in k.describe().items() if x != "name"})
                   for k in KNOBS[f.law]},
     }
     header = ("# impactbench's reference box model (compliant corners, regularised Coulomb)\n"

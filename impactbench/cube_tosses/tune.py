@@ -470,15 +470,17 @@ def tuned_path(engine: str) -> Path:
     return TUNED_DIR / f"{engine}.toml"
 
 
-def _toml_value(v: Any) -> Any:
+def toml_ready(v: Any) -> Any:
+    """``v`` as TOML takes it: tuples as lists, numpy scalars as Python's, a non-finite
+    float as its text, None dropped from tables (the tuned files' writers')."""
     if isinstance(v, tuple | list):
-        return [_toml_value(x) for x in v]
+        return [toml_ready(x) for x in v]
     if isinstance(v, np.generic):
         return v.item()
     if isinstance(v, float) and not math.isfinite(v):
         return repr(v)
     if isinstance(v, dict):
-        return {str(k): _toml_value(x) for k, x in v.items() if x is not None}
+        return {str(k): toml_ready(x) for k, x in v.items() if x is not None}
     return v
 
 
@@ -501,10 +503,10 @@ def write_tuned(fit: CubeTuneFit, path: str | Path | None = None,
 
     out = Path(path) if path is not None else tuned_path(fit.engine)
     doc = {
-        "parameters": _toml_value(fit.params),
-        "knobs": _toml_value(fit.knobs),
-        "start": _toml_value(fit.start_knobs),
-        "provenance": _toml_value({
+        "parameters": toml_ready(fit.params),
+        "knobs": toml_ready(fit.knobs),
+        "start": toml_ready(fit.start_knobs),
+        "provenance": toml_ready({
             "engine": fit.engine, "engine_version": fit.engine_version,
             "scenario": "cube-toss", "mode": "tuned", "objective": OBJECTIVE,
             "optimizer": fit.optimizer, "optimizer_version": fit.optimizer_version,
@@ -515,14 +517,14 @@ def write_tuned(fit: CubeTuneFit, path: str | Path | None = None,
                                                   "mod 5); test scored after the fit",
             "wall_time_s": round(fit.wall_time_s, 1), "cache_hits": fit.cache_hits,
             "protocol": {k: v for k, v in fit.protocol.items() if v is not None}}),
-        "train": _toml_value(_short(fit.train)),
-        "test": _toml_value(_short(fit.test)),
-        "all": _toml_value(_short(fit.all_tosses)),
-        "space": {k["name"]: _toml_value({x: y for x, y in k.items() if x != "name"})
+        "train": toml_ready(_short(fit.train)),
+        "test": toml_ready(_short(fit.test)),
+        "all": toml_ready(_short(fit.all_tosses)),
+        "space": {k["name"]: toml_ready({x: y for x, y in k.items() if x != "name"})
                   for k in fit.space},
     }
     if references:
-        doc["reference"] = {name: {split: _toml_value(_short(summary))
+        doc["reference"] = {name: {split: toml_ready(_short(summary))
                                    for split, summary in splits.items()}
                             for name, splits in references.items()}
     header = (f"# impactbench tune: {fit.engine} fitted to the cube tosses (training split "

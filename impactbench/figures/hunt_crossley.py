@@ -16,6 +16,7 @@ n = 3/2, b = 0.1 s/m, V0 = 0.5, 1, 2, 3, 4, 5 m/s (MODELS.md §1). Every curve c
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import matplotlib
 
@@ -62,6 +63,15 @@ def fig1_phase(path: Path) -> Path:
     return _save(fig, path)
 
 
+def _finish(fig: Any, ax: Any, path: Path, xlabel: str, ylabel: str, title: str) -> Path:
+    """Label one panel, add its legend and save the figure."""
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
+    ax.legend(fontsize=8)
+    return _save(fig, path)
+
+
 def fig3_restitution(path: Path) -> Path:
     alpha = np.linspace(0.0, 10.0, 1001)
     k = hc.restitution(alpha)
@@ -71,12 +81,9 @@ def fig3_restitution(path: Path) -> Path:
     small = alpha <= 0.75
     ax.plot(alpha[small], 1.0 - 2.0 * alpha[small] / 3.0, ":", color="0.4",
             label="small α: k ≈ 1 − 2α/3")
-    ax.set_xlabel("α = b·V0 (dimensionless)")
-    ax.set_ylabel("k, ΔT/T (dimensionless)")
     ax.set_ylim(0.0, 1.02)
-    ax.set_title("Fig. 3: restitution and lost energy against α")
-    ax.legend(fontsize=8)
-    return _save(fig, path)
+    return _finish(fig, ax, path, "α = b·V0 (dimensionless)", "k, ΔT/T (dimensionless)",
+                   "Fig. 3: restitution and lost energy against α")
 
 
 def fig4_histories(path: Path) -> Path:
@@ -127,11 +134,8 @@ def fig6_hysteresis(path: Path) -> Path:
         inside = rec.penetration_m >= 0.0
         ax.plot(rec.penetration_m[inside] * 1e6, rec.normal_force_n[inside] * 1e-3,
                 label=_label(v))
-    ax.set_xlabel("penetration x (µm)")
-    ax.set_ylabel("contact force F (kN)")
-    ax.set_title("Fig. 6: force against penetration (loop area = lost energy)")
-    ax.legend(fontsize=8)
-    return _save(fig, path)
+    return _finish(fig, ax, path, "penetration x (µm)", "contact force F (kN)",
+                   "Fig. 6: force against penetration (loop area = lost energy)")
 
 
 def fig7_energy_loss(path: Path) -> Path:
@@ -143,11 +147,8 @@ def fig7_energy_loss(path: Path) -> Path:
     ax.plot(v, lost_j(v), label=f"b = {CASE.damping_s_per_m:g} s/m, m = {CASE.mass_kg:g} kg")
     pts = np.asarray(PAPER_VELOCITIES_M_S)
     ax.plot(pts, lost_j(pts), "o", label="the six V0 of Figs. 4, 6")
-    ax.set_xlabel("impact velocity V0 (m/s)")
-    ax.set_ylabel("lost kinetic energy ΔT (J)")
-    ax.set_title("Fig. 7: kinetic energy lost in the impact")
-    ax.legend(fontsize=8)
-    return _save(fig, path)
+    return _finish(fig, ax, path, "impact velocity V0 (m/s)", "lost kinetic energy ΔT (J)",
+                   "Fig. 7: kinetic energy lost in the impact")
 
 
 def fig8_lambert_w(path: Path) -> Path:

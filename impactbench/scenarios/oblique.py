@@ -19,21 +19,14 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
+from impactbench.reference.oblique_scenario import OBLIQUE_METRICS
+from impactbench.scenarios.ball_on_plate import FLAGS as BALL_FLAGS
 from impactbench.scenarios.spec import Axis, Flag, ScenarioSpec
 
 NAME = "oblique"
 
-METRICS: tuple[str, ...] = (
-    "restitution",
-    "tangential_restitution",
-    "contact_point_ratio",
-    "rebound_angle_deg",
-    "spin_out_rad_s",
-    "regime",
-    "duration_s",
-    "peak_force_n",
-    "peak_tangential_force_n",
-)
+METRICS: tuple[str, ...] = OBLIQUE_METRICS
+"""The reference's metrics, in table order (numpy is not imported by that module)."""
 """The reference's ``OBLIQUE_METRICS`` (tested equal), named here without importing it."""
 
 FLAGS = (
@@ -42,12 +35,7 @@ FLAGS = (
     Flag("friction", "friction", "Coulomb friction coefficient μ (>= 0)"),
     Flag("spin", "spin_rad_s", "initial spin ω0 about n × t (rad/s; positive: forward "
          "rolling)"),
-    Flag("mass", "mass_kg", "ball mass (kg)"),
-    Flag("stiffness", "stiffness",
-         "Hunt–Crossley stiffness c (N/m^n; N/m for the linear models)"),
-    Flag("exponent", "exponent", "force-law exponent n (1.5 Hertz, 1 linear)"),
-    Flag("damping", "damping_s_per_m", "Hunt–Crossley damping b (s/m)"),
-    Flag("radius", "radius_m", "ball radius R (m)"),
+    *BALL_FLAGS,  # the ball's own: mass, stiffness, exponent, damping, radius
     Flag("youngs-modulus", "youngs_modulus_pa",
          "ball Young's modulus E (Pa): Mindlin's G*, and the Hertz c unless --stiffness"),
     Flag("poisson", "poisson", "ball Poisson's ratio ν"),

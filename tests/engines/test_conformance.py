@@ -329,6 +329,17 @@ APPLIED_FORCE_BALL = {  # rel. error at dt = 1e-7 s; measured in the comments
 """The injected ball as an applied force stepped by semi-implicit Euler: SAPIEN's and Box2D's
 tolerances (their measurements are the same)."""
 
+
+def _applied_force_rf(linear: tuple[float, float, float],
+                      elastoplastic: tuple[float, float, float]) -> list[RF]:
+    """The injected 2-DOF rows of SAPIEN, DART and Box2D (the local law as an applied force):
+    the linear law at 3.3 m/s and the elastoplastic law at 10 m/s, both on the linear
+    structure, each within its |relative error| bounds on RF_METRICS (in that order)."""
+    return [RF("linear", "linear", 3.3, dict(zip(RF_METRICS, linear, strict=True))),
+            RF("elastoplastic", "linear", 10.0,
+               dict(zip(RF_METRICS, elastoplastic, strict=True)))]
+
+
 PEAK_TANGENTIAL = 0.11
 """|rel err| of an injected oblique run's peak tangential force (the sphere: pymunk, DART,
 Box2D, SAPIEN, Newton), measured 3.70e-2 (45°, ω0 = 60: the slip stops within a step of a
@@ -771,14 +782,10 @@ ENGINES: dict[str, dict[str, Any]] = {
     # 9.5e-3 in the 2-DOF native run) must fail
     "sapien": {
         "injected_ball": APPLIED_FORCE_BALL,
-        "injected_rf": [  # rel. error at the default 1e-5 s; measured in the comments
-            RF("linear", "linear", 3.3, {"peak_force_n": 6.2e-5,  # 2.08e-5
-                                         "pulse_width_s": 4.3e-5,  # 1.42e-5
-                                         "impulse_ns": 1.8e-4}),  # 5.96e-5
-            RF("elastoplastic", "linear", 10.0, {"peak_force_n": 6.2e-6,  # 2.05e-6
-                                                 "pulse_width_s": 1.8e-5,  # 5.96e-6
-                                                 "impulse_ns": 1.8e-4}),  # 6.13e-5
-        ],
+        # rel. error (peak force, pulse width, impulse) at the default 1e-5 s; measured:
+        # linear 2.08e-5, 1.42e-5, 5.96e-5; elastoplastic 2.05e-6, 5.96e-6, 6.13e-5
+        "injected_rf": _applied_force_rf(linear=(6.2e-5, 4.3e-5, 1.8e-4),
+                                         elastoplastic=(6.2e-6, 1.8e-5, 1.8e-4)),
         # both materials −k1: PhysX's compliant contact is the linear local law exactly
         "native_rf": [RF("linear", "softening", 3.3, {"peak_force_n": 3.2e-4,  # measured 1.06e-4
                                                       "pulse_width_s": 3.4e-4,  # 1.13e-4
@@ -877,14 +884,10 @@ ENGINES: dict[str, dict[str, Any]] = {
                   "peak_force_n": 1.8e-3,  # 6.10e-4
                   "max_penetration_m": 7.8e-4},  # 2.61e-4
         },
-        "injected_rf": [  # rel. error at the default 1e-5 s; measured in the comments
-            RF("linear", "linear", 3.3, {"peak_force_n": 2.3e-4,  # 7.74e-5
-                                         "pulse_width_s": 1.4e-4,  # 4.57e-5
-                                         "impulse_ns": 1.9e-3}),  # 6.20e-4
-            RF("elastoplastic", "linear", 10.0, {"peak_force_n": 4.9e-5,  # 1.63e-5
-                                                 "pulse_width_s": 1.3e-4,  # 4.15e-5
-                                                 "impulse_ns": 1.9e-3}),  # 6.29e-4
-        ],
+        # rel. error (peak force, pulse width, impulse) at the default 1e-5 s; measured:
+        # linear 7.74e-5, 4.57e-5, 6.20e-4; elastoplastic 1.63e-5, 4.15e-5, 6.29e-4
+        "injected_rf": _applied_force_rf(linear=(2.3e-4, 1.4e-4, 1.9e-3),
+                                         elastoplastic=(4.9e-5, 1.3e-4, 1.9e-3)),
         # a rigid LCP contact with the reference restitution at 1 m/s (the pair's product,
         # the plate's 1): measured 2.07e-5 (CFM); the impulse measured exact (0)
         "native_ball": [NativeBall(v, 1e-6, restitution=6.2e-5, rigid=True, impulse=1e-9)
@@ -952,14 +955,10 @@ ENGINES: dict[str, dict[str, Any]] = {
     # --------------------------------------------------------------------------------- Box2D
     "box2d": {
         "injected_ball": APPLIED_FORCE_BALL,
-        "injected_rf": [  # rel. error at the default 1e-5 s; measured in the comments
-            RF("linear", "linear", 3.3, {"peak_force_n": 2.5e-4,  # 8.20e-5
-                                         "pulse_width_s": 1.3e-4,  # 4.29e-5
-                                         "impulse_ns": 1.9e-3}),  # 6.19e-4
-            RF("elastoplastic", "linear", 10.0, {"peak_force_n": 5e-5,  # 1.66e-5
-                                                 "pulse_width_s": 1.3e-4,  # 4.10e-5
-                                                 "impulse_ns": 1.9e-3}),  # 6.30e-4
-        ],
+        # rel. error (peak force, pulse width, impulse) at the default 1e-5 s; measured:
+        # linear 8.20e-5, 4.29e-5, 6.19e-4; elastoplastic 1.66e-5, 4.10e-5, 6.30e-4
+        "injected_rf": _applied_force_rf(linear=(2.5e-4, 1.3e-4, 1.9e-3),
+                                         elastoplastic=(5e-5, 1.3e-4, 1.9e-3)),
         # restitution e = k_ref(1 m/s) applied above b2_velocityThreshold = 1 m/s only (at
         # 1 m/s: test_engine_specifics.py); measured 6.4e-9, impulse 9.2e-9
         "native_ball": [NativeBall(5.0, 1e-6, restitution=2e-8, rigid=True, impulse=3e-8)],
