@@ -727,6 +727,20 @@ def make(engine: str, params: Mapping[str, Any] = (), step_s: float = 1.0 / 1480
     return cls(params, step_s, board_z_m, box=box, law=law)
 
 
+def _check_box(engine: str, box: Box, params: Mapping[str, Any], setup: Mapping[str, Any]
+               ) -> None:
+    """A cube of the user's must reach the engine: its inertia read back from the built engine
+    (``setup["cube_inertia_kg_m2"]``) must be the given one, unless the parameters set the
+    cube's inertia themselves (``cube.inertia``). DAIR's cube is the engines' default."""
+    got = setup.get("cube_inertia_kg_m2")
+    if box == DAIR_BOX or "cube.inertia" in params or not isinstance(got, int | float):
+        return
+    want = box.inertia_kg_m2
+    if isinstance(want, int | float) and not math.isclose(float(got), want, rel_tol=1e-5):
+        raise RuntimeError(f"{engine}: built the cube with I = {got:g} kg·m², not the given "
+                           f"{want:g}: its replay ignores the box")
+
+
 REPLAY_ERRORS = (RuntimeError, FloatingPointError, ValueError)
 """What one toss may raise in an engine (an engine error or a non-finite state): that toss
 fails, the others go on."""
@@ -765,6 +779,7 @@ def replay(engine: str, scenario: Any, mode: str, settings: Any) -> ImpactRecord
     failed = list(failed)
     try:
         setup = sim.describe()
+        _check_box(engine, box, params, setup)
         if law is not None:
             setup["injected"] = sim.injected_setup()
         t0 = time.perf_counter()
