@@ -22,6 +22,7 @@ from typing import Any
 
 from impactbench.engines.cube_toss import make
 
+from benchmarks.alternate import alternate
 from impactbench.cube_tosses import load, split
 from impactbench.cube_tosses.data import tosses
 from impactbench.cube_tosses.protocol import Protocol, prepare
@@ -42,13 +43,9 @@ def _runner(sim: Any, starts: list[Any]) -> Callable[[], None]:
 
 
 def _alternate(runners: dict[str, Callable[[], None]], n: int) -> dict[str, list[float]]:
-    times: dict[str, list[float]] = {k: [] for k in runners}
-    for _ in range(ROUNDS):
-        for name, run in runners.items():
-            t0 = time.perf_counter()
-            run()
-            times[name].append(n / (time.perf_counter() - t0))
-    return times
+    """Tosses per second of each runner (``n`` tosses a call) over :data:`ROUNDS` rounds,
+    the runners alternating (:func:`benchmarks.alternate.alternate`)."""
+    return {name: [n / s for s in times] for name, times in alternate(runners, ROUNDS).items()}
 
 
 def _row(name: str, rates: list[float], note: str = "") -> str:

@@ -22,13 +22,12 @@ import statistics
 from typing import Any
 
 import numpy as np
-from impactbench.engines.base import RunSettings, get_adapter
 from impactbench.engines.mjx_adapter import _batched_scan, _mjx, ball_batch
 from impactbench.engines.mujoco_adapter import ball_mjcf, measured_diag_a, rigid_flexible_mjcf
 from impactbench.reference.scenarios import BallOnPlate
 
 from benchmarks.alternate import alternate, median_pair
-from benchmarks.overhead import CASES
+from benchmarks.overhead import rerun, table_head, warmed_up
 
 REPEATS = 5
 WORLDS = 64
@@ -63,18 +62,13 @@ def bare_setup(scenario: Any, dt: float, solref: list[float] | None) -> tuple[An
 
 
 def overhead() -> None:
-    adapter = get_adapter("mjx")
+    adapter = table_head("mjx", "MJX", "bare jitted scan", REPEATS,
+                         f"{'case':36s} {'steps':>7s} {'stepped':>7s} {'adapter ms':>10s} "
+                         f"{'bare ms':>8s} {'ratio':>6s}")
     _, jax, _ = _mjx()
     scan = _bare_scan()
-    print(f"MJX {adapter.version()}: adapter vs bare jitted scan "
-          f"(alternated, median of {REPEATS})")
-    header = f"{'case':36s} {'steps':>7s} {'stepped':>7s} {'adapter ms':>10s} {'bare ms':>8s} " \
-             f"{'ratio':>6s}"
-    print(header)
-    print("-" * len(header))
-    for label, scenario, mode, dt in CASES:
-        settings = RunSettings(timestep_s=dt)
-        rec = adapter.run(scenario, mode, settings)  # warm-up (compiles the adapter's scans)
+    # the warm-up compiles the adapter's scans
+    for label, scenario, mode, dt, settings, rec in warmed_up(adapter):
         if rec.status == "unsupported":
             print(f"{label:36s} unsupported: {rec.message}")
             continue
@@ -82,7 +76,7 @@ def overhead() -> None:
         mx, dx = bare_setup(scenario, dt, rec.meta.get("solref"))
         jax.block_until_ready(scan(mx, dx, steps))  # warm-up (compiles this length)
         t_adapter, t_bare = median_pair(
-            lambda s=scenario, m=mode, st=settings: adapter.run(s, m, st),
+            rerun(adapter, scenario, mode, settings),
             lambda a=mx, b=dx, n=steps: jax.block_until_ready(scan(a, b, n)), REPEATS)
         print(f"{label:36s} {steps:7d} {rec.meta['steps']:7d} {t_adapter * 1e3:10.1f} "
               f"{t_bare * 1e3:8.1f} {t_adapter / t_bare:6.2f} [{rec.status}]")

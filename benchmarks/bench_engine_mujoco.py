@@ -20,12 +20,11 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from impactbench.engines.base import RunSettings, get_adapter
 from impactbench.engines.mujoco_adapter import ball_mjcf, rigid_flexible_mjcf
 from impactbench.reference.scenarios import BallOnPlate
 
 from benchmarks.alternate import median_pair
-from benchmarks.overhead import CASES
+from benchmarks.overhead import rerun, table_head, warmed_up
 
 REPEATS = 15
 
@@ -71,20 +70,15 @@ def bare_run(scenario: Any, dt: float, steps: int, solref: list[float] | None,
 
 
 def main() -> None:
-    adapter = get_adapter("mujoco")
-    print(f"MuJoCo {adapter.version()}: adapter vs bare stepping by the same path "
-          f"(alternated, median of {REPEATS})")
-    header = f"{'case':36s} {'steps':>7s} {'stepped':>7s} {'adapter ms':>10s} " \
-             f"{'bare ms':>8s} {'ratio':>6s}  path"
-    print(header)
-    print("-" * len(header))
-    for label, scenario, mode, dt in CASES:
-        settings = RunSettings(timestep_s=dt)
-        rec = adapter.run(scenario, mode, settings)  # warm-up (and the native conversion cache)
+    adapter = table_head("mujoco", "MuJoCo", "bare stepping by the same path", REPEATS,
+                         f"{'case':36s} {'steps':>7s} {'stepped':>7s} {'adapter ms':>10s} "
+                         f"{'bare ms':>8s} {'ratio':>6s}  path")
+    # the warm-up also fills the native conversion cache
+    for label, scenario, mode, dt, settings, rec in warmed_up(adapter):
         steps, path = rec.meta["steps"], rec.meta["stepping"]
         solref = rec.meta.get("solref")
         t_adapter, t_bare = _median_pair(
-            lambda s=scenario, m=mode, st=settings: adapter.run(s, m, st),
+            rerun(adapter, scenario, mode, settings),
             lambda s=scenario, h=dt, n=steps, r=solref, w=path: bare_run(s, h, n, r, w))
         print(f"{label:36s} {len(rec):7d} {steps:7d} {t_adapter * 1e3:10.3f} "
               f"{t_bare * 1e3:8.3f} {t_adapter / t_bare:6.2f}  {rec.meta['stepping']}"

@@ -25,12 +25,11 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-from impactbench.engines.base import RunSettings, get_adapter
 from impactbench.engines.pybullet_adapter import BallWorld, FlexWorld, _import_engine
 from impactbench.reference.scenarios import BallOnPlate
 
 from benchmarks.alternate import alternate
-from benchmarks.overhead import CASES
+from benchmarks.overhead import table_head, warmed_up
 
 REPEATS = 15
 
@@ -81,16 +80,11 @@ def _median_pair(adapter: Callable[[], float], bare: Callable[[], float],
 
 
 def main() -> None:
-    adapter = get_adapter("pybullet")
-    print(f"PyBullet {adapter.version()}: adapter vs bare stepSimulation loop "
-          f"(alternated, median of {REPEATS})")
-    header = (f"{'case':36s} {'steps':>7s} {'adapter ms':>10s} {'bare ms':>8s} {'ratio':>6s} "
-              f"{'loop µs/step':>12s} {'bare µs/step':>12s} {'ratio':>6s}")
-    print(header)
-    print("-" * len(header))
-    for label, scenario, mode, dt in CASES:
-        settings = RunSettings(timestep_s=dt)
-        rec = adapter.run(scenario, mode, settings)  # warm-up
+    adapter = table_head("pybullet", "PyBullet", "bare stepSimulation loop", REPEATS,
+                         f"{'case':36s} {'steps':>7s} {'adapter ms':>10s} {'bare ms':>8s} "
+                         f"{'ratio':>6s} {'loop µs/step':>12s} {'bare µs/step':>12s} "
+                         f"{'ratio':>6s}")
+    for label, scenario, mode, dt, settings, rec in warmed_up(adapter):
         steps = len(rec)
         k = rec.meta.get("contact_stiffness", 0.0)
         d = rec.meta.get("contact_damping", 0.0)

@@ -346,18 +346,14 @@ def _check_keywords(where: str, given: Mapping[str, Any], valid: Sequence[str]) 
 
 
 def _build(name: str, values: Mapping[str, Any]) -> Any:
-    """The scenario ``name`` with ``values`` (fields, axes, further options) over its
-    defaults, validated: further options go through the spec's ``from_args`` (a material
-    gives mass and stiffness; it reads them from a plain namespace), then
-    :meth:`ScenarioSpec.build`. Bad values are a one-line ValueError."""
-    spec = scenarios.get(name)
-    fields = set(spec.cls.field_names())
-    given = {k: v for k, v in values.items() if k in fields}
+    """The scenario ``name`` with ``values`` (fields, axes, further options; None: unset)
+    over its defaults, validated as the commands build it
+    (:func:`impactbench.flags.scenario_from_args`: a material gives mass and stiffness; the
+    spec reads its options from a plain namespace). Bad values are a one-line ValueError."""
+    from impactbench.flags import scenario_from_args
+
     try:
-        if spec.has_options:
-            given = spec.from_args(SimpleNamespace(**values), given)
-        point = {a: given.pop(a) for a in spec.axis_names if a in given}
-        return spec.build(point, given)
+        return scenario_from_args(name, SimpleNamespace(**values))
     except ValueError as exc:  # (validation's own subclasses: the plain type, one line)
         raise ValueError(str(exc)) from None
 

@@ -321,6 +321,239 @@ class _Batch:
         it is seen there."""
 
 
+class _DaskRun:
+    """One :meth:`Runner.run` on Dask: the queue of items (``todo``: (item, alone)), the
+    batches in flight, their start announcements (a worker publishes ``(batch, item, worker)``
+    on the run's topic), the per-group time ratios that size the batches, and the timeouts
+    (module doc)."""
+
+    def __init__(self, runner: Runner, c: Any, fn: Callable[[Any], Any], items: Sequence[Any],
+                 label: str, batch_size: int | None, cost: Callable[[Any], float | None],
+                 group: Callable[[Any], Hashable],
+                 timeout_of: Callable[[Any], float | None]) -> None:
+        import uuid
+
+        self.runner, self.c, self.fn, self.label = runner, c, fn, label
+        self.batch_size, self.cost, self.group, self.timeout_of = (batch_size, cost, group,
+                                                                   timeout_of)
+        self.tag = uuid.uuid4().hex[:8]
+        self.topic = f"impactbench-{label}-{self.tag}"
+        self.todo: deque[tuple[Any, bool]] = deque((item, False) for item in items)
+        self.flying: dict[Any, _Batch] = {}
+        self.by_id: dict[int, _Batch] = {}
+        self.done: queue.SimpleQueue = queue.SimpleQueue()
+        self.counter = iter(range(1 << 62))
+        self.unfetched: dict[Any, float] = {}
+        """Futures done whose result could not be fetched: when to try again."""
+        self.placed_at = 0.0
+
+    # -- announcements and batch sizes
+    def started(self, event: Any) -> None:  # on the client's event-loop thread
+        msg = event[1] if isinstance(event, tuple) else event
+        batch = self.by_id.get(msg.get("b"))
+        if batch is not None:
+            now = time.monotonic()
+            batch.started = (int(msg["k"]), str(msg["w"]), now)
+            if msg["k"] == 0:
+                batch.begun = now
+
+    def predicted(self, item: Any) -> float | None:
+        ratio = self.runner._ratio.get(self.group(item))
+        if ratio is None:
+            return None  # the group's first batch: one item, to measure it
+        est = self.cost(item)
+        return ratio * (est if est is not None else 1.0)
+
+    def next_batch(self) -> tuple[list[Any], bool]:
+        todo = self.todo
+        item, alone = todo.popleft()
+        if alone:
+            return [item], True
+        batch = [item]
+        if self.batch_size:
+            while todo and len(batch) < self.batch_size and not todo[0][1]:
+                batch.append(todo.popleft()[0])
+            return batch, False
+        total = self.predicted(item)
+        if total is None:
+            return batch, False
+        g, taken = self.group(item), []
+        for n, (other, other_alone) in enumerate(todo):
+            if len(batch) >= MAX_BATCH:
+                break
+            if other_alone or self.group(other) != g:
+                continue
+            more = self.predicted(other) or 0.0
+            if total + more > BATCH_S:
+                break
+            taken.append(n)
+            batch.append(other)
+            total += more
+        if taken:
+            skip = set(taken)
+            rest = [entry for n, entry in enumerate(todo) if n not in skip]
+            todo.clear()
+            todo.extend(rest)
+        return batch, False
+
+    def submit(self) -> None:
+        batch_items, alone = self.next_batch()
+        batch = _Batch(next(self.counter), batch_items, alone)
+        self.by_id[batch.id] = batch
+        fut = self.c.submit(apply_batch, self.fn, batch_items, self.topic, batch.id, pure=False,
+                            key=f"{self.label}-{batch.id}-{len(batch_items)}-{self.tag}")
+        self.flying[fut] = batch
+        fut.add_done_callback(self.done.put)
+
+    def forget(self, fut: Any) -> _Batch:
+        self.unfetched.pop(fut, None)
+        batch = self.flying.pop(fut)
+        self.by_id.pop(batch.id, None)
+        return batch
+
+    def learn(self, batch: _Batch) -> None:
+        """What the batch took over what it was predicted to take, per group."""
+        g = self.group(batch.items[0])
+        if any(self.group(i) != g for i in batch.items[1:]):
+            return
+        took = time.monotonic() - (batch.begun or batch.submitted)
+        est = sum(e if (e := self.cost(i)) is not None else 1.0 for i in batch.items)
+        ratio = took / max(est, 1e-3)
+        old = self.runner._ratio.get(g)
+        self.runner._ratio[g] = ratio if old is None else 0.5 * (old + ratio)
+
+    def drop(self, fut: Any) -> _Batch:
+        batch = self.forget(fut)
+        with contextlib.suppress(Exception):
+            self.c.cancel([fut])
+        return batch
+
+    # -- timeouts
+    def placed(self, now: float) -> None:
+        """Where the scheduler has the batches that announced no start (polled every second,
+        only while there are such batches): their fallback clock starts when they are placed
+        on a worker, again when moved to another (their worker restarted)."""
+        waiting = [b for b in self.flying.values() if b.started is None
+                   and now - b.submitted > 1.0]
+        if not waiting or now - self.placed_at < 1.0:
+            return
+        self.placed_at = now
+        with contextlib.suppress(Exception):
+            where = {key: w for w, keys in self.c.processing().items() for key in keys}
+            for fut, batch in self.flying.items():
+                if batch.started is not None:
+                    continue
+                worker = where.get(fut.key)
+                if worker is None:
+                    batch.placed = None
+                elif batch.placed is None or batch.placed[0] != worker:
+                    batch.placed = (worker, now)
+
+    def requeue(self, fut: Any, address: str, alone: list[Any], before: list[Any],
+                batch: _Batch) -> None:
+        """Cancel a batch, restart its worker, and queue ``alone`` items one at a time after
+        ``before`` (the batch's items that ran) as they were."""
+        self.drop(fut)
+        self.runner._restart(self.c, address)
+        self.todo.extendleft((i, True) for i in reversed(alone))
+        self.todo.extendleft((i, batch.alone) for i in reversed(before))
+
+    def overdue(self, now: float, timed_out: Callable[[Any, str], None]) -> None:
+        self.placed(now)
+        for fut, batch in list(self.flying.items()):
+            if fut.done():  # ran to the end: no timeout (its result may be on its way)
+                continue
+            if batch.started is not None:
+                k, address, since = batch.started
+                limit = self.timeout_of(batch.items[k])
+                if limit is None or now - since <= limit:
+                    continue
+                if k < len(batch.items) - 1:
+                    # item k, or a later one whose start could not be announced (a hang in C
+                    # holding the GIL stops the worker's event loop): each alone
+                    self.requeue(fut, address, batch.items[k:], batch.items[:k], batch)
+                    continue
+            elif batch.placed is not None:
+                # no start announced: its first item's allowance from when it was placed (a
+                # worker has one batch at a time), then (a hang holding the GIL before the
+                # announcement got out, or announcements lost) each item alone
+                address, since = batch.placed
+                limit = self.timeout_of(batch.items[0])
+                if limit is None or now - since <= limit:
+                    continue
+                if len(batch.items) > 1:  # which item hangs is unknown: one at a time
+                    self.requeue(fut, address, batch.items, [], batch)
+                    continue
+                k = 0
+            else:
+                continue
+            self.drop(fut)
+            self.runner._restart(self.c, address)
+            timed_out(batch.items[k], f"timed out after {limit:.3g} s (cancelled; its worker "
+                      "was restarted)")
+            self.todo.extendleft((i, batch.alone) for i in reversed(batch.items[:k]))
+
+    # -- results
+    def collect(self, on_result: Callable[[Any, Any], None],
+                on_crash: Callable[[Any, str], None]) -> None:
+        """Hand on every batch that is done (a lost result, its worker restarted, is
+        computed again; a batch that raised or whose worker died is split into its items)."""
+        from concurrent.futures import CancelledError
+
+        from distributed.scheduler import KilledWorker
+
+        now = time.monotonic()
+        for fut in [f for f in self.flying if f.done() and now >= self.unfetched.get(f, 0.0)]:
+            try:
+                results = fut.result(timeout=RESULT_WAIT_S)
+            except TimeoutError:  # its worker hangs (in the next task) with the data
+                self.unfetched[fut] = time.monotonic() + 2.0
+                continue
+            except CancelledError:
+                why = "cancelled on the cluster"
+            except KilledWorker:
+                why = "the worker process died (twice)"
+            except Exception as exc:  # a bug in an adapter must not lose the rest
+                why = f"{type(exc).__name__}: {exc}"
+            else:
+                why = None
+            batch = self.forget(fut)
+            if why is None:
+                self.learn(batch)
+                for item, result in zip(batch.items, results, strict=True):
+                    on_result(item, result)
+            elif len(batch.items) == 1:
+                on_crash(batch.items[0], why)
+            else:  # isolate: each item of the batch alone
+                self.todo.extendleft((i, True) for i in reversed(batch.items))
+
+    def run(self, on_result: Callable[[Any, Any], None], on_crash: Callable[[Any, str], None],
+            timed_out: Callable[[Any, str], None], on_tick: Callable[[], None] | None) -> None:
+        # one batch per worker: a second would wait on the worker (Dask queues only large
+        # groups of tasks), die with it, and sit behind a hang
+        slots, counted = self.runner.size, time.monotonic()
+        self.c.subscribe_topic(self.topic, self.started)
+        try:
+            while self.todo or self.flying:
+                if time.monotonic() - counted > 2.0:  # workers may come and go
+                    slots, counted = self.runner.size, time.monotonic()
+                while self.todo and len(self.flying) < slots:
+                    self.submit()
+                with contextlib.suppress(queue.Empty):  # a wake-up: any future may be done
+                    self.done.get(timeout=TICK_S)
+                self.collect(on_result, on_crash)
+                self.overdue(time.monotonic(), timed_out)
+                if on_tick:
+                    on_tick()
+        except KeyboardInterrupt:
+            with contextlib.suppress(Exception):
+                self.c.cancel(list(self.flying))
+            raise
+        finally:
+            with contextlib.suppress(Exception):
+                self.c.unsubscribe_topic(self.topic)
+
+
 class Runner:
     """Where a command's work runs: in this process (``workers = 0``, no crash isolation) or
     on Dask, a local cluster of ``workers`` processes (default one per core, at most one per
@@ -477,216 +710,13 @@ class Runner:
 
     def _run_on_dask(self, fn, items, on_result, on_crash, timed_out, label, batch_size,
                      estimate_s, cost, group, timeout_of, on_tick) -> None:
-        import uuid
-        from concurrent.futures import CancelledError
-
-        from distributed.scheduler import KilledWorker
-
         c = self.client(at_most=len(items))
         self.dispatched += len(items)
         if cost is None:
             share = (estimate_s / len(items)) if estimate_s else None
             cost = (lambda _item: share) if share is not None else (lambda _item: None)
-        group = group or (lambda _item: None)
-        tag = uuid.uuid4().hex[:8]
-        topic = f"impactbench-{label}-{tag}"
-        todo: deque[tuple[Any, bool]] = deque((item, False) for item in items)
-        flying: dict[Any, _Batch] = {}
-        by_id: dict[int, _Batch] = {}
-        done: queue.SimpleQueue = queue.SimpleQueue()
-        counter = iter(range(1 << 62))
-
-        def started(event: Any) -> None:  # on the client's event-loop thread
-            msg = event[1] if isinstance(event, tuple) else event
-            batch = by_id.get(msg.get("b"))
-            if batch is not None:
-                now = time.monotonic()
-                batch.started = (int(msg["k"]), str(msg["w"]), now)
-                if msg["k"] == 0:
-                    batch.begun = now
-
-        def predicted(item: Any) -> float | None:
-            ratio = self._ratio.get(group(item))
-            if ratio is None:
-                return None  # the group's first batch: one item, to measure it
-            est = cost(item)
-            return ratio * (est if est is not None else 1.0)
-
-        def next_batch() -> tuple[list[Any], bool]:
-            item, alone = todo.popleft()
-            if alone:
-                return [item], True
-            batch = [item]
-            if batch_size:
-                while todo and len(batch) < batch_size and not todo[0][1]:
-                    batch.append(todo.popleft()[0])
-                return batch, False
-            total = predicted(item)
-            if total is None:
-                return batch, False
-            g, taken = group(item), []
-            for n, (other, other_alone) in enumerate(todo):
-                if len(batch) >= MAX_BATCH:
-                    break
-                if other_alone or group(other) != g:
-                    continue
-                more = predicted(other) or 0.0
-                if total + more > BATCH_S:
-                    break
-                taken.append(n)
-                batch.append(other)
-                total += more
-            if taken:
-                skip = set(taken)
-                rest = [entry for n, entry in enumerate(todo) if n not in skip]
-                todo.clear()
-                todo.extend(rest)
-            return batch, False
-
-        def submit() -> None:
-            batch_items, alone = next_batch()
-            batch = _Batch(next(counter), batch_items, alone)
-            by_id[batch.id] = batch
-            fut = c.submit(apply_batch, fn, batch_items, topic, batch.id, pure=False,
-                           key=f"{label}-{batch.id}-{len(batch_items)}-{tag}")
-            flying[fut] = batch
-            fut.add_done_callback(done.put)
-
-        unfetched: dict[Any, float] = {}
-        """Futures done whose result could not be fetched: when to try again."""
-
-        def forget(fut: Any) -> _Batch:
-            unfetched.pop(fut, None)
-            batch = flying.pop(fut)
-            by_id.pop(batch.id, None)
-            return batch
-
-        def learn(batch: _Batch) -> None:
-            """What the batch took over what it was predicted to take, per group."""
-            g = group(batch.items[0])
-            if any(group(i) != g for i in batch.items[1:]):
-                return
-            took = time.monotonic() - (batch.begun or batch.submitted)
-            est = sum(e if (e := cost(i)) is not None else 1.0 for i in batch.items)
-            ratio = took / max(est, 1e-3)
-            old = self._ratio.get(g)
-            self._ratio[g] = ratio if old is None else 0.5 * (old + ratio)
-
-        def drop(fut: Any) -> _Batch:
-            batch = forget(fut)
-            with contextlib.suppress(Exception):
-                c.cancel([fut])
-            return batch
-
-        placed_at = [0.0]
-
-        def placed(now: float) -> None:
-            """Where the scheduler has the batches that announced no start (polled every
-            second, only while there are such batches): their fallback clock starts when
-            they are placed on a worker, again when moved to another (their worker
-            restarted)."""
-            waiting = [b for b in flying.values() if b.started is None
-                       and now - b.submitted > 1.0]
-            if not waiting or now - placed_at[0] < 1.0:
-                return
-            placed_at[0] = now
-            with contextlib.suppress(Exception):
-                where = {key: w for w, keys in c.processing().items() for key in keys}
-                for fut, batch in flying.items():
-                    if batch.started is not None:
-                        continue
-                    worker = where.get(fut.key)
-                    if worker is None:
-                        batch.placed = None
-                    elif batch.placed is None or batch.placed[0] != worker:
-                        batch.placed = (worker, now)
-
-        def overdue(now: float) -> None:
-            placed(now)
-            for fut, batch in list(flying.items()):
-                if fut.done():  # ran to the end: no timeout (its result may be on its way)
-                    continue
-                if batch.started is not None:
-                    k, address, since = batch.started
-                    limit = timeout_of(batch.items[k])
-                    if limit is None or now - since <= limit:
-                        continue
-                    if k < len(batch.items) - 1:
-                        # item k, or a later one whose start could not be announced (a hang
-                        # in C holding the GIL stops the worker's event loop): each alone
-                        drop(fut)
-                        self._restart(c, address)
-                        todo.extendleft((i, True) for i in reversed(batch.items[k:]))
-                        todo.extendleft((i, batch.alone) for i in reversed(batch.items[:k]))
-                        continue
-                elif batch.placed is not None:
-                    # no start announced: its first item's allowance from when it was placed
-                    # (a worker has one batch at a time), then (a hang holding the GIL before
-                    # the announcement got out, or announcements lost) each item alone
-                    address, since = batch.placed
-                    limit = timeout_of(batch.items[0])
-                    if limit is None or now - since <= limit:
-                        continue
-                    if len(batch.items) > 1:  # which item hangs is unknown: one at a time
-                        drop(fut)
-                        self._restart(c, address)
-                        todo.extendleft((i, True) for i in reversed(batch.items))
-                        continue
-                    k = 0
-                else:
-                    continue
-                drop(fut)
-                self._restart(c, address)
-                timed_out(batch.items[k], f"timed out after {limit:.3g} s (cancelled; its "
-                          "worker was restarted)")
-                todo.extendleft((i, batch.alone) for i in reversed(batch.items[:k]))
-
-        # one batch per worker: a second would wait on the worker (Dask queues only large
-        # groups of tasks), die with it, and sit behind a hang
-        slots, counted = self.size, time.monotonic()
-        c.subscribe_topic(topic, started)
-        try:
-            while todo or flying:
-                if time.monotonic() - counted > 2.0:  # workers may come and go
-                    slots, counted = self.size, time.monotonic()
-                while todo and len(flying) < slots:
-                    submit()
-                with contextlib.suppress(queue.Empty):  # a wake-up: any future may be done
-                    done.get(timeout=TICK_S)
-                now = time.monotonic()
-                for fut in [f for f in flying if f.done() and now >= unfetched.get(f, 0.0)]:
-                    try:  # done now; a lost result (its worker restarted) is computed again
-                        results = fut.result(timeout=RESULT_WAIT_S)
-                    except TimeoutError:  # its worker hangs (in the next task) with the data
-                        unfetched[fut] = time.monotonic() + 2.0
-                        continue
-                    except CancelledError:
-                        why = "cancelled on the cluster"
-                    except KilledWorker:
-                        why = "the worker process died (twice)"
-                    except Exception as exc:  # a bug in an adapter must not lose the rest
-                        why = f"{type(exc).__name__}: {exc}"
-                    else:
-                        why = None
-                    batch = forget(fut)
-                    if why is None:
-                        learn(batch)
-                        for item, result in zip(batch.items, results, strict=True):
-                            on_result(item, result)
-                    elif len(batch.items) == 1:
-                        on_crash(batch.items[0], why)
-                    else:  # isolate: each item of the batch alone
-                        todo.extendleft((i, True) for i in reversed(batch.items))
-                overdue(time.monotonic())
-                if on_tick:
-                    on_tick()
-        except KeyboardInterrupt:
-            with contextlib.suppress(Exception):
-                c.cancel(list(flying))
-            raise
-        finally:
-            with contextlib.suppress(Exception):
-                c.unsubscribe_topic(topic)
+        _DaskRun(self, c, fn, items, label, batch_size, cost, group or (lambda _item: None),
+                 timeout_of).run(on_result, on_crash, timed_out, on_tick)
 
     def map(self, fn: Callable[[Any], Any], items: Sequence[Any], *,
             on_crash: Callable[[Any, str], Any], label: str = "items",

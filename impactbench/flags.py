@@ -4,7 +4,8 @@ Each scenario's spec (:mod:`impactbench.scenarios`) lists its flags (``--mass`` 
 ``mass_kg``) and may add further options (a material, a scenario file); its categorical axes
 become flags of their own (``--local``). So ``reference``, ``sweep``, ``run`` and ``tune``
 accept the same flags with the same defaults (the papers'), and a scenario is built and
-validated in one place: :func:`scenario_from_args`.
+validated in one place, for them and for the Python API (:mod:`impactbench.api`):
+:func:`scenario_from_args`.
 """
 
 from __future__ import annotations
@@ -83,8 +84,10 @@ def option_names(scenario: str) -> tuple[str, ...]:
     return tuple(names.names)
 
 
-def scenario_from_args(scenario: str, args: argparse.Namespace, **overrides: Any) -> Any:
-    """Build and validate the scenario from parsed flags (overrides win)."""
+def scenario_from_args(scenario: str, args: Any, **overrides: Any) -> Any:
+    """Build and validate the scenario from parsed flags, or from a plain namespace of the
+    Python API's keywords (its fields, axes and further options; None: unset; overrides
+    win)."""
     spec = get(scenario)
     fields = set(spec.cls.field_names())
     values = {k: v for k, v in vars(args).items() if k in fields and v is not None}

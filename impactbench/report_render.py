@@ -248,13 +248,16 @@ ROUND_OFF = 1e-9
 def format_error(err: float, *, signed: bool = True) -> str:
     """A relative error in percent, as a plain number (never an exponent): two significant
     digits below 10 %, whole percent above (+0.000046 %, −1.2 %, −25 %, +100 %, +130 %);
-    |err| below :data:`ROUND_OFF` is 0 %. ``signed=False``: a magnitude (1.2 %)."""
-    if not math.isfinite(err):
-        return f"{err} %"
+    |err| below :data:`ROUND_OFF` is 0 %. ``signed=False``: a magnitude (1.2 %). Not a
+    number (nothing compared): ``n/a``."""
+    if math.isnan(err):
+        return "n/a"
     if abs(err) < ROUND_OFF:
         return "0 %"
     pct = 100.0 * (err if signed else abs(err))
-    if abs(pct) >= 9.95:  # two significant digits would round to 10 or more
+    if math.isinf(pct):
+        text = f"{pct:+}"
+    elif abs(pct) >= 9.95:  # two significant digits would round to 10 or more
         text = f"{pct:+.0f}"
     else:
         text = np.format_float_positional(pct, precision=2, unique=False, fractional=False,

@@ -17,8 +17,8 @@ d = 2ζ√(k·m) and ζ = −ln e/√(π² + ln² e), the textbook conversion th
 unclipped law; clipped at F ≥ 0 (what engines do) its effective restitution is higher.
 Closed form in :mod:`impactbench.reference.kelvin_voigt`.
 
-Adding a model: one class with ``name``, ``citation`` and ``alpha`` (or a new family), and one
-entry in :data:`MODELS`.
+Adding a model: one class with ``name``, ``citation`` and ``alpha`` (or ``factor``, for a
+:class:`ProportionalModel`; or a new family), and one entry in :data:`MODELS`.
 """
 
 from __future__ import annotations
@@ -68,7 +68,17 @@ class HysteresisModel(HuntCrossley):
         raise NotImplementedError
 
 
-class HuntCrossleyModel(HysteresisModel):
+class ProportionalModel(HysteresisModel):
+    """The models whose α is proportional to the loss 1 − e: α = ``factor``·(1 − e)."""
+
+    factor: ClassVar[float]
+
+    @classmethod
+    def alpha(cls, e: float) -> float:
+        return cls.factor * (1.0 - e)
+
+
+class HuntCrossleyModel(ProportionalModel):
     """Hunt & Crossley: α = 3(1 − e)/2 (linearised for e → 1).
 
     K. H. Hunt, F. R. E. Crossley, "Coefficient of restitution interpreted as damping in
@@ -77,10 +87,7 @@ class HuntCrossleyModel(HysteresisModel):
 
     name = "hunt-crossley"
     citation = "Hunt & Crossley, J. Appl. Mech. 42(2):440–445, 1975"
-
-    @staticmethod
-    def alpha(e: float) -> float:
-        return 1.5 * (1.0 - e)
+    factor = 1.5
 
 
 class HerbertMcWhannell(HysteresisModel):
@@ -98,7 +105,7 @@ class HerbertMcWhannell(HysteresisModel):
         return 6.0 * (1.0 - e) / ((2.0 * e - 1.0) ** 2 + 3.0)
 
 
-class LeeWang(HysteresisModel):
+class LeeWang(ProportionalModel):
     """Lee & Wang: α = 3(1 − e)/4.
 
     T. W. Lee, A. C. Wang, "On the dynamics of intermittent-motion mechanisms. Part 1: Dynamic
@@ -108,10 +115,7 @@ class LeeWang(HysteresisModel):
 
     name = "lee-wang"
     citation = "Lee & Wang, J. Mech. Transm. Autom. Des. 105(3):534–540, 1983"
-
-    @staticmethod
-    def alpha(e: float) -> float:
-        return 0.75 * (1.0 - e)
+    factor = 0.75
 
 
 class LankaraniNikravesh(HysteresisModel):

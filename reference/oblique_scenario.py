@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from typing import Any, ClassVar
 
 from impactbench.reference import validation as check
-from impactbench.reference.models import LINEAR_MODELS, MODELS, check_restitution
+from impactbench.reference.models import LINEAR_MODELS, MODELS
 from impactbench.reference.scenarios import (
     MIN_VELOCITY_M_S,
     PAPER_RADIUS_M,
@@ -21,7 +21,9 @@ from impactbench.reference.scenarios import (
     STEEL_POISSON,
     STEEL_YOUNG_PA,
     BallOnPlate,
-    _Scenario,
+    ScenarioFields,
+    check_ball_contact,
+    check_contact_model,
     hertz_stiffness,
 )
 
@@ -111,7 +113,7 @@ def _poisson(name: str, value: object) -> float:
 
 
 @dataclass(frozen=True)
-class Oblique(_Scenario):
+class Oblique(ScenarioFields):
     """A sphere (or disc) hitting a massive plate at an angle, with friction and spin (module
     doc).
 
@@ -166,11 +168,7 @@ class Oblique(_Scenario):
         check.finite("spin_rad_s", self.spin_rad_s)
         check.one_of("tangential", self.tangential, TANGENTIAL_MODELS)
         check.one_of("shape", self.shape, SHAPES)
-        check.positive("mass_kg", self.mass_kg)
-        check.positive("stiffness", self.stiffness)
-        check.positive("exponent", self.exponent)
-        check.non_negative("damping_s_per_m", self.damping_s_per_m)
-        check.positive("radius_m", self.radius_m)
+        check_ball_contact(self)
         check.one_of("model", self.model, OBLIQUE_MODELS)
         check.positive("youngs_modulus_pa", self.youngs_modulus_pa)
         _poisson("poisson", self.poisson)
@@ -179,14 +177,7 @@ class Oblique(_Scenario):
             raise ValueError(f"plate_youngs_modulus_pa = {self.plate_youngs_modulus_pa!r}: "
                              "must be > 0 (inf: a rigid plate)")
         _poisson("plate_poisson", self.plate_poisson)
-        if self.nominal_restitution is not None:
-            check_restitution("nominal_restitution", self.nominal_restitution)
-        elif self.model != "hunt-crossley":
-            raise ValueError(f"nominal_restitution = None: model {self.model!r} needs a "
-                             "nominal restitution in (0, 1]")
-        if self.model in LINEAR_MODELS and self.exponent != 1.0:
-            raise ValueError(f"exponent = {self.exponent!r}: model {self.model!r} is a linear "
-                             "spring (stiffness in N/m); must be 1")
+        check_contact_model(self)
         if self.tangential in COMPLIANT_MODELS and (self.exponent != 1.5
                                                     or self.model in LINEAR_MODELS):
             raise ValueError(f"tangential = {self.tangential!r}: must have the Hertz law "

@@ -7,6 +7,7 @@ construction: a bad value raises ``ValueError`` naming the field, the value and 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, fields
 from typing import Any, ClassVar
 
@@ -60,9 +61,10 @@ MIN_VELOCITY_M_S = 1e-100
 here; far below, V0² underflows and every metric would come out 0."""
 
 
-class _Scenario:
-    """What every scenario dataclass shares. ``name`` is its registry name, the key adapters
-    find their builder under (:attr:`impactbench.engines.base.Adapter.builders`)."""
+class ScenarioFields:
+    """What every scenario dataclass shares (a plug-in's too: it subclasses this):
+    ``to_dict``, ``replace`` and ``field_names``. ``name`` is its registry name, the key
+    adapters find their builder under (:attr:`impactbench.engines.base.Adapter.builders`)."""
 
     name: ClassVar[str]
 
@@ -79,8 +81,40 @@ class _Scenario:
         return tuple(f.name for f in fields(cls))  # type: ignore[arg-type]
 
 
+def check_each(rule: Callable[[str, object], float], scenario: Any, *names: str) -> None:
+    """``rule`` (a check of :mod:`impactbench.reference.validation`, such as
+    ``positive``) on each named field of ``scenario``, in order: the first bad one raises."""
+    for name in names:
+        rule(name, getattr(scenario, name))
+
+
+def check_ball_contact(ball: Any) -> None:
+    """The contact fields of a ball on a plate (:class:`BallOnPlate`, ``Oblique``): mass,
+    stiffness, exponent and radius > 0, damping >= 0."""
+    check_each(check.positive, ball, "mass_kg", "stiffness", "exponent")
+    check.non_negative("damping_s_per_m", ball.damping_s_per_m)
+    check.positive("radius_m", ball.radius_m)
+
+
+def check_contact_model(ball: Any) -> float | None:
+    """The ball's nominal restitution, checked against its contact ``model``: None only for
+    the default hunt-crossley (which takes ``damping_s_per_m`` as given), else in (0, 1]; a
+    linear model needs ``exponent`` 1."""
+    e = ball.nominal_restitution
+    if e is None:
+        if ball.model != "hunt-crossley":
+            raise ValueError(f"nominal_restitution = None: model {ball.model!r} needs a "
+                             "nominal restitution in (0, 1]")
+        return None
+    check_restitution("nominal_restitution", e)
+    if ball.model in LINEAR_MODELS and ball.exponent != 1.0:
+        raise ValueError(f"exponent = {ball.exponent!r}: model {ball.model!r} is a linear "
+                         "spring (stiffness in N/m); must be 1")
+    return e
+
+
 @dataclass(frozen=True)
-class BallOnPlate(_Scenario):
+class BallOnPlate(ScenarioFields):
     """A steel ball hitting a massive fixed plate head-on (MODELS.md §1).
 
     Hunt–Crossley contact F = c·xⁿ·(1 + b·ẋ). Gravity is off by default (the paper's
@@ -112,24 +146,13 @@ class BallOnPlate(_Scenario):
             raise ValueError(f"velocity_m_s = {self.velocity_m_s!r}: must be >= "
                              f"{MIN_VELOCITY_M_S:g} m/s (below it V0² underflows double "
                              "precision and the closed form would return zeros)")
-        check.positive("mass_kg", self.mass_kg)
-        check.positive("stiffness", self.stiffness)
-        check.positive("exponent", self.exponent)
-        check.non_negative("damping_s_per_m", self.damping_s_per_m)
-        check.positive("radius_m", self.radius_m)
+        check_ball_contact(self)
         check.non_negative("gravity_m_s2", self.gravity_m_s2)
         check.one_of("model", self.model, MODELS)
-        e = self.nominal_restitution
+        e = check_contact_model(self)
         if e is None:
-            if self.model != "hunt-crossley":
-                raise ValueError(f"nominal_restitution = None: model {self.model!r} needs a "
-                                 "nominal restitution in (0, 1]")
             return
-        check_restitution("nominal_restitution", e)
         if self.model in LINEAR_MODELS:
-            if self.exponent != 1.0:
-                raise ValueError(f"exponent = {self.exponent!r}: model {self.model!r} is a "
-                                 "linear spring (stiffness in N/m); must be 1")
             object.__setattr__(self, "damping_s_per_m", 0.0)
         else:
             b = HYSTERESIS_MODELS[self.model].alpha(float(e)) / self.velocity_m_s
@@ -170,7 +193,7 @@ class BallOnPlate(_Scenario):
 
 
 @dataclass(frozen=True)
-class RigidFlexible(_Scenario):
+class RigidFlexible(ScenarioFields):
     """Rigid body 1 (m1) hitting flexible body 2 (m2) tied to the ground (MODELS.md §2).
 
     Defaults are Zhou & Xiao's base parameters. ``local`` names the contact law
@@ -197,9 +220,8 @@ class RigidFlexible(_Scenario):
         check.positive("velocity_m_s", self.velocity_m_s)
         check.one_of("local", self.local, tuple(ALL_LOCAL_LAWS))
         check.one_of("structure", self.structure, tuple(STRUCTURAL_LAWS))
-        for name in ("m1_kg", "m2_kg", "k1_n_per_m", "k2_n_per_m", "kt_n_per_m",
-                     "k1_failed_n_per_m", "eps_s_m", "fm_n", "max_time_s"):
-            check.positive(name, getattr(self, name))
+        check_each(check.positive, self, "m1_kg", "m2_kg", "k1_n_per_m", "k2_n_per_m",
+                   "kt_n_per_m", "k1_failed_n_per_m", "eps_s_m", "fm_n", "max_time_s")
         check.non_negative("beta_n_per_m3", self.beta_n_per_m3)
         # Energy: loading along the backbone to Δx_m = εs + d absorbs k1·εs²/2 + k1·εs·d +
         # kt·d²/2; the elastic unloading (slope k1) returns F_m²/(2·k1). Their difference is

@@ -572,14 +572,9 @@ def _fast(scenario: RigidFlexible) -> bool:
         "linear", "softening")
 
 
-def check_points(base: RigidFlexible, over: str, values: Any) -> np.ndarray:
-    """``values`` (SI) as a float array once every point of ``base`` swept over ``over`` is
-    a valid scenario; else the ValueError that point's :class:`RigidFlexible` raises (the
-    first bad one), without building a scenario per point.
-
-    The swept field must be > 0 and finite; a k1 sweep scales kt and k1' with k1
-    (:func:`with_parameter`), so they must stay > 0 and finite and keep the energy rules of
-    ``base``'s local law (kt ≤ k1, k1' ≤ k1) after rounding."""
+def _swept_values(over: str, values: Any) -> np.ndarray:
+    """``values`` as a flat float array once ``over`` is a sweep field (:data:`SWEEP_FIELDS`)
+    and every value is > 0 and finite; else the one-line ValueError of the first bad one."""
     from impactbench.reference import validation as check
 
     check.one_of("over", over, tuple(SWEEP_FIELDS))
@@ -588,6 +583,18 @@ def check_points(base: RigidFlexible, over: str, values: Any) -> np.ndarray:
     bad = ~(np.isfinite(v) & (v > 0.0))
     if bad.any():
         check.positive(fld, float(v[np.argmax(bad)]))
+    return v
+
+
+def check_points(base: RigidFlexible, over: str, values: Any) -> np.ndarray:
+    """``values`` (SI) as a float array once every point of ``base`` swept over ``over`` is
+    a valid scenario; else the ValueError that point's :class:`RigidFlexible` raises (the
+    first bad one), without building a scenario per point.
+
+    The swept field must be > 0 and finite; a k1 sweep scales kt and k1' with k1
+    (:func:`with_parameter`), so they must stay > 0 and finite and keep the energy rules of
+    ``base``'s local law (kt ≤ k1, k1' ≤ k1) after rounding."""
+    v = _swept_values(over, values)
     if over == "k1":
         ratio = v / base.k1_n_per_m
         kt, k1f = base.kt_n_per_m * ratio, base.k1_failed_n_per_m * ratio
@@ -634,14 +641,7 @@ def sweep_tasks(base: RigidFlexible, over: str, values: Any, combos: Any = None
     of ``combos`` (None: all 3 × 2), ``over`` (velocity, k1, k2, m2) at ``values`` (SI, > 0)
     in :data:`SWEEP_CHUNK`-value chunks. One-line ValueError on bad input: every point is
     checked here, once (:func:`check_points`)."""
-    from impactbench.reference import validation as check
-
-    check.one_of("over", over, tuple(SWEEP_FIELDS))
-    fld = SWEEP_FIELDS[over]
-    v = np.asarray(values, dtype=float).reshape(-1)
-    bad = ~(np.isfinite(v) & (v > 0.0))
-    if bad.any():
-        check.positive(fld, float(v[np.argmax(bad)]))
+    v = _swept_values(over, values)
     vals = v.tolist()
     combos = ALL_COMBOS if combos is None else tuple(tuple(c) for c in combos)
     tasks = []

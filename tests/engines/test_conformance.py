@@ -340,6 +340,17 @@ def _applied_force_rf(linear: tuple[float, float, float],
                dict(zip(RF_METRICS, elastoplastic, strict=True)))]
 
 
+def _frictionless(params: dict[str, Any], e_t_abs: float, spin_abs: float,
+                  e_rel: float) -> ObliqueRun:
+    """The custom oblique run at 45° with friction off and restitution 0.9 (``params``, the
+    engine's names): the ball slides through, e_t 1 within ``e_t_abs`` and no spin within
+    ``spin_abs`` (absolute), and rebounds at 0.9 within ``e_rel`` (relative)."""
+    return ObliqueRun("custom", 45.0, params=params,
+                      expect={"tangential_restitution": pytest.approx(1.0, abs=e_t_abs),
+                              "spin_out_rad_s": pytest.approx(0.0, abs=spin_abs),
+                              "restitution": pytest.approx(0.9, rel=e_rel)})
+
+
 PEAK_TANGENTIAL = 0.11
 """|rel err| of an injected oblique run's peak tangential force (the sphere: pymunk, DART,
 Box2D, SAPIEN, Newton), measured 3.70e-2 (45°, ω0 = 60: the slip stops within a step of a
@@ -678,11 +689,7 @@ ENGINES: dict[str, dict[str, Any]] = {
                         "tangential_restitution": pytest.approx(5.0 / 7.0, rel=1e-9)},
                 facts={"friction": 0.0,  # pymunk's, replaced by μ
                        "collision_slop": pytest.approx(0.1), "friction_effective": 0.3}),
-            "custom": ObliqueRun(
-                "custom", 45.0, params={"friction": 0.0, "elasticity": 0.9},
-                expect={"tangential_restitution": pytest.approx(1.0, abs=1e-12),
-                        "spin_out_rad_s": pytest.approx(0.0, abs=1e-9),
-                        "restitution": pytest.approx(0.9, rel=1e-9)}),
+            "custom": _frictionless({"friction": 0.0, "elasticity": 0.9}, 1e-12, 1e-9, 1e-9),
         },
         "oblique_tuned_ball_params": {"elasticity": 0.9},
     },
@@ -944,11 +951,8 @@ ENGINES: dict[str, dict[str, Any]] = {
                         "tangential_restitution": pytest.approx(5.0 / 7.0, rel=5e-5)},
                 facts={"friction_coeff": 1.0,  # DART's, replaced by μ
                        "friction_effective": 0.3}),
-            "custom": ObliqueRun(
-                "custom", 45.0, params={"friction_coeff": 0.0, "restitution_coeff": 0.9},
-                expect={"tangential_restitution": pytest.approx(1.0, abs=1e-9),
-                        "spin_out_rad_s": pytest.approx(0.0, abs=1e-9),
-                        "restitution": pytest.approx(0.9, rel=1e-4)}),
+            "custom": _frictionless({"friction_coeff": 0.0, "restitution_coeff": 0.9},
+                                    1e-9, 1e-9, 1e-4),
         },
         "oblique_tuned_ball_params": {"restitution_coeff": 0.9},
     },
@@ -1033,13 +1037,9 @@ ENGINES: dict[str, dict[str, Any]] = {
                         "tangential_restitution": pytest.approx(5.0 / 7.0, rel=5e-5)},
                 facts={"friction": pytest.approx(0.2),  # replaced by μ
                        "friction_effective": 0.3}),
-            "custom": ObliqueRun(
-                "custom", 45.0, params={"friction": 0.0, "restitution": 0.9},
-                # frictionless: e_t 1 + 1.3e-6 measured (float32, the plate circle's normal
-                # tilted by the ball's float32 position off its top)
-                expect={"tangential_restitution": pytest.approx(1.0, abs=5e-6),
-                        "spin_out_rad_s": pytest.approx(0.0, abs=1e-6),
-                        "restitution": pytest.approx(0.9, rel=1e-5)}),
+            # frictionless: e_t 1 + 1.3e-6 measured (float32, the plate circle's normal
+            # tilted by the ball's float32 position off its top)
+            "custom": _frictionless({"friction": 0.0, "restitution": 0.9}, 5e-6, 1e-6, 1e-5),
         },
         "oblique_tuned_ball_params": {"restitution": 0.9},
     },

@@ -5,10 +5,10 @@ from __future__ import annotations
 
 import pytest
 from conftest import require_engine
-
-from impactbench import scenarios
 from impactbench.engines.base import RunSettings, get_adapter, run_safely
 from impactbench.reference.record import Status
+
+from impactbench import scenarios
 
 BOX = {"half_width_m": 0.05, "mass_kg": 0.5, "inertia_kg_m2": 0.0009, "tosses": "0"}
 """A cube other than DAIR's (h, m, I of a 10 cm, 0.5 kg box, not uniform: I ≠ m(2h)²/6)."""

@@ -329,7 +329,7 @@ def test_report_section_renders_with_a_tiny_config(tmp_path) -> None:
     want = replay("pybullet", "custom", tosses=IDS, param_set="dair2022")
     assert f"| {want['position_error_median']:.3f} [" in md
     # the reason is a numbered note under the table (no note column)
-    mark = re.search(r"\| pymunk \| all \| — \| unsupported (\S) \|\n", md)
+    mark = re.search(r"\| pymunk \| all \| — \| unsupported (\S+) \| — \| — \| — \|\n", md)
     assert mark and f"\n> {mark.group(1)} pymunk is a 2D engine" in md
     names = sorted(p.name for p in (tmp_path / "rep" / "figures").glob("*.png"))
     # trajectories: every run's here ("all"); by default only each engine's best run's

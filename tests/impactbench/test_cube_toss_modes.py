@@ -14,7 +14,10 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import replace
+from typing import Any
 
 import mpmath
 import numpy as np
@@ -159,14 +162,24 @@ def _corner_at_the_operating_point() -> tuple[np.ndarray, np.ndarray]:
     return np.array([w, x, y, z]), rot.apply([-0.0524, -0.0524, -0.0524])
 
 
-def test_mujoco_has_the_mapped_geoms_and_each_contact_is_k_x_plus_d_xdot() -> None:
-    require_engine("mujoco")
-    import mujoco
-
-    params = mm.native_parameters("mujoco")
-    sd = mm.native_mapping("mujoco").inputs["spring_damper"]
-    sim = engines_mod.make("mujoco", params)
+@contextmanager
+def _native(engine: str, inputs: str) -> Iterator[tuple[Any, dict[str, Any], dict[str, Any]]]:
+    """``engine`` (skipped if not installed) built with its native mapping's parameters:
+    (the simulator, the parameters, the mapping's ``inputs[inputs]``); closed afterwards."""
+    require_engine(engine)
+    params = mm.native_parameters(engine)
+    mapped = mm.native_mapping(engine).inputs[inputs]
+    sim = engines_mod.make(engine, params)
     try:
+        yield sim, params, mapped
+    finally:
+        sim.close()
+
+
+def test_mujoco_has_the_mapped_geoms_and_each_contact_is_k_x_plus_d_xdot() -> None:
+    with _native("mujoco", "spring_damper") as (sim, params, sd):
+        import mujoco
+
         m, d = sim._model, sim._data
         for body in ("board", "cube"):
             g = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, body)
@@ -190,16 +203,10 @@ def test_mujoco_has_the_mapped_geoms_and_each_contact_is_k_x_plus_d_xdot() -> No
         mujoco.mj_contactForce(m, d, 0, f)
         want = sd["stiffness_n_per_m"] * x + sd["damping_n_s_per_m"] * xd
         assert f[0] == pytest.approx(want, rel=2e-4)   # the leak d·M·g is 3.6e-4 N
-    finally:
-        sim.close()
 
 
 def test_pybullet_reads_back_the_mapped_pair() -> None:
-    require_engine("pybullet")
-    params = mm.native_parameters("pybullet")
-    sd = mm.native_mapping("pybullet").inputs["spring_damper"]
-    sim = engines_mod.make("pybullet", params)
-    try:
+    with _native("pybullet", "spring_damper") as (sim, params, sd):
         pb, c = sim._pb, sim._client
         for body, uid in (("board", sim._board), ("cube", sim._cube)):
             info = pb.getDynamicsInfo(uid, -1, physicsClientId=c)
@@ -210,18 +217,12 @@ def test_pybullet_reads_back_the_mapped_pair() -> None:
         assert eff["contact_stiffness_n_per_m"] == pytest.approx(sd["stiffness_n_per_m"])
         assert eff["contact_damping_n_s_per_m"] == pytest.approx(sd["damping_n_s_per_m"])
         assert eff["friction"] == pytest.approx(FIT.friction)
-    finally:
-        sim.close()
 
 
 def test_drake_reads_back_the_mapped_materials_and_plant() -> None:
-    require_engine("drake")
-    from pydrake.multibody.plant import ContactModel
+    with _native("drake", "point_contact") as (sim, params, point):
+        from pydrake.multibody.plant import ContactModel
 
-    params = mm.native_parameters("drake")
-    point = mm.native_mapping("drake").inputs["point_contact"]
-    sim = engines_mod.make("drake", params)
-    try:
         setup = sim.describe()   # the materials are read from SceneGraph's inspector
         for body in ("board", "cube"):
             got = setup["materials"][body]
@@ -237,8 +238,6 @@ def test_drake_reads_back_the_mapped_materials_and_plant() -> None:
         assert plant.get_discrete_contact_approximation().name == "kTamsi"
         assert plant.get_contact_model() == ContactModel.kPoint
         assert setup["stiction_tolerance_m_s"] == FIT.slip_velocity_m_s
-    finally:
-        sim.close()
 
 
 # ------------------------------------------------------------------ injected

@@ -9,8 +9,8 @@ import pytest
 from conftest import require_engine
 from impactbench.engines.registry import spec
 
-from impactbench.cli import main
 from impactbench.api import ADAPTER_DEFAULT, ENGINE_DEFAULT, GIVEN, run_timestep
+from impactbench.cli import main
 
 
 def run(capsys, *argv: str) -> tuple[int, str]:

@@ -1,9 +1,8 @@
 """A third-party engine through the entry points: ``examples/plugin-engine-euler``.
 
-The plug-in is made visible without pip, as ``test_scenario_plugin.py`` does for a scenario: a
-``*.dist-info`` folder (METADATA and entry_points.txt, what pip would write) in ``tmp_path``
-and the example's source folder go on ``sys.path`` (this process) and ``PYTHONPATH`` (the CLI
-subprocesses and their workers). Then ``run``, ``report`` and ``gate`` run it end to end, as a
+The plug-in is made visible without pip, as ``test_scenario_plugin.py`` does for a scenario
+(``plugin_install.py``: a ``*.dist-info`` folder and the example's source folder on
+``sys.path`` and ``PYTHONPATH``). Then ``run``, ``report`` and ``gate`` run it end to end, as a
 user who installed it would, with nothing in impactbench naming it.
 """
 
@@ -11,8 +10,6 @@ from __future__ import annotations
 
 import csv
 import json
-import os
-import subprocess
 import sys
 from pathlib import Path
 
@@ -22,6 +19,7 @@ from impactbench.engines.base import RunSettings, get_adapter, run_safely
 from impactbench.reference import hunt_crossley, metrics
 from impactbench.reference.record import Status
 from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
+from plugin_install import cli, gate_passes_and_fails, installed
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE = ROOT / "examples" / "plugin-engine-euler"
@@ -52,29 +50,10 @@ def _forget_plugin() -> None:
 def plugin(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> dict[str, str]:
     """The example registered as if pip-installed; returns the subprocesses' environment
     (PYTHONPATH, a private results store). The registry forgets it afterwards."""
-    site = tmp_path / "site"
-    info = site / "impactbench_euler-0.1.0.dist-info"
-    info.mkdir(parents=True)
-    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: impactbench-euler\n"
-                                   "Version: 0.1.0\n")
-    (info / "entry_points.txt").write_text(f"[{registry.ENTRY_POINT_GROUP}]\n"
-                                           f"{NAME} = impactbench_euler:SPEC\n")
-    monkeypatch.syspath_prepend(str(EXAMPLE))
-    monkeypatch.syspath_prepend(str(site))
     monkeypatch.delenv(registry.WARNED_ENV, raising=False)
-    _forget_plugin()
-    env = {**os.environ,
-           "PYTHONPATH": os.pathsep.join([str(site), str(EXAMPLE),
-                                          *filter(None, [os.environ.get("PYTHONPATH")])]),
-           "IMPACTBENCH_STORE": str(tmp_path / "store.duckdb")}
-    env.pop("GITHUB_STEP_SUMMARY", None)
-    yield env
-    _forget_plugin()
-
-
-def cli(env: dict[str, str], *args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "impactbench.cli", *args],
-                          capture_output=True, text=True, env=env, timeout=600)
+    yield from installed(tmp_path, monkeypatch, EXAMPLE, "impactbench-euler",
+                         registry.ENTRY_POINT_GROUP, f"{NAME} = impactbench_euler:SPEC",
+                         _forget_plugin)
 
 
 def rel_errors(velocity_m_s: float, timestep_s: float, mode: str = "injected"
@@ -181,30 +160,8 @@ def test_report_has_the_plugin_engine(plugin, tmp_path: Path) -> None:
 
 
 def test_gate_passes_and_fails(plugin, tmp_path: Path) -> None:
-    def gate_file(name: str, tolerance: dict[str, float]) -> Path:
-        path = tmp_path / name
-        path.write_text(f'[[gate]]\nengine = "{NAME}"\nmode = "injected"\n'
-                        'scenario = "ball-on-plate"\nvelocities_m_s = [1.0, 5.0]\n'
-                        "[gate.tolerance]\n"
-                        + "".join(f"{m} = {t!r}\n" for m, t in tolerance.items()))
-        return path
-
-    baseline = tmp_path / "baseline.json"
-    measured = gate_file("gates.toml", GATE_TOLERANCE)
-    first = cli(plugin, "gate", "--config", str(measured), "--baseline", str(baseline),
-                "--update-baseline", "--workers", "0")
-    assert first.returncode == 0, first.stdout + first.stderr
-    checks = json.loads(baseline.read_text())["checks"]
-    assert len(checks) == 2 * len(GATE_TOLERANCE)
+    checks = gate_passes_and_fails(
+        plugin, tmp_path, f'[[gate]]\nengine = "{NAME}"\nmode = "injected"\n'
+        'scenario = "ball-on-plate"\nvelocities_m_s = [1.0, 5.0]\n', GATE_TOLERANCE,
+        "--workers", "0")
     assert all(c.startswith(f"{NAME}-") for c in checks), checks
-
-    again = cli(plugin, "gate", "--config", str(measured), "--baseline", str(baseline),
-                "--workers", "0")
-    assert again.returncode == 0, again.stdout + again.stderr
-    assert "gates OK: 10 checks, 10 pass" in again.stdout
-
-    tight = gate_file("tight.toml", dict.fromkeys(GATE_TOLERANCE, 1e-12))
-    failed = cli(plugin, "gate", "--config", str(tight), "--baseline", str(baseline),
-                 "--workers", "0")
-    assert failed.returncode == 1, failed.stdout + failed.stderr
-    assert "gates FAILED" in failed.stdout

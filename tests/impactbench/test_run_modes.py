@@ -26,12 +26,18 @@ def run(capsys, *argv: str) -> tuple[int, str, str]:
     return code, out, err
 
 
+def run_json(capsys, engine: str, *argv: str) -> tuple[int, dict]:
+    """``impactbench run ball-on-plate --engine ENGINE ARGV --json`` (skipped where the engine
+    is not installed): the exit code and the parsed output."""
+    require_engine(engine)
+    code, out, _ = run(capsys, "run", "ball-on-plate", "--engine", engine, *argv, "--json")
+    return code, json.loads(out)
+
+
 @pytest.mark.parametrize(("engine", "dt"), CUSTOMARY)
 def test_default_mode_json_at_the_customary_step(capsys, engine, dt):
-    require_engine(engine)
-    code, out, _ = run(capsys, "run", "ball-on-plate", "--engine", engine,
-                       "--mode", "default", "--velocity", "2", "--timestep", dt, "--json")
-    obj = json.loads(out)
+    code, obj = run_json(capsys, engine, "--mode", "default", "--velocity", "2",
+                         "--timestep", dt)
     # measured either way; out of the box at these steps the paper's 14.5 mm ball often sinks
     # deeper than a tenth of its radius (MuJoCo's 20 ms default contact: about one radius)
     deep = obj["plausibility"]["penetration_ratio"] > 0.1
@@ -41,11 +47,8 @@ def test_default_mode_json_at_the_customary_step(capsys, engine, dt):
 
 
 def test_custom_param_reaches_mujoco(capsys):
-    require_engine("mujoco")
-    code, out, _ = run(capsys, "run", "ball-on-plate", "--engine", "mujoco",
-                       "--mode", "custom", "--param", "solref=0.01,0.5", "--velocity", "2",
-                       "--timestep", "2e-3", "--json")
-    obj = json.loads(out)
+    code, obj = run_json(capsys, "mujoco", "--mode", "custom", "--param", "solref=0.01,0.5",
+                         "--velocity", "2", "--timestep", "2e-3")
     assert obj["params"] == {"solref": [0.01, 0.5]}
     assert code == (0 if obj["status"] == "ok" else 1)
 
@@ -77,11 +80,8 @@ def test_param_values():
 
 
 def test_tuned_with_a_changed_scenario_is_unsupported_naming_the_field(capsys):
-    require_engine("mujoco")
-    _, out, _ = run(capsys, "run", "ball-on-plate", "--engine", "mujoco",
-                       "--mode", "tuned", "--velocity", "2", "--mass", "0.072",
-                       "--stiffness", "1.4e6", "--json")
-    obj = json.loads(out)
+    _, obj = run_json(capsys, "mujoco", "--mode", "tuned", "--velocity", "2", "--mass", "0.072",
+                      "--stiffness", "1.4e6")
     assert obj["status"] == "unsupported"
     assert "mass_kg" in obj["message"] and "stiffness" in obj["message"]
     assert "impactbench tune --engine mujoco --mass 0.072" in obj["message"]

@@ -156,7 +156,7 @@ def test_the_sections_replays_share_the_reports_store_guard(tmp_path: Path) -> N
     (0.0, "0 %"), (1.2e-16, "0 %"), (-3e-10, "0 %"),     # round-off
     (4.6e-7, "+0.000046 %"), (1.2e-5, "+0.0012 %"), (-0.0123, "−1.2 %"),
     (-0.254, "−25 %"), (0.996, "+100 %"), (1.0, "+100 %"), (1.3, "+130 %"),
-    (12.0, "+1200 %"), (-1.0, "−100 %"),
+    (12.0, "+1200 %"), (-1.0, "−100 %"), (math.nan, "n/a"), (-math.inf, "−inf %"),
 ])
 def test_a_relative_error_prints_as_a_plain_percentage(err: float, text: str) -> None:
     assert format_error(err) == text

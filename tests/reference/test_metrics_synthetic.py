@@ -11,9 +11,10 @@ from impactbench.reference import metrics
 from impactbench.reference.record import ImpactRecord
 
 
-def spring_damper_record(k: float, d: float, m: float, v0: float, dt: float,
-                         pre_s: float = 2e-6) -> ImpactRecord:
-    """Exact sampled history of a ball (mass m) hitting a clipped linear spring–damper."""
+def spring_damper_history(k: float, d: float, m: float, v0: float, dt: float,
+                          pre_s: float = 2e-6) -> tuple[np.ndarray, ...]:
+    """Exact sampled (t, x, ẋ, F) of a mass m meeting a clipped linear spring–damper at v0,
+    from ``pre_s`` before the touch."""
     wn = math.sqrt(k / m)
     zeta = d / (2 * math.sqrt(k * m))
     wd = wn * math.sqrt(1 - zeta**2)
@@ -30,6 +31,13 @@ def spring_damper_record(k: float, d: float, m: float, v0: float, dt: float,
     f[release:] = 0.0
     x[t < 0] = v0 * t[t < 0]
     f[t < 0] = 0.0
+    return t, x, v, f
+
+
+def spring_damper_record(k: float, d: float, m: float, v0: float, dt: float,
+                         pre_s: float = 2e-6) -> ImpactRecord:
+    """Exact sampled history of a ball (mass m) hitting a clipped linear spring–damper."""
+    t, x, v, f = spring_damper_history(k, d, m, v0, dt, pre_s)
     return ImpactRecord(t, x, v, f, v, np.zeros_like(t), mass_1_kg=m)
 
 

@@ -11,27 +11,11 @@ import math
 import pytest
 from impactbench.reference import oblique
 from impactbench.reference import oblique_integrate as oi
-from impactbench.reference.oblique import OBLIQUE_METRICS, Oblique
+from impactbench.reference.oblique import Oblique
+from oblique_checks import LAWS, close
 
 from impactbench.commands.oblique import main
 from impactbench.scenarios.oblique import SPEC
-
-LAWS = {
-    "hunt-crossley (paper b)": {},
-    "gonthier e=0.7": {"model": "gonthier", "nominal_restitution": 0.7},
-    "flores e=0.5": {"model": "flores", "nominal_restitution": 0.5},
-}
-
-
-def close(got: dict, want: dict, rel: float = 1e-8, abs_: float = 1e-10) -> list[str]:
-    bad = []
-    for k in OBLIQUE_METRICS:
-        a, b = got[k], want[k]
-        if math.isnan(b) and math.isnan(a):
-            continue
-        if not abs(a - b) <= max(rel * abs(b), abs_):
-            bad.append(f"{k}: {a!r} vs {b!r}")
-    return bad
 
 
 def test_shape_properties():

@@ -16,7 +16,9 @@ sphere-on-sphere``, a ``[sphere_on_sphere]`` table in a report config, a ``[[gat
 
 What it brings:
 
-- :class:`SphereOnSphere`, the frozen, validated dataclass of its physical fields;
+- :class:`SphereOnSphere`, the frozen, validated dataclass of its physical fields (what
+  every scenario dataclass shares, ``to_dict``, ``replace`` and ``field_names``, from
+  impactbench's ``ScenarioFields``);
 - the reference: the Hunt–Crossley closed form of :meth:`SphereOnSphere.equivalent_ball`
   (exact, see there);
 - engine builders (:attr:`SphereOnSphere.engine_builders`) for mujoco, pymunk and pybullet,
@@ -32,12 +34,12 @@ own contact output.
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, fields
-from dataclasses import replace as _replace
+from dataclasses import dataclass
 from typing import Any, ClassVar
 
 from impactbench.engines.base import Builder
 from impactbench.reference import validation as check
+from impactbench.reference.scenarios import ScenarioFields, check_each
 
 from impactbench.scenarios.spec import Axis, Flag, ScenarioSpec
 
@@ -48,7 +50,7 @@ STEP_S = 1e-6
 
 
 @dataclass(frozen=True)
-class SphereOnSphere:
+class SphereOnSphere(ScenarioFields):
     """A steel ball hitting a fixed steel sphere head-on (SI units; gravity off by default).
 
     Attributes:
@@ -81,28 +83,14 @@ class SphereOnSphere:
     gravity_m_s2: float = 0.0
 
     def __post_init__(self) -> None:
-        check.positive("velocity_m_s", self.velocity_m_s)
-        check.positive("mass_kg", self.mass_kg)
-        check.positive("radius_m", self.radius_m)
-        check.positive("target_radius_m", self.target_radius_m)
-        check.positive("youngs_modulus_pa", self.youngs_modulus_pa)
+        """A bad field raises a one-line ValueError naming it, its value and its rule."""
+        check_each(check.positive, self, "velocity_m_s", "mass_kg", "radius_m",
+                   "target_radius_m", "youngs_modulus_pa")
         nu = check.finite("poisson", self.poisson)
         if not -1.0 < nu <= 0.5:
             raise ValueError(f"poisson = {self.poisson!r}: must be in (-1, 0.5] (an isotropic "
                              "elastic solid)")
-        check.non_negative("damping_s_per_m", self.damping_s_per_m)
-        check.non_negative("gravity_m_s2", self.gravity_m_s2)
-
-    # ------------------------------------------------------------------ as reference/scenarios
-    def to_dict(self) -> dict[str, Any]:
-        return asdict(self)
-
-    def replace(self, **changes: Any) -> SphereOnSphere:
-        return _replace(self, **changes)
-
-    @classmethod
-    def field_names(cls) -> tuple[str, ...]:
-        return tuple(f.name for f in fields(cls))
+        check_each(check.non_negative, self, "damping_s_per_m", "gravity_m_s2")
 
     # ------------------------------------------------------------------ physics
     @property
