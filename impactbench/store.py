@@ -341,14 +341,16 @@ class _Interruptible:
 
 
 def _interruptible(function: Any) -> Any:
-    """``function`` with DuckDB's ``RuntimeError("Query interrupted")`` raised as the
-    KeyboardInterrupt it was (:class:`_Interruptible`)."""
+    """``function`` with DuckDB's ``RuntimeError("Query interrupted")`` (and an error that
+    wraps a KeyboardInterrupt raised while DuckDB read a registered table's schema) raised as
+    the KeyboardInterrupt it was (:class:`_Interruptible`)."""
 
     def call(*args: Any, **kwargs: Any) -> Any:
         try:
             return function(*args, **kwargs)
-        except RuntimeError as exc:
-            if "interrupted" in str(exc).lower():
+        except Exception as exc:  # RuntimeError, or a duckdb.Error that wraps the interrupt
+            text = str(exc)
+            if "Query interrupted" in text or "KeyboardInterrupt" in text:
                 raise KeyboardInterrupt from None
             raise
 

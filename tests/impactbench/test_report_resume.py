@@ -82,9 +82,11 @@ def test_ctrl_c_keeps_the_previous_report_and_the_rerun_resumes(tmp_path: Path) 
     before = {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()}
     assert Path("README.md") in before and stored_runs(tmp_path / "store.duckdb") == 1
 
-    # 8 runs of 0.5 s on 2 workers, stored as they finish
+    # 8 runs of 1.5 s on 2 workers (6 s in all), stored as they finish (at least every 2 s):
+    # at 0.5 s a run, the whole matrix (2 s) could finish between the flush that showed 3
+    # stored and the interrupt's flush on a loaded machine (seen: "8 of 8 stored")
     with interruptible_children():
-        second = report(slow, out, sleeper_env(tmp_path, 0.5), start_new_session=True)
+        second = report(slow, out, sleeper_env(tmp_path, 1.5), start_new_session=True)
     deadline = time.monotonic() + 120
     while stored_runs(tmp_path / "store.duckdb") < 3 and time.monotonic() < deadline:
         assert second.poll() is None, second.communicate()[1]
