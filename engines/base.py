@@ -239,13 +239,13 @@ class Adapter(ABC):
     def replay_tosses(self, scenario: Scenario, mode: str, settings: RunSettings
                       ) -> ImpactRecord:
         """The cube-toss builder of the 3D engines (:func:`impactbench.engines.cube_toss.
-        replay`: the engine's cube on the board, every selected toss replayed). A
+        replay_tosses`: the engine's cube on the board, every selected toss replayed). A
         ValueError before the first step (a parameter the engine does not take, a published
         set it lacks) is bad input: :class:`SettingsError`."""
-        from impactbench.engines.cube_toss import replay
+        from impactbench.engines.cube_toss import replay_tosses
 
         try:
-            return replay(self.name, scenario, mode, settings)
+            return replay_tosses(self.name, scenario, mode, settings)
         except SettingsError:
             raise
         except ValueError as exc:

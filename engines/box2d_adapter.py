@@ -75,8 +75,8 @@ import math
 from typing import Any, ClassVar
 
 from impactbench.engines import oblique_common, oblique_tuned, stepping
-from impactbench.engines.base import CUBE_TOSS_TWO_D, EngineUnavailable, RunSettings, Scenario
-from impactbench.engines.common import native_ball_restitution, reference_velocity
+from impactbench.engines.base import CUBE_TOSS_TWO_D, RunSettings, Scenario
+from impactbench.engines.common import import_engine, native_ball_restitution, reference_velocity
 from impactbench.reference import validation as check
 from impactbench.reference.oblique_scenario import Oblique
 from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
@@ -107,11 +107,7 @@ SPRING_LENGTH_M = 1.0
 
 
 def _import_box2d() -> Any:
-    try:
-        import Box2D
-    except ImportError as exc:
-        raise EngineUnavailable("box2d", str(exc)) from None
-    return Box2D
+    return import_engine("box2d", "Box2D")
 
 
 def engine_defaults() -> dict[str, Any]:

@@ -746,7 +746,7 @@ REPLAY_ERRORS = (RuntimeError, FloatingPointError, ValueError)
 fails, the others go on."""
 
 
-def replay(engine: str, scenario: Any, mode: str, settings: Any) -> ImpactRecord:
+def replay_tosses(engine: str, scenario: Any, mode: str, settings: Any) -> ImpactRecord:
     """The cube-toss builder of every 3D engine: replay the scenario's tosses in ``engine``.
 
     The scenario (:class:`impactbench.scenarios.cube_toss.CubeToss`) prepares what the

@@ -68,11 +68,10 @@ from typing import Any
 
 from impactbench.engines import oblique_tuned, stepping
 from impactbench.engines.base import (
-    EngineUnavailable,
     RunSettings,
     Scenario,
 )
-from impactbench.engines.common import native_ball_restitution, reference_velocity
+from impactbench.engines.common import import_engine, native_ball_restitution, reference_velocity
 from impactbench.reference import validation as check
 from impactbench.reference.oblique_scenario import Oblique
 from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
@@ -97,11 +96,7 @@ BODY_HALF_SIZE_M = 0.1
 
 
 def _import_dart() -> Any:
-    try:
-        import dartpy
-    except ImportError as exc:
-        raise EngineUnavailable("dart", str(exc)) from None
-    return dartpy
+    return import_engine("dart", "dartpy")
 
 
 def engine_defaults() -> dict[str, Any]:

@@ -146,11 +146,10 @@ from impactbench.engines.base import (
     CUBE_TOSS_TWO_D,
     Adapter,
     Builder,
-    EngineUnavailable,
     RunSettings,
     Scenario,
 )
-from impactbench.engines.common import NATIVE_REFERENCE_VELOCITY_M_S, classify
+from impactbench.engines.common import NATIVE_REFERENCE_VELOCITY_M_S, classify, import_engine
 from impactbench.reference import validation as check
 from impactbench.reference.oblique_scenario import Oblique
 from impactbench.reference.record import ImpactRecord
@@ -182,11 +181,7 @@ OUT_OF_BOX_TIME_CAP_S = 0.5
 
 
 def _import_pymunk() -> Any:
-    try:
-        import pymunk
-    except ImportError as exc:
-        raise EngineUnavailable("pymunk", str(exc)) from None
-    return pymunk
+    return import_engine("pymunk", "pymunk")
 
 
 def _space(pymunk: Any, iterations: int, gravity_m_s2: float) -> Any:

@@ -9,7 +9,7 @@ continuous contact model gets to the measured tosses, with no time stepping in t
   engines' start (sample i0, DAIR's refitted initial velocity) — to the pose at every reference
   sample time t_ref − t_ref[0] (the true sample times; the engines round them to their step);
 - :func:`replay_reference`: a split or ids replayed and scored as
-  :func:`~impactbench.cube_tosses.scenario.replay` does (the same keys, ``engine =
+  ``replay()`` (:mod:`~impactbench.cube_tosses.replays`) does (the same keys, ``engine =
   "reference"``), so the reference sits in the engines' table;
 - :func:`fit`: nevergrad (``CMA`` by default, as :mod:`~impactbench.cube_tosses.tune`) over
   the normal law's stiffness, exponent and damping, μ and v_s (:data:`KNOBS`) on
@@ -214,7 +214,7 @@ def replay_reference(tosses: str | int | Iterable[int] = "test",
     the packaged tosses) in the reference model with ``params`` (None: the packaged fit,
     :func:`load_fitted`), under ``protocol`` (DAIR's by default, with ``box``'s half width).
 
-    Returns the dict :func:`~impactbench.cube_tosses.scenario.replay` returns (same keys:
+    Returns the dict ``replay()`` (:mod:`~impactbench.cube_tosses.replays`) returns (same keys:
     status, summary statistics, per_toss, protocol, ...) with ``engine = "reference"``,
     ``mode`` "fitted" (the packaged parameters) or "custom", and ``engine_setup`` describing
     the model, the box and the integrator. ``integrator``: ``method``, ``rtol``, ``atol``,

@@ -2,7 +2,7 @@
 builders, how it scores their records against the measurement, and what it shows besides.
 
 An engine run goes through the one door: :meth:`~impactbench.engines.base.Adapter.run` of
-the engine's adapter, whose cube-toss builder (:func:`impactbench.engines.cube_toss.replay`)
+the engine's adapter, whose cube-toss builder (:func:`impactbench.engines.cube_toss.replay_tosses`)
 asks the scenario object (:class:`~impactbench.scenarios.cube_toss.CubeToss`) for its inputs
 — :func:`starts` (each selected toss's start from the measurement, DAIR's protocol),
 :func:`box_of`, :func:`engine_parameters` (by mode) and :func:`injected_law` — and returns a

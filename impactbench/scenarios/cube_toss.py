@@ -5,7 +5,7 @@ of the same columns, :mod:`impactbench.cube_tosses.data`), its points are tosses
 into train and test (a hash of the toss id, 80/20). An engine run is a *replay*
 (DAIR's protocol): each selected toss started from its measured state near the first impact and
 simulated to its end, through the engines' cube-toss builders like every other scenario
-(:func:`impactbench.engines.cube_toss.replay`, asking this dataclass for its inputs:
+(:func:`impactbench.engines.cube_toss.replay_tosses`, asking this dataclass for its inputs:
 :meth:`CubeToss.starts`, :meth:`~CubeToss.box`, :meth:`~CubeToss.engine_parameters`,
 :meth:`~CubeToss.injected_law`); the metrics are, over tosses, the median, quartiles and mean
 of each toss's time-mean position error (a fraction of the cube's width 2h) and rotation error
