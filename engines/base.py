@@ -175,6 +175,15 @@ class EngineUnavailable(RuntimeError):
         self.pip = pip
 
 
+def import_engine(engine: str, module: str) -> Any:
+    """The engine's Python module, or :class:`EngineUnavailable` (naming the pip command
+    that installs it) when it is not installed."""
+    try:
+        return importlib.import_module(module)
+    except ImportError as exc:
+        raise EngineUnavailable(engine, str(exc)) from None
+
+
 @dataclass(frozen=True)
 class RunSettings:
     """How to run one scenario in an engine.

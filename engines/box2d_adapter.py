@@ -75,8 +75,8 @@ import math
 from typing import Any, ClassVar
 
 from impactbench.engines import oblique_common, oblique_tuned, stepping
-from impactbench.engines.base import CUBE_TOSS_TWO_D, RunSettings, Scenario
-from impactbench.engines.common import import_engine, native_ball_restitution, reference_velocity
+from impactbench.engines.base import CUBE_TOSS_TWO_D, RunSettings, Scenario, import_engine
+from impactbench.engines.common import native_ball_restitution, reference_velocity
 from impactbench.reference import validation as check
 from impactbench.reference.oblique_scenario import Oblique
 from impactbench.reference.scenarios import BallOnPlate, RigidFlexible

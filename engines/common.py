@@ -29,7 +29,6 @@ import os
 import sys
 from collections.abc import Iterator
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 from impactbench.reference.kelvin_voigt import clipped_phase, clipped_restitution
@@ -148,19 +147,6 @@ def native_ball_spring_damper(scenario, reference_velocity_m_s: float | None = N
     v_ref = reference_velocity_m_s or NATIVE_REFERENCE_VELOCITY_M_S
     ref = hunt_crossley.solve(scenario.replace(velocity_m_s=v_ref))
     return spring_damper_matching(scenario.mass_kg, ref["restitution"], ref["duration_s"])
-
-
-def import_engine(engine: str, module: str) -> Any:
-    """The engine's Python module, or :class:`~impactbench.engines.base.EngineUnavailable`
-    (naming the pip command that installs it) when it is not installed."""
-    import importlib
-
-    from impactbench.engines.base import EngineUnavailable
-
-    try:
-        return importlib.import_module(module)
-    except ImportError as exc:
-        raise EngineUnavailable(engine, str(exc)) from None
 
 
 @contextlib.contextmanager

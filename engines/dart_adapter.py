@@ -70,8 +70,9 @@ from impactbench.engines import oblique_tuned, stepping
 from impactbench.engines.base import (
     RunSettings,
     Scenario,
+    import_engine,
 )
-from impactbench.engines.common import import_engine, native_ball_restitution, reference_velocity
+from impactbench.engines.common import native_ball_restitution, reference_velocity
 from impactbench.reference import validation as check
 from impactbench.reference.oblique_scenario import Oblique
 from impactbench.reference.scenarios import BallOnPlate, RigidFlexible

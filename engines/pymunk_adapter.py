@@ -148,8 +148,9 @@ from impactbench.engines.base import (
     Builder,
     RunSettings,
     Scenario,
+    import_engine,
 )
-from impactbench.engines.common import NATIVE_REFERENCE_VELOCITY_M_S, classify, import_engine
+from impactbench.engines.common import NATIVE_REFERENCE_VELOCITY_M_S, classify
 from impactbench.reference import validation as check
 from impactbench.reference.oblique_scenario import Oblique
 from impactbench.reference.record import ImpactRecord
