@@ -258,6 +258,11 @@ class CubeTossSpec(ScenarioSpec):
 
         return measurement(scenario)
 
+    def report_part(self, ctx: Any, table: Any) -> dict[str, Any]:
+        from impactbench.cube_tosses.report_part import report_part
+
+        return report_part(ctx, self, table)
+
     def add_options(self, group: argparse._ArgumentGroup, with_gravity: bool = True) -> None:
         """The data file and the toss selection (``with_gravity`` is the ball's; unused)."""
         group.add_argument("--data", default=None, metavar="FILE",

@@ -229,6 +229,13 @@ class ScenarioSpec:
         """Add its own subcommands (``reference NAME``, ``sweep NAME``) to the parser."""
 
     # ------------------------------------------------------------------ the report
+    def report_part(self, ctx: Any, table: Any) -> dict[str, Any]:
+        """A measured scenario's part of the report's "Against real tosses" section (its
+        config ``table``: engines, modes, parameter sets, fields): title, intro, table, notes,
+        figures."""
+        raise NotImplementedError(f"scenario {self.name!r}: a measured scenario's spec must "
+                                  "define report_part")
+
     def report_figures(self, ctx: Any, runs: list, loops: list) -> None:
         """Draw its extra report figures (``ctx``: the report's context; ``runs``: its
         matrix runs; ``loops``: its force–penetration loops); none."""
