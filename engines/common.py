@@ -33,6 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 from impactbench.reference.kelvin_voigt import clipped_phase, clipped_restitution
 from impactbench.reference.record import ImpactRecord, Status
+from impactbench.reference.validation import InvalidValue
 from scipy import optimize
 
 NATIVE_REFERENCE_VELOCITY_M_S = 1.0
@@ -62,6 +63,11 @@ class SpringDamper:
         return clipped_phase(z) / wd
 
 
+MAX_MATCHED_ZETA = 0.7
+"""The largest damping ratio :func:`spring_damper_matching` searches (its restitution is the
+lowest a native mapping matches)."""
+
+
 def spring_damper_matching(mass_kg: float, restitution: float, duration_s: float) -> SpringDamper:
     """The clipped linear spring–damper with this restitution and contact duration.
 
@@ -70,10 +76,17 @@ def spring_damper_matching(mass_kg: float, restitution: float, duration_s: float
     """
     if not 0.0 < restitution <= 1.0:
         raise ValueError(f"restitution = {restitution!r}: must be in (0, 1]")
+    floor = clipped_restitution(MAX_MATCHED_ZETA)
+    if restitution < floor:  # a nearly dead ball: no clipped spring–damper bounces that low
+        raise InvalidValue(f"restitution = {restitution:.4g}: the native mapping's clipped "
+                           f"linear spring–damper matches restitution >= {floor:.4g} "
+                           f"(damping ratio <= {MAX_MATCHED_ZETA}); lower the damping or use "
+                           "mode injected")
     if restitution == 1.0:
         zeta = 0.0
     else:
-        zeta = optimize.brentq(lambda z: clipped_restitution(z) - restitution, 0.0, 0.7,
+        zeta = optimize.brentq(lambda z: clipped_restitution(z) - restitution, 0.0,
+                               MAX_MATCHED_ZETA,
                                xtol=1e-15, rtol=1e-15)
     wd = clipped_phase(zeta) / duration_s
     wn = wd / math.sqrt(1.0 - zeta * zeta)

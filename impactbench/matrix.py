@@ -156,7 +156,11 @@ def execute(job: Job, reference: dict[str, Any] | None = None,
             settings: Any = None) -> JobResult:
     """Run one job (in a worker process). Never raises for engine trouble."""
     settings = settings if settings is not None else job_settings(job)
-    run, rec = compare(job.engine, job.build_scenario(), job.mode, settings, reference)
+    try:
+        run, rec = compare(job.engine, job.build_scenario(), job.mode, settings, reference)
+    except ValueError as exc:  # settings the engine refused (bad input for a lone run):
+        # in a matrix, one row that says why, never the loss of the other runs
+        return _crashed(job, f"bad settings: {exc}", reference or {})
     return JobResult(job, run, _thin(rec) if job.keep_history else {})
 
 

@@ -102,7 +102,7 @@ def add_run_flags(p: argparse.ArgumentParser, spec: scenarios.ScenarioSpec) -> N
     add_yes_flag(g, "the estimate exceeds 1e7 integration steps")
     g.add_argument("--max-penetration-ratio", type=number, default=None, metavar="R",
                    help=shown(not spec.measured, "plausibility: the largest overlap over the "
-                              "body's size before a run is implausible (default 0.1)"))
+                              "ball's radius before a run is implausible (default 0.1)"))
     g.add_argument("--max-energy-ratio", type=number, default=None, metavar="E",
                    help=shown(not spec.measured, "plausibility: the largest kinetic energy "
                               "after over before (default 1.01)"))
@@ -137,9 +137,14 @@ def main(args: argparse.Namespace) -> int:
     print(f"{result.engine} {result.engine_version}  mode {result.mode}  timestep "
           f"{result.timestep_s} s ({result.timestep_source})  status {result.status}{said}"
           f"  wall {result.wall_s:.3g} s")
+    from impactbench.report_render import format_error
+
+    # the errors as the report and the tuner print them (percent); --json keeps fractions
+    error = "error" if spec_of_result_is_relative(result) else "error (absolute)"
     print_table([{"metric": k, "engine": result.metrics.get(k),
                   "reference": result.reference.get(k),
-                  "rel_error": v if result.resolved.get(k, True) else "not resolved"}
+                  error: (format_error(v) if error == "error" else v)
+                  if result.resolved.get(k, True) else "not resolved"}
                  for k, v in result.rel_error.items()])
     return code
 
@@ -195,3 +200,11 @@ def _allowed_statuses(text: str, extra: tuple[str, ...] = ()) -> set[str]:
         if name not in valid:
             raise ValueError(f"allow-status = {name!r}: must be one of {', '.join(valid)}")
     return names
+
+
+def spec_of_result_is_relative(result: object) -> bool:
+    """The run's errors are relative to a reference (else a measured scenario's own errors,
+    in the metrics' units)."""
+    from impactbench.scenarios import spec_of
+
+    return not spec_of(result.scenario).measured

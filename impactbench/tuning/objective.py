@@ -89,7 +89,7 @@ class Evaluation:
     rel_errors: list[dict[str, float]]
     statuses: list[str]
     penetration_ratios: list[float] = field(default_factory=list)
-    """Per velocity: the largest overlap over the body's size (NaN where not measured)."""
+    """Per velocity: the largest overlap over the ball's radius (NaN where not measured)."""
 
     @property
     def max_penetration_ratio(self) -> float:
