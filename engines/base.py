@@ -241,6 +241,18 @@ class Adapter(ABC):
     engine that cannot run a force law through its contact starts the line with ``cannot:``
     and says how the law is applied instead, so its injected numbers are read accordingly."""
 
+    value_check: ClassVar[Callable[[dict[str, Any]], Any] | None] = None
+    """The adapter's parser of ``custom`` values (raises :class:`~impactbench.reference.
+    validation.InvalidValue` naming the key and its rule), run by :meth:`check_params`
+    before any run; None: the values are checked when a run starts."""
+
+    def check_params(self, params: dict[str, Any]) -> None:
+        """Validate ``custom`` values without running the engine (a config, a gate file:
+        all of them before the first run)."""
+        check = type(self).value_check
+        if check is not None:
+            check(dict(params))
+
     @abstractmethod
     def version(self) -> str:
         """The engine package's version string."""
@@ -326,7 +338,7 @@ class Adapter(ABC):
         unknown = sorted(set(params) - set(self.parameter_keys))
         if unknown:
             valid = ", ".join(self.parameter_keys) or "(none)"
-            raise ValueError(f"param = {unknown[0]!r}: not a {self.name} parameter; "
+            raise InvalidValue(f"param = {unknown[0]!r}: not a {self.name} parameter; "
                              f"valid keys: {valid}")
         if found is None or found.parameter_keys is None:
             return
@@ -336,7 +348,7 @@ class Adapter(ABC):
                 and (b.modes is None or "custom" in b.modes)
                 and (b.parameter_keys is None or key in b.parameter_keys))
             name = getattr(scenario, "name", type(scenario).__name__)
-            raise ValueError(f"param {key} = {params[key]!r}: applies to the {where} "
+            raise InvalidValue(f"param {key} = {params[key]!r}: applies to the {where} "
                              f"scenario only, not {name!r}")
 
     def _refused(self, scenario: Scenario, mode: str, settings: RunSettings,

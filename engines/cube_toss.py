@@ -62,6 +62,7 @@ from typing import Any
 import numpy as np
 from impactbench.reference.box_contact import GRAVITY_M_S2, Box, quat_matrix
 from impactbench.reference.record import ImpactRecord, Status
+from impactbench.reference.validation import InvalidValue
 
 DAIR_BOX = Box()
 Start = Any
@@ -133,7 +134,7 @@ class CubeEngine:
         self.params = dict(self.params)
         unknown = [k for k in self.params if k not in self.keys]
         if unknown:
-            raise ValueError(f"param {unknown[0]!r}: not a {self.name} cube parameter; valid: "
+            raise InvalidValue(f"param {unknown[0]!r}: not a {self.name} cube parameter; valid: "
                              f"{', '.join(self.keys)}")
         if not (self.step_s > 0 and math.isfinite(self.step_s)):
             raise ValueError(f"step_s = {self.step_s!r}: must be > 0")
@@ -273,7 +274,7 @@ class PyBulletCube(CubeEngine):
             kw = {k: float(self.params[f"{body}.{k}"]) for k in _BULLET_BODY_KEYS
                   if f"{body}.{k}" in self.params}
             if ("contactStiffness" in kw) != ("contactDamping" in kw):
-                raise ValueError(f"param {body}.contactStiffness/{body}.contactDamping: "
+                raise InvalidValue(f"param {body}.contactStiffness/{body}.contactDamping: "
                                  "Bullet needs both or neither")
             if kw:
                 pb.changeDynamics(uid, -1, physicsClientId=c, **kw)
@@ -537,7 +538,7 @@ class DrakeCube(CubeEngine):
         quiet_drake_log()
         approx = self.params.get("discrete_contact_approximation")
         if approx is not None and approx not in DRAKE_APPROXIMATIONS:
-            raise ValueError(f"param discrete_contact_approximation = {approx!r}: must be one "
+            raise InvalidValue(f"param discrete_contact_approximation = {approx!r}: must be one "
                              f"of {', '.join(DRAKE_APPROXIMATIONS)}")
         config = MultibodyPlantConfig(time_step=self.step_s)
         if approx is not None:

@@ -68,6 +68,7 @@ from typing import Any
 import numpy as np
 from impactbench.engines.cube_toss import DAIR_BOX, CubeEngine, MujocoCube, Start, _version
 from impactbench.reference.box_contact import GRAVITY_M_S2, Box, quat_matrix
+from impactbench.reference.validation import InvalidValue
 
 ENGINES = ("sapien", "dart", "newton", "mjx")
 
@@ -274,7 +275,7 @@ class DartCube(CubeEngine):
         if "collision_detector" in p:
             name = DART_DETECTORS.get(str(p["collision_detector"]))
             if name is None:
-                raise ValueError(f"param collision_detector = {p['collision_detector']!r}: "
+                raise InvalidValue(f"param collision_detector = {p['collision_detector']!r}: "
                                  f"must be one of {', '.join(DART_DETECTORS)}")
             solver.setCollisionDetector(getattr(dart.collision, f"{name}CollisionDetector")())
         if "split_impulse" in p:

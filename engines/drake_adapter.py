@@ -837,6 +837,7 @@ class DrakeAdapter(Adapter):
     """Drake (pydrake) behind the adapter contract; see the module docstring for the physics."""
 
     name: ClassVar[str] = "drake"
+    value_check = staticmethod(custom_parameters)
     injection: ClassVar[str] = (
         "cannot: its point contact is k·x·(1 + d·ẋ)₊ (no xⁿ, no memory); the law is a "
         "generalized force integrated by the same RK3 stages that integrate contact forces "

@@ -92,6 +92,7 @@ from impactbench.engines.mujoco_adapter import (
     rigid_flexible_record,
     set_contact,
 )
+from impactbench.engines.mujoco_adapter import custom_parameters as mujoco_custom_parameters
 from impactbench.reference.models import KelvinVoigt
 from impactbench.reference.record import ImpactRecord, Status
 from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
@@ -401,6 +402,7 @@ class MjxAdapter(Adapter):
     """MJX (pip ``mujoco-mjx`` and ``jax``): MuJoCo's contact in JAX, both scenarios."""
 
     name = "mjx"
+    value_check = staticmethod(mujoco_custom_parameters)
     pip = "pip install mujoco-mjx jax"
     injection = ("the law through MuJoCo's soft-contact solver in MJX: a direct solref written "
                  "into geom_solref inside the compiled step, the law's secant stiffness and "

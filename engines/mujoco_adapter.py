@@ -158,6 +158,7 @@ from impactbench.reference.laws import no_further_contact
 from impactbench.reference.models import spring_damper
 from impactbench.reference.record import ImpactRecord, Status
 from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
+from impactbench.reference.validation import InvalidValue
 
 IMPEDANCE = 1e-4
 """solimp dmin = dmax: MuJoCo's smallest impedance (mjMINIMP), a pure spring–damper."""
@@ -284,7 +285,7 @@ def custom_parameters(params: dict[str, Any]) -> dict[str, Any]:
         if key in params:
             value = params[key]
             if not isinstance(value, list | tuple) or len(value) != size:
-                raise ValueError(f"param {key} = {value!r}: must be a list of {size} numbers")
+                raise InvalidValue(f"param {key} = {value!r}: must be a list of {size} numbers")
             out[key] = [check.finite(f"param {key}[{i}]", v) for i, v in enumerate(value)]
     if "integrator" in params:
         out["integrator"] = check.one_of("param integrator", params["integrator"], INTEGRATORS)
@@ -864,7 +865,7 @@ def oblique_parameters(params: dict[str, Any]) -> dict[str, Any]:
     if "condim" in params:
         value = params["condim"]
         if isinstance(value, bool) or value not in CONDIMS:
-            raise ValueError(f"param condim = {value!r}: must be one of 1, 3, 4, 6")
+            raise InvalidValue(f"param condim = {value!r}: must be one of 1, 3, 4, 6")
         out["condim"] = int(value)
     if "cone" in params:
         out["cone"] = check.one_of("param cone", params["cone"], CONES)
@@ -874,20 +875,20 @@ def oblique_parameters(params: dict[str, Any]) -> dict[str, Any]:
         value = params["noslip_iterations"]
         if isinstance(value, bool) or not isinstance(value, int | float) \
                 or value != int(value) or value < 0:
-            raise ValueError(f"param noslip_iterations = {value!r}: must be an integer >= 0")
+            raise InvalidValue(f"param noslip_iterations = {value!r}: must be an integer >= 0")
         out["noslip_iterations"] = int(value)
     if "friction" in params:
         value = params["friction"]
         values = list(value) if isinstance(value, list | tuple) else [value]
         if not 1 <= len(values) <= 3:
-            raise ValueError(f"param friction = {value!r}: must be a number or 1 to 3 numbers "
+            raise InvalidValue(f"param friction = {value!r}: must be a number or 1 to 3 numbers "
                              "(sliding, torsional, rolling)")
         got = [check.non_negative(f"param friction[{i}]", v) for i, v in enumerate(values)]
         out["friction"] = got + list(DEFAULT_FRICTION[len(got):])
     if "solreffriction" in params:
         value = params["solreffriction"]
         if not isinstance(value, list | tuple) or len(value) != 2:
-            raise ValueError(f"param solreffriction = {value!r}: must be a list of 2 numbers")
+            raise InvalidValue(f"param solreffriction = {value!r}: must be a list of 2 numbers")
         out["solreffriction"] = [check.finite(f"param solreffriction[{i}]", v)
                                  for i, v in enumerate(value)]
     return out
@@ -1129,6 +1130,7 @@ class MujocoAdapter(Adapter):
     injected and tuned)."""
 
     name = "mujoco"
+    value_check = staticmethod(custom_parameters)
     pip = "pip install mujoco"
     modes = ("native", "injected", "tuned", "default", "custom")
     parameter_keys = PARAMETER_KEYS + OBLIQUE_KEYS

@@ -168,6 +168,7 @@ from impactbench.reference import validation as check
 from impactbench.reference.models import spring_damper
 from impactbench.reference.record import ImpactRecord, Status
 from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
+from impactbench.reference.validation import InvalidValue
 
 FLIGHT_STEPS = 2.5
 """Steps of free flight before first touch (the record starts there). The half step puts
@@ -268,7 +269,7 @@ def custom_parameters(params: dict[str, Any]) -> dict[str, Any]:
         if key in INTEGER_KEYS:
             if isinstance(value, bool) or not isinstance(value, int | float) \
                     or value != int(value) or value < 0:
-                raise ValueError(f"param {key} = {value!r}: must be an integer >= 0")
+                raise InvalidValue(f"param {key} = {value!r}: must be an integer >= 0")
             out[key] = int(value)
         elif key == "splitImpulsePenetrationThreshold":
             out[key] = check.finite(f"param {key}", value)
@@ -436,6 +437,7 @@ class PybulletAdapter(Adapter):
     """PyBullet (Bullet 3, maximal-coordinate sphere / Featherstone prismatic links)."""
 
     name = "pybullet"
+    value_check = staticmethod(custom_parameters)
     modes = ("native", "injected", "tuned", "default", "custom")
     parameter_keys = PARAMETER_KEYS + OBLIQUE_KEYS
     injection = ("the law through Bullet's soft contact: its secant stiffness and damping "
@@ -521,7 +523,7 @@ def oblique_parameters(params: dict[str, Any]) -> dict[str, Any]:
         if key == "frictionAnchor":
             value = params[key]
             if isinstance(value, bool) or value not in (0, 1):
-                raise ValueError(f"param frictionAnchor = {value!r}: must be 0 or 1")
+                raise InvalidValue(f"param frictionAnchor = {value!r}: must be 0 or 1")
             out[key] = int(value)
         else:
             out[key] = check.non_negative(f"param {key}", params[key])

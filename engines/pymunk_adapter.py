@@ -155,6 +155,7 @@ from impactbench.reference import validation as check
 from impactbench.reference.oblique_scenario import Oblique
 from impactbench.reference.record import ImpactRecord
 from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
+from impactbench.reference.validation import InvalidValue
 
 INJECTIONS: tuple[str, ...] = ("penalty", "restitution")
 """``settings.options["injection"]`` values for the ball in injected mode."""
@@ -465,6 +466,7 @@ class PymunkAdapter(Adapter):
     """pymunk 7 (Chipmunk2D): rigid contacts natively, penalty forces when injected."""
 
     name = "pymunk"
+    value_check = staticmethod(lambda params: custom_parameters(params))  # defined below
     modes = ("native", "injected", "tuned", "default", "custom")
     parameter_keys = PARAMETER_KEYS
     injection = ("cannot: pymunk's contacts are rigid impulses with no compliance; the law is "
@@ -536,11 +538,11 @@ def custom_parameters(params: dict[str, Any]) -> dict[str, Any]:
         if key in params:
             out[key] = check.non_negative(f"param {key}", params[key])
             if out[key] > 1.0:
-                raise ValueError(f"param {key} = {params[key]!r}: must be in [0, 1]")
+                raise InvalidValue(f"param {key} = {params[key]!r}: must be in [0, 1]")
     if "iterations" in params:
         it = params["iterations"]
         if isinstance(it, bool) or not isinstance(it, int | float) or it != int(it) or it < 1:
-            raise ValueError(f"param iterations = {it!r}: must be an integer >= 1")
+            raise InvalidValue(f"param iterations = {it!r}: must be an integer >= 1")
         out["iterations"] = int(it)
     return out
 

@@ -301,7 +301,24 @@ def _engine_params(key: str, engine: str, table: Any) -> Params:
         if k not in valid:
             raise ValueError(f"{key}.{k}: not a {engine} parameter; valid keys: "
                              f"{', '.join(valid) or '(none)'}{did_you_mean(k, valid)}")
+    check_values(key, engine, table)
     return frozen_params(table)
+
+
+def check_values(key: str, engine: str, table: dict[str, Any]) -> None:
+    """The values of ``engine``'s parameters, by the adapter's own parser, before any run
+    (``solref = "banana"`` is a one-line error naming the table, not a report of crashed
+    rows); an engine not installed here is checked when it runs."""
+    from impactbench.engines.base import EngineUnavailable, get_adapter
+
+    try:
+        adapter = get_adapter(engine)
+    except EngineUnavailable:
+        return
+    try:
+        adapter.check_params(dict(table))
+    except ValueError as exc:
+        raise ValueError(f"{key}: {exc}") from None
 
 
 def _practical(t: dict[str, Any]) -> Practical | None:

@@ -305,7 +305,7 @@ def _engine_params(value: Any, engines: list[str], modes: list[str]
                    ) -> tuple[tuple[str, Any], ...]:
     """A gate's ``params``: the engine's own parameters, checked against each engine's
     ``parameter_keys``; a sorted, hashable tuple (:func:`impactbench.config.frozen_params`)."""
-    from impactbench.config import did_you_mean, frozen_params
+    from impactbench.config import check_values, did_you_mean, frozen_params
     from impactbench.engines.base import parameter_keys
 
     if not isinstance(value, dict) or not value:
@@ -326,6 +326,7 @@ def _engine_params(value: Any, engines: list[str], modes: list[str]
             if not items or not all(isinstance(x, str | int | float) for x in items):
                 raise ValueError(f"params.{key} = {v!r}: must be a number, a string, a bool "
                                  "or a list of numbers")
+        check_values("params", engine, value)
     return frozen_params(value)
 
 
