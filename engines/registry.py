@@ -92,6 +92,9 @@ class EngineSpec:
             cube tosses' contact knobs), each read by that fit's module
             (:func:`tuning_space`). With ``tuning``, every tuning space of the engine is
             reached from here, in one place per engine.
+        first_use_s: what a run's timeout allows on top for the engine's first use in a
+            process, compiling (s): JIT engines compile their kernels on first use, which
+            is no hang; 0 for an engine that does not compile.
     """
 
     name: str
@@ -104,6 +107,7 @@ class EngineSpec:
     customary_timesteps_s: tuple[float, ...] = ()
     color: str = ""
     spaces: tuple[tuple[str, str], ...] = ()
+    first_use_s: float = 0.0
 
     @property
     def variants(self) -> tuple[str, ...]:
@@ -178,13 +182,18 @@ BUILTIN: tuple[EngineSpec, ...] = (
                 ("solref", "impactbench.engines.tuning_spaces:mujoco_space")),
                color="tab:cyan",
                spaces=(("friction", "impactbench.engines.oblique_tuned:MUJOCO"),
-                       ("tosses", "impactbench.engines.cube_toss_spaces:MUJOCO"))),
+                       ("tosses", "impactbench.engines.cube_toss_spaces:MUJOCO")),
+               # jax compiles each scan kind on first use (2–5 s each on a quiet machine,
+               # several kinds per scenario; a busy one timed out at 60 s): ~3× that
+               first_use_s=120.0),
     EngineSpec("newton", "impactbench.engines.newton_adapter:NewtonAdapter",
                "pip install newton", "newton", "newton", "newton",
                (("ke+kd", "impactbench.engines.tuning_spaces_extras:newton_space"),),
                color="tab:olive",
                spaces=(("friction", "impactbench.engines.oblique_tuned:NEWTON"),
-                       ("tosses", "impactbench.engines.cube_toss_spaces:NEWTON"))),
+                       ("tosses", "impactbench.engines.cube_toss_spaces:NEWTON")),
+               # warp compiles its kernels on first use: 20–40 s on a quiet machine, ~3×
+               first_use_s=120.0),
 )
 """The packaged engines, in the report's order (colours: matplotlib's tab10, one each)."""
 

@@ -437,17 +437,19 @@ def _run_checks(engine: str, spec: Any, params: Mapping[str, Any], param_set: st
                              f"valid keys: {', '.join(valid) or '(none)'}{_hint(key, valid)}")
 
 
-def _timeout(timeout_s: float | None, steps: float, spec: Any) -> float | None:
-    """The run's timeout (s): the given one, else max(60 s, 20 × the run's estimate); a
+def _timeout(timeout_s: float | None, steps: float, spec: Any, engine: str) -> float | None:
+    """The run's timeout (s): the given one, else max(60 s, 20 × the run's estimate), plus
+    the engine's first-use compile allowance (:func:`impactbench.cluster.first_use_s`); a
     replay without an estimate (its length varies with its tosses) has none."""
     from impactbench import cluster
     from impactbench.cliutil import timeout_option
 
     given = timeout_option(timeout_s, name=_say().name("timeout_s"))
     if given is not None:
-        return given
+        return given + cluster.first_use_s(engine)
     if steps or not spec.owns_timestep:
-        return cluster.default_timeout(cluster.run_estimate_s(steps))
+        return cluster.default_timeout(cluster.run_estimate_s(steps)) + \
+            cluster.first_use_s(engine)
     return None
 
 
@@ -601,7 +603,7 @@ def run(engine: str, scenario: str | None = None, mode: str | None = None, *,
     steps = estimated_steps_of(ref, timestep_s)
     check_cost(steps, f"{say.name('timestep_s')} = {timestep_s!r}", yes, "integration steps",
                yes_flag=say.setting("yes", True))
-    limit = _timeout(timeout_s, steps, spec)
+    limit = _timeout(timeout_s, steps, spec, engine)
     with stdout_to_stderr():  # engines print banners on stdout
         out, record = compare(engine, built, mode, settings, ref, timeout_s=limit,
                               backstop=say.command)

@@ -94,6 +94,18 @@ def configured_timeout() -> float | None:
     return _timeout.get()
 
 
+def first_use_s(engine: str) -> float:
+    """What a run of ``engine`` is allowed on top of its timeout for compiling on first use in
+    a process (s; its :class:`~impactbench.engines.registry.EngineSpec`'s ``first_use_s``): a
+    JIT engine's first compile is no hang, so it does not count against the timeout."""
+    from impactbench.engines.registry import spec
+
+    try:
+        return float(spec(engine).first_use_s)
+    except ValueError:  # not a registered engine: nothing allowed
+        return 0.0
+
+
 def default_timeout(estimate_s: float) -> float:
     """The default timeout of a run estimated at ``estimate_s`` seconds: 20 × the estimate,
     at least 60 s (a cold worker imports its engine, JAX and Warp compile, a shared machine

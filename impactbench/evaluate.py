@@ -126,10 +126,14 @@ def timed_out(engine: str, scenario: Scenario, mode: str, settings: RunSettings 
               reference: dict[str, Any], timeout_s: float) -> dict[str, Any]:
     """:func:`compare`'s object for a run stopped after ``timeout_s`` seconds: status
     ``timeout``, no numbers (NaN metrics and errors)."""
+    from impactbench.cluster import first_use_s
+
     names = spec_of(scenario).metrics
     return {"status": "timeout",
-            "message": f"no result after {timeout_s:g} s (the per-run timeout; --timeout S "
-                       "allows longer)",
+            "message": f"no result after {timeout_s:g} s (the per-run timeout"
+                       + (f", {first_use_s(engine):g} s of it for {engine}'s first-use "
+                          "compile" if first_use_s(engine) else "")
+                       + "; --timeout S, or [execution] timeout_s in a config, allows longer)",
             "engine": engine, "engine_version": "", "mode": mode,
             "timestep_s": settings.timestep_s if settings else None, "wall_s": timeout_s,
             **{k: (0 if k == "impacts" else math.nan) for k in names},

@@ -386,8 +386,9 @@ def run_jobs(jobs: list[Job], workers: int | None = None,
         raise ValueError(f"timeout = {timeout_s!r}: must be a number of seconds > 0")
 
     def timeout_of(item: tuple) -> float:
-        return timeout_s or cluster.default_timeout(
-            cluster.run_estimate_s(steps[item[0].id]))
+        # the engine's first-use compile does not count against the timeout
+        return (timeout_s or cluster.default_timeout(cluster.run_estimate_s(
+            steps[item[0].id]))) + cluster.first_use_s(item[0].engine)
 
     unstored: list[JobResult] = []
     last_flush = time.monotonic()
