@@ -64,14 +64,32 @@ def load(target: str) -> Any:
 
 
 @cache
-def _plugins() -> dict[str, str]:
-    """Scenario plug-ins installed through the ``impactbench.scenarios`` entry points."""
+def _plugins() -> dict[str, ScenarioSpec]:
+    """Scenario plug-ins installed through the ``impactbench.scenarios`` entry points, loaded
+    once. A broken one — its module missing or failing to import, or its object not a
+    :class:`ScenarioSpec` of that name — is left out and said in one line on stderr (naming
+    the entry point, its package and the error), so the rest of impactbench works."""
     from importlib import metadata
 
-    out: dict[str, str] = {}
+    from impactbench.engines.registry import _warn
+
+    out: dict[str, ScenarioSpec] = {}
     for ep in sorted(metadata.entry_points(group=ENTRY_POINT_GROUP), key=lambda e: e.name):
-        if ep.name not in BUILTIN:
-            out[ep.name] = ep.value
+        if ep.name in BUILTIN:
+            continue
+        dist = getattr(ep, "dist", None)
+        package = f"{dist.name} {dist.version}" if dist is not None else "unknown package"
+        try:
+            spec = load(ep.value)
+        except Exception as exc:  # a plug-in's bug must not take down every command
+            why = f"{type(exc).__name__}: {exc}".splitlines()[0]
+        else:
+            if isinstance(spec, ScenarioSpec) and spec.name == ep.name:
+                out[ep.name] = spec
+                continue
+            why = f"{ep.value} is not a ScenarioSpec named {ep.name!r}"
+        _warn(f"scenario:{ep.name}", f"impactbench: scenario plug-in {ep.name} = {ep.value} "
+              f"({package}) is left out: {why}")
     return out
 
 
@@ -88,15 +106,13 @@ def _suggest(name: str) -> str:
 @cache
 def get(name: str) -> ScenarioSpec:
     """The spec registered as ``name``; ValueError (with a "did you mean") otherwise."""
-    target = BUILTIN.get(name) or _plugins().get(name)
+    if name in _plugins():
+        return _plugins()[name]
+    target = BUILTIN.get(name)
     if target is None:
         raise ValueError(f"scenario = {name!r}: must be one of {', '.join(names())}"
                          f"{_suggest(name)}")
-    spec = load(target)
-    if not isinstance(spec, ScenarioSpec) or spec.name != name:
-        raise ValueError(f"scenario plug-in {name!r} ({target}): must be a ScenarioSpec "
-                         f"named {name!r}")
-    return spec
+    return load(target)
 
 
 def specs() -> tuple[ScenarioSpec, ...]:
