@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import pytest
 from conftest import require_engine
-
 from impactbench.engines.base import RunSettings, run_safely
 from impactbench.engines.common import MAX_MATCHED_ZETA, clipped_restitution
 from impactbench.reference.scenarios import BallOnPlate

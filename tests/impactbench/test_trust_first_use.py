@@ -7,10 +7,11 @@ from __future__ import annotations
 
 import math
 
-from impactbench import cluster
 from impactbench.engines.registry import SPECS
-from impactbench.evaluate import timed_out
 from impactbench.reference.scenarios import BallOnPlate
+
+from impactbench import cluster
+from impactbench.evaluate import timed_out
 
 
 def test_the_compiling_engines_have_an_allowance_and_the_others_none() -> None:

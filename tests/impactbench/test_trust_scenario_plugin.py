@@ -11,9 +11,9 @@ import sys
 from pathlib import Path
 
 import pytest
+from impactbench.engines import registry
 
 from impactbench import scenarios
-from impactbench.engines import registry
 
 GROUP = scenarios.ENTRY_POINT_GROUP
 
