@@ -111,13 +111,20 @@ class TuneResult:
         return self.objective.velocities_m_s
 
     def max_abs_error(self, which: str = "tuned") -> dict[str, float]:
-        """max over velocities of |relative error| per metric (NaN where a run failed)."""
+        """max over velocities of |relative error| per metric, over the runs that compared
+        (:meth:`compared` says how many); NaN where none did."""
         ev = self.tuned if which == "tuned" else self.start
         out = {}
         for key in BALL_METRICS:
-            vals = [abs(e[key]) for e in ev.rel_errors]
-            out[key] = max(vals) if all(math.isfinite(v) for v in vals) else math.nan
+            vals = [abs(e[key]) for e in ev.rel_errors if math.isfinite(e[key])]
+            out[key] = max(vals) if vals else math.nan
         return out
+
+    def compared(self, key: str) -> str:
+        """``k/n``: the velocities at which both the start and the tuned run compared."""
+        n = sum(math.isfinite(a[key]) and math.isfinite(b[key])
+                for a, b in zip(self.start.rel_errors, self.tuned.rel_errors, strict=True))
+        return f"{n}/{len(self.velocities_m_s)}"
 
 
 def search(obj: Objective, *, scan_points: int | None = None, polish_starts: int = 2,

@@ -73,6 +73,7 @@ def summary_rows(result: TuneResult) -> list[dict[str, Any]]:
     """Per metric: weight, start and tuned max |relative error|, and the linear floor."""
     start, tuned = result.max_abs_error("start"), result.max_abs_error("tuned")
     return [{"metric": k, "weight": result.objective.weights.get(k, 0.0),
+             "compared": result.compared(k),
              "start_max_abs_rel_error": start[k], "tuned_max_abs_rel_error": tuned[k],
              "floor_max_abs_rel_error": floor_error(result, k)}
             for k in shown_metrics(result)]
@@ -184,6 +185,13 @@ def plot(result: TuneResult, path: Path) -> Path:
     import matplotlib.pyplot as plt
 
     keys = plotted_metrics(result)
+    if not keys:  # no run compared (every one implausible or failed): say so, not a crash
+        fig, ax = plt.subplots(figsize=(6.4, 2.0))
+        ax.axis("off")
+        ax.text(0.5, 0.5, f"{result.space.engine}: no run compared with the reference at "
+                f"{result.timestep_s:g} s (every one implausible or failed)", ha="center",
+                va="center", fontsize=9, wrap=True)
+        return _save_plot(fig, path)
     fig, axes = plt.subplots(1, len(keys), figsize=(3.6 * len(keys), 3.2), squeeze=False)
     v = list(result.velocities_m_s)
     for ax, key in zip(axes[0], keys, strict=True):
@@ -207,6 +215,12 @@ def plot(result: TuneResult, path: Path) -> Path:
                  + ("; dotted: ± the best max error any linear contact can reach" if floors
                     else ""), fontsize=9)
     fig.tight_layout()
+    return _save_plot(fig, path)
+
+
+def _save_plot(fig: Any, path: Path) -> Path:
+    import matplotlib.pyplot as plt
+
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110, metadata={"Software": None})
