@@ -219,7 +219,7 @@ def test_the_practical_tables_print_100_percent_not_an_exponent(tmp_path: Path) 
 def test_real_tosses_notes_go_under_the_table_numbered(tmp_path: Path) -> None:
     """The note column is gone: a row's note is a numbered footnote (the same note once)
     under the table, its number beside the row's status."""
-    from impactbench.report_sections import footnoted
+    from impactbench.cube_tosses.report_part import footnoted
 
     why_2d = "pymunk is a 2D engine: a cube tumbling in 3D cannot be expressed"
     why_jax = "mode injected in mjx: the law would have to be written in jax"
