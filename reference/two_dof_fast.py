@@ -364,69 +364,9 @@ def _hermite_extremum(g0, d0, g1, d1, h):
     return best
 
 
-@njit(cache=True, error_model="numpy", nogil=True)
-def _scan_events(nev, nb, bnd, y, ynew, ydot, ev, h, k, f0, m1, m2, k2, beta, ec, reach_p,
-                 use_collapse, use_done, use_peak, done_dir, K, tmp, ys, ydot2, dg, dg2):
-    """The piece's events over one step from ``y`` to ``ynew`` (``ydot`` at ``ynew``): the
-    new event values into ``ev`` (rows gold, gnew, dgold, dgnew), and (the earliest switch's
-    offset ``best`` in the step, its event ``found`` or -1, a velocity reversal's offset
-    ``s_peak`` or -1 and the force ``f_peak`` there). Events: the piece's boundaries
-    (``w < nb``), collapse (``nb``), done (``nb + 1``) and the force peak (``nb + 2``)."""
-    gold = ev[0]
-    gnew = ev[1]
-    dgold = ev[2]
-    dgnew = ev[3]
-    best = h + 1.0
-    found = -1
-    s_peak = -1.0
-    f_peak = 0.0
-    for w in range(nev):
-        if w == nb and not use_collapse:
-            continue
-        if w == nb + 1 and not use_done:
-            continue
-        if w == nb + 2 and not use_peak:
-            continue
-        gnew[w] = _ev(w, nb, bnd, ynew, ydot, m2, k2, beta, ec, reach_p, k, f0, dg)
-        dgnew[w] = dg[0]
-        if w < nb:
-            d = bnd[w, 3]
-        elif w == nb:
-            d = 1.0
-        elif w == nb + 1:
-            d = done_dir
-        else:
-            d = -1.0
-        hit = (d > 0.0 and gold[w] < 0.0 and gnew[w] >= 0.0) or (
-            d < 0.0 and gold[w] > 0.0 and gnew[w] <= 0.0)
-        hb = h
-        gb = gnew[w]
-        if not hit and w < nb and d * gold[w] < 0.0 and d * gnew[w] < 0.0:
-            # a crossing and return inside the step (a graze): the cubic Hermite
-            # interpolant of g (g' known at both ends) peaks on the far side?
-            sm = _hermite_extremum(gold[w], dgold[w], gnew[w], dg[0], h)
-            if sm > 0.0:
-                _step(y, sm, k, f0, m1, m2, k2, beta, K, tmp, ys)
-                _rhs(ys, k, f0, m1, m2, k2, beta, ydot2)
-                gm = _ev(w, nb, bnd, ys, ydot2, m2, k2, beta, ec, reach_p, k, f0, dg2)
-                if d * gm >= 0.0:
-                    hit = True
-                    hb = sm
-                    gb = gm
-        if hit:
-            s = _locate(w, nb, bnd, y, hb, gold[w], gb, k, f0, m1, m2, k2, beta,
-                        ec, reach_p, K, tmp, ys, ydot2, dg2)
-            if w == nb + 2:  # velocity reversal: a force maximum, not a switch
-                _step(y, s, k, f0, m1, m2, k2, beta, K, tmp, ys)
-                s_peak = s
-                f_peak = k * (ys[0] - ys[1]) + f0
-                continue
-            if s < best:
-                best = s
-                found = w
-    return best, found, s_peak, f_peak
-
-
+# One function on purpose (ruff's mccabe: 43): splitting its per-step event scan into its
+# own compiled function, even numba-inlined, made 200 random impacts 1.41–1.57× slower
+# (medians of 7 alternated rounds), and this is the 2-DOF sweeps' hot path.
 @njit(cache=True, error_model="numpy", nogil=True)
 def solve_kernel(code, v0, m1, m2, k1, k2, kt, k1f, eps_s, beta, fm, tmax, step_rad):
     """One impact. Returns (status 0 ok / 1 collapsed / 2 max_time, peak_force_n,
@@ -498,6 +438,8 @@ def solve_kernel(code, v0, m1, m2, k1, k2, kt, k1f, eps_s, beta, fm, tmax, step_
         s_found = 0.0
         while steps < MAX_STEPS:
             steps += 1
+            s_peak = -1.0
+            f_peak = 0.0
             # the step: a fraction of the fastest period (a softening structure's tangent
             # stiffness |k2 − 3β·x2²| counts past √(2k2/(3β))); out of contact, also no
             # longer than the gap needs to possibly close (_gap_step), so no contact can
@@ -512,9 +454,51 @@ def solve_kernel(code, v0, m1, m2, k1, k2, kt, k1f, eps_s, beta, fm, tmax, step_
                 last = True
             _step(y, h, k, f0, m1, m2, k2, beta, K, tmp, ynew)
             _rhs(ynew, k, f0, m1, m2, k2, beta, ydot)
-            best, found, s_peak, f_peak = _scan_events(
-                nev, nb, bnd, y, ynew, ydot, ev, h, k, f0, m1, m2, k2, beta, ec, reach_p,
-                use_collapse, use_done, use_peak, done_dir, K, tmp, ys, ydot2, dg, dg2)
+            best = h + 1.0
+            for w in range(nev):
+                if w == nb and not use_collapse:
+                    continue
+                if w == nb + 1 and not use_done:
+                    continue
+                if w == nb + 2 and not use_peak:
+                    continue
+                gnew[w] = _ev(w, nb, bnd, ynew, ydot, m2, k2, beta, ec, reach_p, k, f0, dg)
+                dgnew[w] = dg[0]
+                if w < nb:
+                    d = bnd[w, 3]
+                elif w == nb:
+                    d = 1.0
+                elif w == nb + 1:
+                    d = done_dir
+                else:
+                    d = -1.0
+                hit = (d > 0.0 and gold[w] < 0.0 and gnew[w] >= 0.0) or (
+                    d < 0.0 and gold[w] > 0.0 and gnew[w] <= 0.0)
+                hb = h
+                gb = gnew[w]
+                if not hit and w < nb and d * gold[w] < 0.0 and d * gnew[w] < 0.0:
+                    # a crossing and return inside the step (a graze): the cubic Hermite
+                    # interpolant of g (g' known at both ends) peaks on the far side?
+                    sm = _hermite_extremum(gold[w], dgold[w], gnew[w], dg[0], h)
+                    if sm > 0.0:
+                        _step(y, sm, k, f0, m1, m2, k2, beta, K, tmp, ys)
+                        _rhs(ys, k, f0, m1, m2, k2, beta, ydot2)
+                        gm = _ev(w, nb, bnd, ys, ydot2, m2, k2, beta, ec, reach_p, k, f0, dg2)
+                        if d * gm >= 0.0:
+                            hit = True
+                            hb = sm
+                            gb = gm
+                if hit:
+                    s = _locate(w, nb, bnd, y, hb, gold[w], gb, k, f0, m1, m2, k2, beta,
+                                ec, reach_p, K, tmp, ys, ydot2, dg2)
+                    if w == nb + 2:  # velocity reversal: a force maximum, not a switch
+                        _step(y, s, k, f0, m1, m2, k2, beta, K, tmp, ys)
+                        s_peak = s
+                        f_peak = k * (ys[0] - ys[1]) + f0
+                        continue
+                    if s < best:
+                        best = s
+                        found = w
             if s_peak >= 0.0 and (found < 0 or s_peak <= best) and f_peak > peak:
                 peak = f_peak
             if found >= 0:
