@@ -27,14 +27,17 @@ GROUP = registry.ENTRY_POINT_GROUP
 
 
 def install(site: Path, package: str, entries: dict[str, str],
-            modules: dict[str, str] | None = None) -> Path:
-    """A distribution ``package`` 0.2.0 with ``entries`` (name → "module:attr") in the
-    engines' group and ``modules`` (name → source) beside it, in ``site``."""
-    info = site / f"{package.replace('-', '_')}-0.2.0.dist-info"
+            modules: dict[str, str] | None = None, group: str = GROUP,
+            version: str = "0.2.0") -> Path:
+    """A distribution ``package`` ``version`` with ``entries`` (name → "module:attr") in the
+    entry-point ``group`` (the engines' by default) and ``modules`` (name → source) beside
+    it, in ``site``."""
+    info = site / f"{package.replace('-', '_')}-{version}.dist-info"
     info.mkdir(parents=True)
-    (info / "METADATA").write_text(f"Metadata-Version: 2.1\nName: {package}\nVersion: 0.2.0\n")
+    (info / "METADATA").write_text(f"Metadata-Version: 2.1\nName: {package}\n"
+                                   f"Version: {version}\n")
     (info / "entry_points.txt").write_text(
-        f"[{GROUP}]\n" + "".join(f"{k} = {v}\n" for k, v in entries.items()))
+        f"[{group}]\n" + "".join(f"{k} = {v}\n" for k, v in entries.items()))
     for name, source in (modules or {}).items():
         (site / f"{name}.py").write_text(textwrap.dedent(source))
     return site

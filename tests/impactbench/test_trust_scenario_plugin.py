@@ -20,15 +20,11 @@ GROUP = scenarios.ENTRY_POINT_GROUP
 
 def install(site: Path, package: str, entries: dict[str, str],
             modules: dict[str, str] | None = None) -> Path:
-    """A distribution ``package`` 0.3.0 with ``entries`` in the scenarios' group."""
-    info = site / f"{package.replace('-', '_')}-0.3.0.dist-info"
-    info.mkdir(parents=True)
-    (info / "METADATA").write_text(f"Metadata-Version: 2.1\nName: {package}\nVersion: 0.3.0\n")
-    (info / "entry_points.txt").write_text(
-        f"[{GROUP}]\n" + "".join(f"{k} = {v}\n" for k, v in entries.items()))
-    for name, source in (modules or {}).items():
-        (site / f"{name}.py").write_text(source)
-    return site
+    """A distribution ``package`` 0.3.0 with ``entries`` in the scenarios' group (the
+    engine registry tests' installer)."""
+    from tests.engines.test_registry import install as install_distribution
+
+    return install_distribution(site, package, entries, modules, GROUP, "0.3.0")
 
 
 @pytest.mark.parametrize("target, modules, why", [
