@@ -129,10 +129,11 @@ def timed_out(engine: str, scenario: Scenario, mode: str, settings: RunSettings 
     from impactbench.cluster import first_use_s
 
     names = spec_of(scenario).metrics
+    compile_s = first_use_s(engine)
     return {"status": "timeout",
             "message": f"no result after {timeout_s:g} s (the per-run timeout"
-                       + (f", {first_use_s(engine):g} s of it for {engine}'s first-use "
-                          "compile" if first_use_s(engine) else "")
+                       + (f", {compile_s:g} s of it for {engine}'s first-use compile"
+                          if compile_s else "")
                        + "; --timeout S, or [execution] timeout_s in a config, allows longer)",
             "engine": engine, "engine_version": "", "mode": mode,
             "timestep_s": settings.timestep_s if settings else None, "wall_s": timeout_s,

@@ -140,7 +140,9 @@ def main(args: argparse.Namespace) -> int:
     from impactbench.report_render import format_error
 
     # the errors as the report and the tuner print them (percent); --json keeps fractions
-    error = "error" if spec_of_result_is_relative(result) else "error (absolute)"
+    from impactbench.scenarios import spec_of
+
+    error = "error (absolute)" if spec_of(result.scenario).measured else "error"
     print_table([{"metric": k, "engine": result.metrics.get(k),
                   "reference": result.reference.get(k),
                   error: (format_error(v) if error == "error" else v)
@@ -200,11 +202,3 @@ def _allowed_statuses(text: str, extra: tuple[str, ...] = ()) -> set[str]:
         if name not in valid:
             raise ValueError(f"allow-status = {name!r}: must be one of {', '.join(valid)}")
     return names
-
-
-def spec_of_result_is_relative(result: object) -> bool:
-    """The run's errors are relative to a reference (else a measured scenario's own errors,
-    in the metrics' units)."""
-    from impactbench.scenarios import spec_of
-
-    return not spec_of(result.scenario).measured

@@ -153,13 +153,6 @@ def box_of(scenario: Any) -> Box:
     return Box(scenario.half_width_m, scenario.mass_kg, scenario.inertia_kg_m2)
 
 
-def _dair_box(scenario: Any) -> bool:
-    from impactbench.cube_tosses.protocol import HALF_WIDTH_M, INERTIA_KG_M2, MASS_KG
-
-    return (scenario.half_width_m, scenario.mass_kg, scenario.inertia_kg_m2) == (
-        HALF_WIDTH_M, MASS_KG, INERTIA_KG_M2)
-
-
 _WHY_NO_PARAMS = {
     "default": "sets no engine parameters (the engine's own contact)",
     "tuned": "takes its parameters from the tuned file (--tuned FILE)",
@@ -311,14 +304,14 @@ def tuned_settings(engine: str, scenario: Any, tuned_file: str | Path | None = N
     (engine, scenario, the fields it binds, ``file``) plus ``mismatch``, why it does not apply
     to ``scenario`` ("" when it does; with no packaged file, that none exists and the command
     that fits one)."""
-    params, path, _sha, why = tuned_binding(engine, scenario, tuned_file)
+    params, path, why = tuned_binding(engine, scenario, tuned_file)
     return params, {"engine": engine, "scenario": type(scenario).name, "file": str(path),
                     "mismatch": why}
 
 
 def tuned_binding(engine: str, scenario: Any, tuned_file: str | Path | None = None
-                  ) -> tuple[dict[str, Any], str, str, str]:
-    """(parameters, the file, its SHA-256, why it does not apply or "") of ``engine``'s tuned
+                  ) -> tuple[dict[str, Any], str, str]:
+    """(parameters, the file, why it does not apply or "") of ``engine``'s tuned
     file for ``scenario``: the packaged one (``impactbench/data/tuned/cube_toss/<engine>.toml``)
     unless ``tuned_file``. A file applies to the engine it was fitted in, at the engine step
     and for the cube half-width of its protocol (``[provenance.protocol]``: the contact
@@ -332,7 +325,7 @@ def tuned_binding(engine: str, scenario: Any, tuned_file: str | Path | None = No
     if not path.is_file():
         if tuned_file is not None:
             raise ValueError(f"tuned = {str(tuned_file)!r}: no such file")
-        return {}, str(path), "", (f"no packaged tuned file for {engine} (fit one: "
+        return {}, str(path), (f"no packaged tuned file for {engine} (fit one: "
                                    f"impactbench tune --scenario cube-toss --engine {engine})")
     try:
         doc = tomllib.loads(path.read_text())
@@ -340,11 +333,10 @@ def tuned_binding(engine: str, scenario: Any, tuned_file: str | Path | None = No
     except (tomllib.TOMLDecodeError, ValueError, UnicodeDecodeError) as exc:
         raise ValueError(f"tuned = {str(path)!r}: not a cube-toss tuned file "
                          f"({str(exc).splitlines()[0]})") from None
-    sha = hashlib.sha256(path.read_bytes()).hexdigest()
     prov = doc.get("provenance", {})
     proto = prov.get("protocol", {})
     if prov.get("scenario") != "cube-toss" or prov.get("engine") != engine:
-        return params, str(path), sha, (f"tuned file {path.name} was fitted for "
+        return params, str(path), (f"tuned file {path.name} was fitted for "
                                         f"{prov.get('engine')!r} on {prov.get('scenario')!r}, "
                                         f"not {engine!r} on 'cube-toss'")
     want = protocol_of(scenario).describe()
@@ -353,14 +345,14 @@ def tuned_binding(engine: str, scenario: Any, tuned_file: str | Path | None = No
         a, b = proto.get(key), want.get(key)
         if a is None or b is None:
             if a != b:
-                return params, str(path), sha, (f"tuned file {path.name}: fitted with "
+                return params, str(path), (f"tuned file {path.name}: fitted with "
                                                 f"{key} = {a}, this run has {b}")
             continue
         if not math.isclose(float(a), float(b), rel_tol=1e-9):
-            return params, str(path), sha, (f"tuned file {path.name} was fitted at {what} "
+            return params, str(path), (f"tuned file {path.name} was fitted at {what} "
                                             f"{float(a):.6g}{unit}, this run has "
                                             f"{float(b):.6g}{unit}")
-    return params, str(path), sha, ""
+    return params, str(path), ""
 
 
 def _box_of(scenario: Any) -> dict[str, float]:

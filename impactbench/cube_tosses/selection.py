@@ -24,8 +24,6 @@ from impactbench.cube_tosses.protocol import (
     prepare,
 )
 
-MODES = ("default", "custom", "tuned", "native", "injected")
-
 RESULT_KEYS = ("status", "engine", "mode", "param_set", "split", "tosses", "failed",
                "position_error_mean", "position_error_median", "position_error_q1",
                "position_error_q3", "rotation_error_deg_mean", "rotation_error_deg_median",
