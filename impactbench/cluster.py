@@ -229,10 +229,13 @@ def client(workers: int | None = None, scheduler: str | None = None) -> Iterator
 
 
 def apply_batch(fn: Callable[[Any], Any], batch: Sequence[Any], topic: str | None = None,
-                batch_id: int | None = None) -> list[Any]:
+                batch_id: int | None = None,
+                prepare: Callable[[Any], None] | None = None) -> list[Any]:
     """``[fn(item) for item in batch]``, in a worker process. With ``topic``, each item's
     start is announced as a Dask event ``{"b": batch_id, "k": index, "w": worker address}``
-    (what the caller's per-item timeout measures from)."""
+    (what the caller's per-item timeout measures from), after ``prepare(item)``: loading
+    what the item needs (an engine's modules: seconds on a fresh or restarted worker under
+    load) is not the item's work and not on its clock."""
     worker = None
     if topic is not None:
         with contextlib.suppress(ImportError, ValueError):  # ValueError: not on a worker
@@ -241,11 +244,19 @@ def apply_batch(fn: Callable[[Any], Any], batch: Sequence[Any], topic: str | Non
             worker = get_worker()
     out = []
     for k, item in enumerate(batch):
+        if prepare is not None:
+            prepare(item)
         if worker is not None:
             worker.log_event(topic, {"b": batch_id, "k": k, "w": worker.address})
         out.append(fn(item))
     return out
 
+
+WORKER_START_S = 30.0
+"""What a batch that announced no start is allowed on top of its first item's timeout, counted
+from when it was placed, on a worker that has announced nothing yet: a fresh or restarted
+worker unpickles the work (importing the suite, seconds under load) before it can announce
+anything."""
 
 HARD_GRACE_MIN_S = 5.0
 """:func:`deadline`'s backstop: a lone in-process run stuck in C (where SIGALRM cannot reach
@@ -342,10 +353,12 @@ class _DaskRun:
     def __init__(self, runner: Runner, c: Any, fn: Callable[[Any], Any], items: Sequence[Any],
                  label: str, batch_size: int | None, cost: Callable[[Any], float | None],
                  group: Callable[[Any], Hashable],
-                 timeout_of: Callable[[Any], float | None]) -> None:
+                 timeout_of: Callable[[Any], float | None],
+                 prepare: Callable[[Any], None] | None = None) -> None:
         import uuid
 
         self.runner, self.c, self.fn, self.label = runner, c, fn, label
+        self.prepare = prepare
         self.batch_size, self.cost, self.group, self.timeout_of = (batch_size, cost, group,
                                                                    timeout_of)
         self.tag = uuid.uuid4().hex[:8]
@@ -358,6 +371,8 @@ class _DaskRun:
         self.unfetched: dict[Any, float] = {}
         """Futures done whose result could not be fetched: when to try again."""
         self.placed_at = 0.0
+        self.warm: set[str] = set()
+        """Workers that have announced a start: their imports are done."""
 
     # -- announcements and batch sizes
     def started(self, event: Any) -> None:  # on the client's event-loop thread
@@ -366,6 +381,7 @@ class _DaskRun:
         if batch is not None:
             now = time.monotonic()
             batch.started = (int(msg["k"]), str(msg["w"]), now)
+            self.warm.add(str(msg["w"]))
             if msg["k"] == 0:
                 batch.begun = now
 
@@ -412,7 +428,8 @@ class _DaskRun:
         batch_items, alone = self.next_batch()
         batch = _Batch(next(self.counter), batch_items, alone)
         self.by_id[batch.id] = batch
-        fut = self.c.submit(apply_batch, self.fn, batch_items, self.topic, batch.id, pure=False,
+        fut = self.c.submit(apply_batch, self.fn, batch_items, self.topic, batch.id,
+                            self.prepare, pure=False,
                             key=f"{self.label}-{batch.id}-{len(batch_items)}-{self.tag}")
         self.flying[fut] = batch
         fut.add_done_callback(self.done.put)
@@ -491,7 +508,8 @@ class _DaskRun:
                 # announcement got out, or announcements lost) each item alone
                 address, since = batch.placed
                 limit = self.timeout_of(batch.items[0])
-                if limit is None or now - since <= limit:
+                cold = 0.0 if address in self.warm else WORKER_START_S
+                if limit is None or now - since <= limit + cold:
                     continue
                 if len(batch.items) > 1:  # which item hangs is unknown: one at a time
                     self.requeue(fut, address, batch.items, [], batch)
@@ -684,7 +702,8 @@ class Runner:
             cost: Callable[[Any], float] | None = None,
             group: Callable[[Any], Hashable] | None = None,
             timeout_s: float | Callable[[Any], float | None] | None = None,
-            on_tick: Callable[[], None] | None = None) -> None:
+            on_tick: Callable[[], None] | None = None,
+            prepare: Callable[[Any], None] | None = None) -> None:
         """``on_result(item, fn(item))`` for every item (``on_crash(item, why)`` for one
         whose worker died twice or that raised on Dask; ``on_timeout(item, why)``, default
         ``on_crash``, for one that outlasted ``timeout_s(item)`` seconds). Order of the
@@ -696,6 +715,9 @@ class Runner:
         ``group(item)`` at a time, of at most :data:`MAX_BATCH` items and about
         :data:`BATCH_S` of predicted work: ``cost(item)`` (else ``estimate_s`` shared out)
         scaled by what the group's batches took so far; a group's first batch is one item.
+
+        ``prepare(item)`` loads what an item needs before its clock starts (on Dask; in this
+        process it is loaded once and for all by the first item).
 
         In this process a timeout is a SIGALRM (:func:`alarm`: Python code only). A
         KeyboardInterrupt cancels what is left and propagates."""
@@ -718,17 +740,17 @@ class Runner:
                     on_tick()
             return
         self._run_on_dask(fn, items, on_result, on_crash, timed_out, label, batch_size,
-                          estimate_s, cost, group, timeout_of, on_tick)
+                          estimate_s, cost, group, timeout_of, on_tick, prepare)
 
     def _run_on_dask(self, fn, items, on_result, on_crash, timed_out, label, batch_size,
-                     estimate_s, cost, group, timeout_of, on_tick) -> None:
+                     estimate_s, cost, group, timeout_of, on_tick, prepare) -> None:
         c = self.client(at_most=len(items))
         self.dispatched += len(items)
         if cost is None:
             share = (estimate_s / len(items)) if estimate_s else None
             cost = (lambda _item: share) if share is not None else (lambda _item: None)
         _DaskRun(self, c, fn, items, label, batch_size, cost, group or (lambda _item: None),
-                 timeout_of).run(on_result, on_crash, timed_out, on_tick)
+                 timeout_of, prepare).run(on_result, on_crash, timed_out, on_tick)
 
     def map(self, fn: Callable[[Any], Any], items: Sequence[Any], *,
             on_crash: Callable[[Any, str], Any], label: str = "items",

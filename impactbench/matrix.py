@@ -11,6 +11,7 @@ The results do not depend on scheduling or on the store: rows are sorted by job 
 
 from __future__ import annotations
 
+import contextlib
 import math
 import time
 from collections.abc import Callable, Iterable
@@ -167,6 +168,16 @@ def execute(job: Job, reference: dict[str, Any] | None = None,
 def execute_item(item: tuple[Job, dict[str, Any] | None, Any]) -> JobResult:
     """:func:`execute` of one (job, reference, settings) item (what the workers run)."""
     return execute(*item)
+
+
+def prepare_item(item: tuple[Job, dict[str, Any] | None, Any]) -> None:
+    """Load a job's engine adapter (its modules and the engine's package) before the job's
+    clock starts: on a restarted worker these imports take seconds under load. An engine that
+    fails to load is left to the run itself, which reports it."""
+    from impactbench.engines.base import get_adapter
+
+    with contextlib.suppress(Exception):
+        get_adapter(item[0].engine)
 
 
 def plan(config: ReportConfig, engines: Iterable[str] | None = None) -> list[Job]:
@@ -437,7 +448,7 @@ def run_jobs(jobs: list[Job], workers: int | None = None,
                                    _crashed(item[0], why, item[1], "timeout")),
                                label="runs", group=lambda item: item[0].engine,
                                cost=lambda item: cluster.run_estimate_s(steps[item[0].id]),
-                               timeout_s=timeout_of, on_tick=tick)
+                               timeout_s=timeout_of, on_tick=tick, prepare=prepare_item)
                 except KeyboardInterrupt:
                     flush()  # before the cluster closes (seconds)
                     raise
