@@ -43,6 +43,13 @@ Gate file schema::
     [gate.tolerance]                # metric -> tolerated |relative error| (≥ 0)
     restitution = 0.005
     duration_s = 0.01
+    [gate.abs_tolerance]            # optional: metric -> tolerated |engine − reference| in the
+    contact_point_ratio = 0.001     # metric's unit, for a reference that may be 0 (the oblique
+    regime = 0                      # stick regime's contact-point ratio; regime: 0 equal)
+
+A gate needs ``tolerance``, ``abs_tolerance`` or both (a metric in one of them only). An
+absolute check's ``rel_error`` field (tables, baseline) holds its signed absolute error
+``engine − reference``; its baseline band works on that error the same way.
 
 A check's id is its run's label and metric (``mujoco-injected-ball-on-plate-v1-dt1e-06-
 restitution``); a run with engine parameters or a tuned file of the user's adds them
@@ -140,7 +147,8 @@ FAILING: frozenset[str] = frozenset({WORSE, FAIL, NEW_FAILURE})
 NOT_COMPARABLE_STATUSES: frozenset[str] = frozenset({"unavailable", "unsupported"})
 
 FIXED_KEYS = ("engine", "mode", "scenario", "velocities_m_s", "timesteps_s", "parameters",
-              "params", "tuned_file", "tolerance", "baseline_margin", "baseline_floor")
+              "params", "tuned_file", "tolerance", "abs_tolerance", "baseline_margin",
+              "baseline_floor")
 DEFAULT_KEYS = ("baseline_margin", "baseline_floor")
 
 
@@ -154,7 +162,9 @@ def gate_keys() -> tuple[str, ...]:
 
 @dataclass(frozen=True)
 class Check:
-    """One metric of one run against its tolerance (dimensionless relative error)."""
+    """One metric of one run against its tolerance: the largest |relative error|
+    (dimensionless), or with ``absolute`` the largest |engine − reference| in the metric's
+    unit (``abs_tolerance``: a metric whose reference may be 0)."""
 
     run: RunKey
     metric: str
@@ -163,6 +173,7 @@ class Check:
     floor: float = DEFAULT_FLOOR
     gate: int = 0
     line: int = 0
+    absolute: bool = False
 
     @property
     def id(self) -> str:
@@ -416,9 +427,13 @@ def _expand(gate: Mapping[str, Any], defaults: Mapping[str, float], base: Path, 
             raise _GateError((key,), ValueError(
                 f"key {key!r}: unknown{what}{did_you_mean(key, keys)}; must be one of "
                 f"{', '.join(keys)}"))
-    for key in ("engine", "mode", "scenario", "tolerance"):
+    for key in ("engine", "mode", "scenario"):
         if key not in gate:
             raise _GateError((), ValueError(f"{key}: missing (required in every [[gate]])"))
+    if "tolerance" not in gate and ("abs_tolerance" not in gate or measured):
+        raise _GateError((), ValueError("tolerance: missing (required in every [[gate]]"
+                                        + ("" if measured else " without abs_tolerance")
+                                        + ")"))
     engines = _field("engine", lambda: _names(gate["engine"], "engine", ENGINES))
     modes = _field("mode", lambda: _names(gate["mode"], "mode", MODES))
     name = _field("scenario", lambda: check.one_of("scenario", gate["scenario"],
@@ -437,7 +452,15 @@ def _expand(gate: Mapping[str, Any], defaults: Mapping[str, float], base: Path, 
         timesteps = _field("tuned_file", lambda: _fitted_steps(gate, timesteps, fitted_dt))
     margins = {**defaults, **{k: _field(k, lambda k=k: check.non_negative(k, gate[k]))
                               for k in DEFAULT_KEYS if k in gate}}
-    tol = _gate_tolerance(gate["tolerance"], spec)
+    tol = {m: (t, False) for m, t in (_gate_tolerance(gate["tolerance"], spec)
+                                      if "tolerance" in gate else {}).items()}
+    if "abs_tolerance" in gate:
+        absolute = _gate_tolerance(gate["abs_tolerance"], spec, "abs_tolerance")
+        both = sorted(set(absolute) & set(tol))
+        if both:
+            raise _GateError(("abs_tolerance", both[0]), ValueError(
+                f"abs_tolerance.{both[0]}: also in tolerance; a metric has one tolerance"))
+        tol.update((m, (t, True)) for m, t in absolute.items())
     out = []
     for engine in engines:
         for mode in modes:
@@ -452,8 +475,8 @@ def _expand(gate: Mapping[str, Any], defaults: Mapping[str, float], base: Path, 
                         dt = _default_timestep(engine, mode, run.build_scenario())
                         run = RunKey(engine, spec.name, point, mode, dt, params, user, own_file)
                     out.extend(Check(run, m, t, margins["baseline_margin"],
-                                     margins["baseline_floor"], n, line)
-                               for m, t in tol.items())
+                                     margins["baseline_floor"], n, line, absolute)
+                               for m, (t, absolute) in tol.items())
     return out
 
 
@@ -540,21 +563,24 @@ def _fitted_steps(gate: Mapping[str, Any], timesteps: list[float | None],
     return timesteps
 
 
-def _gate_tolerance(tolerance: Any, spec: scenarios.ScenarioSpec) -> dict[str, float]:
+def _gate_tolerance(tolerance: Any, spec: scenarios.ScenarioSpec,
+                    key: str = "tolerance") -> dict[str, float]:
     """A gate's ``tolerance`` table: metric → the largest |relative error| that passes (a
-    measured scenario's: the largest absolute error against the measurement)."""
+    measured scenario's: the largest absolute error against the measurement); its
+    ``abs_tolerance`` table (``key``): metric → the largest |engine − reference|."""
     if not isinstance(tolerance, dict) or not tolerance:
         what = ("tolerated value (an absolute error against the measurement)" if spec.measured
-                else "tolerated |relative error|")
-        raise _GateError(("tolerance",), ValueError(
-            f"tolerance: must be a non-empty table of metric = {what}"))
+                else "tolerated |engine − reference| (the metric's unit)"
+                if key == "abs_tolerance" else "tolerated |relative error|")
+        raise _GateError((key,), ValueError(
+            f"{key}: must be a non-empty table of metric = {what}"))
     tol: dict[str, float] = {}
     for metric, value in tolerance.items():
         try:
-            check.one_of("tolerance key", metric, spec.metrics)
-            tol[metric] = check.non_negative(f"tolerance.{metric}", value)
+            check.one_of(f"{key} key", metric, spec.metrics)
+            tol[metric] = check.non_negative(f"{key}.{metric}", value)
         except ValueError as exc:
-            raise _GateError(("tolerance", metric), exc) from None
+            raise _GateError((key, metric), exc) from None
     return tol
 
 
@@ -672,9 +698,11 @@ def judge(check_: Check, result: Mapping[str, Any],
           baseline: Mapping[str, Mapping[str, Any]] | None = None) -> Outcome:
     """Mark one check from its run's result and the baseline entry (if any)."""
     status = str(result.get("status", "crashed"))
-    err = _float(result.get("rel_error", {}).get(check_.metric))
-    out = Outcome(check_, PASS, status, value=_float(result.get(check_.metric)),
-                  reference=_float(result.get("reference", {}).get(check_.metric)),
+    value = _float(result.get(check_.metric))
+    reference = _float(result.get("reference", {}).get(check_.metric))
+    err = (value - reference if check_.absolute
+           else _float(result.get("rel_error", {}).get(check_.metric)))
+    out = Outcome(check_, PASS, status, value=value, reference=reference,
                   rel_error=err, engine_version=str(result.get("engine_version", "")),
                   wall_s=_float(result.get("wall_s")), result=result)
     base = (baseline or {}).get(check_.id)
@@ -691,23 +719,26 @@ def judge(check_: Check, result: Mapping[str, Any],
         return out
     if not (math.isfinite(err) and abs(err) <= check_.tolerance):
         out.mark = NEW_FAILURE if base_passed else FAIL
-        out.message = (f"|rel error| {abs(err):.3g} > tolerance {check_.tolerance:g}"
+        what = "error" if check_.absolute else "rel error"
+        out.message = (f"|{what}| {abs(err):.3g} > tolerance {check_.tolerance:g}"
                        if math.isfinite(err) else
                        f"no value (status {status}: {result.get('message', '')})")
         return out
     if math.isfinite(base_err):
-        out.mark, out.message = drift(err, base_err, check_.margin, check_.floor)
+        out.mark, out.message = drift(err, base_err, check_.margin, check_.floor,
+                                      "error" if check_.absolute else "rel error")
     return out
 
 
-def drift(err: float, base_err: float, margin: float, floor: float) -> tuple[str, str]:
+def drift(err: float, base_err: float, margin: float, floor: float,
+          what: str = "rel error") -> tuple[str, str]:
     """Mark a signed error against its baseline (module docstring): pass, better or worse."""
     band = margin * abs(base_err) + floor
     if abs(err - base_err) <= band:
         return PASS, ""
     if abs(err) <= abs(base_err) - band:
-        return BETTER, f"rel error {err:+.3g} shrank from baseline {base_err:+.3g}"
-    return WORSE, (f"rel error {err:+.3g} moved from baseline {base_err:+.3g} by "
+        return BETTER, f"{what} {err:+.3g} shrank from baseline {base_err:+.3g}"
+    return WORSE, (f"{what} {err:+.3g} moved from baseline {base_err:+.3g} by "
                    f"{err - base_err:+.3g}, beyond ±{band:.3g} ({margin:g}·|base| + {floor:g})")
 
 

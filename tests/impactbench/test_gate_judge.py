@@ -248,3 +248,99 @@ def test_a_baseline_exactly_at_the_tolerance_passed(sign: float) -> None:
     assert judge(0.5, base=sign * 0.25, c=c).mark == gates.NEW_FAILURE
     assert judge(0.5, base=math.nextafter(sign * 0.25, sign), c=c).mark == gates.FAIL
     assert judge(0.0, base=sign * 0.25, status=IMPLAUSIBLE, c=c).mark == gates.NEW_FAILURE
+
+
+# ------------------------------------------------------------------ absolute checks
+
+OBLIQUE = RunKey("mujoco", "oblique", (("angle_deg", 45.0), ("velocity_m_s", 2.0)), "native",
+                 1e-6, (("friction", 0.3),))
+
+
+def oblique_result(value: float, reference: float, metric: str = "contact_point_ratio") -> dict:
+    """A result whose relative error is undefined (reference 0), as the suite writes it."""
+    rel = (value - reference) / abs(reference) if reference else math.nan
+    return {"status": "ok", metric: value, "reference": {metric: reference},
+            "rel_error": {metric: rel}, "engine_version": "3.1.0", "wall_s": 0.5}
+
+
+def test_an_absolute_check_judges_engine_minus_reference_where_the_reference_is_zero() -> None:
+    """The stick regime's contact-point ratio is 0 in the reference: |engine − reference|
+    against the tolerance, signed error in the tables and baseline, its drift by the band."""
+    c = gates.Check(OBLIQUE, "contact_point_ratio", 0.001, absolute=True)
+    ok = gates.judge(c, oblique_result(2.5e-4, 0.0))
+    assert ok.mark == gates.PASS and ok.rel_error == 2.5e-4
+    bad = gates.judge(c, oblique_result(-0.98, 0.0))
+    assert bad.mark == gates.FAIL and bad.message == "|error| 0.98 > tolerance 0.001"
+    moved = gates.judge(c, oblique_result(5e-4, 0.0), {c.id: {"rel_error": 2.5e-4}})
+    assert moved.mark == gates.WORSE and moved.message.startswith("error +0.0005 moved")
+    # a relative check of the same run has no number: it fails
+    rel = gates.judge(gates.Check(OBLIQUE, "contact_point_ratio", 0.001),
+                      oblique_result(2.5e-4, 0.0))
+    assert rel.mark == gates.FAIL and rel.message.startswith("no value")
+
+
+def test_regime_with_abs_tolerance_zero_passes_only_when_equal() -> None:
+    c = gates.Check(OBLIQUE, "regime", 0.0, absolute=True)
+    assert gates.judge(c, oblique_result(0.0, 0.0, "regime")).mark == gates.PASS
+    assert gates.judge(c, oblique_result(1.0, 1.0, "regime")).mark == gates.PASS
+    slid = gates.judge(c, oblique_result(1.0, 0.0, "regime"))
+    assert slid.mark == gates.FAIL and slid.message == "|error| 1 > tolerance 0"
+
+
+GATE = """
+[[gate]]
+engine = "mujoco"
+mode = "native"
+scenario = "oblique"
+angles_deg = [45.0]
+velocities_m_s = [2.0]
+timesteps_s = [1e-6]
+parameters = {friction = 0.3}
+"""
+
+
+def test_abs_tolerance_parses_into_absolute_checks() -> None:
+    f = gates.parse_gates(GATE + "[gate.tolerance]\nrestitution = 0.1\n"
+                          "[gate.abs_tolerance]\ncontact_point_ratio = 0.002\nregime = 0\n")
+    kinds = {c.metric: (c.tolerance, c.absolute) for c in f.checks}
+    assert kinds == {"restitution": (0.1, False), "contact_point_ratio": (0.002, True),
+                     "regime": (0.0, True)}
+    only = gates.parse_gates(GATE + "[gate.abs_tolerance]\nregime = 0\n")
+    assert [(c.metric, c.absolute) for c in only.checks] == [("regime", True)]
+
+
+@pytest.mark.parametrize("tables, message", [
+    ("", "gate 1: tolerance: missing (required in every [[gate]] without abs_tolerance)"),
+    ("[gate.tolerance]\nregime = 0.1\n[gate.abs_tolerance]\nregime = 0\n",
+     "gate 1: abs_tolerance.regime: also in tolerance; a metric has one tolerance"),
+    ("[gate.abs_tolerance]\nregim = 0\n", "gate 1: abs_tolerance key = 'regim': must be one"),
+    ("[gate.abs_tolerance]\nregime = -1\n", "gate 1: abs_tolerance.regime = -1"),
+])
+def test_bad_abs_tolerance_is_one_line(tables: str, message: str) -> None:
+    with pytest.raises(ValueError) as err:
+        gates.parse_gates(GATE + tables)
+    assert message in str(err.value) and "\n" not in str(err.value)
+
+
+def test_the_oblique_gates_cover_regime_contact_point_and_tangential_force() -> None:
+    """Every oblique gate of the project's gate file checks the contact-point ratio, and the
+    regime and the peak tangential force unless its comment says why not (#31)."""
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[2] / "gates.toml"
+    text = path.read_text()
+    checks = gates.load_gates(path).checks
+    by_run: dict[tuple[str, str], set[str]] = {}
+    for c in checks:
+        if c.run.scenario == "oblique":
+            by_run.setdefault((c.run.engine, c.run.mode), set()).add(c.metric)
+    assert len(by_run) == 27  # 9 engines × injected, native, tuned
+    for (engine, mode), metrics in by_run.items():
+        assert "contact_point_ratio" in metrics, (engine, mode)
+        comment = text[:text.index(f'engine = "{engine}"\nmode = "{mode}"\nscenario = '
+                                   '"oblique"')].rsplit("[[gate]]", 2)[-2]
+        for metric, why in (("regime", "regime not gated: it slides at"),
+                            ("peak_tangential_force_n", "peak_tangential_force_n not gated")):
+            assert metric in metrics or why in comment, (engine, mode, metric)
+    assert all(c.absolute == (c.metric in ("regime", "contact_point_ratio")) for c in checks
+               if c.run.scenario == "oblique")
