@@ -9,6 +9,10 @@
    (:func:`impactbench.engines.mjx_adapter.ball_batch`) against ``mujoco.rollout`` with one
    model per world on 1 and 2 threads. Both print world-steps per second; the ratio is
    rollout (2 threads) over MJX.
+3. Generation: a tuner's generation through the adapter — 8 tuned solrefs × the ball at
+   three velocities — as :meth:`Adapter.run_many` (one ``vmap`` over the worlds,
+   :func:`impactbench.engines.mjx_adapter.run_ball_batch`) against one :meth:`Adapter.run`
+   after another (:mod:`benchmarks.generation`; the records checked equal bit for bit).
 
 Every comparison runs its sides alternately (A B A B …) and reports medians
 (:mod:`benchmarks.alternate`): the machine is shared, and a best-of rewards the luckiest run.
@@ -130,9 +134,16 @@ def batch() -> None:
     print(f"ratio rollout(2 threads)/mjx time: {ratio:.2f}")
 
 
+def generation() -> None:
+    from benchmarks.generation import generation as run
+
+    run("mjx", [{"solref": [-float(k), -30.0]} for k in np.geomspace(3e5, 3e7, 8)], REPEATS)
+
+
 def main() -> None:
     overhead()
     batch()
+    generation()
 
 
 if __name__ == "__main__":

@@ -22,6 +22,11 @@ the adapter's overhead over a bare Featherstone loop.
    excluded (a warm-up run of each side first). The ratios: before/after and after/MuJoCo
    (target ≤ 5).
 
+3. Generation (printed last): a tuner's generation, 8 tuned (ke, kd) × the ball at three
+   velocities, as :meth:`Adapter.run_many` (one model, a world per run,
+   :func:`impactbench.engines.newton_adapter.run_ball_batch`) against one :meth:`Adapter.run`
+   after another (:mod:`benchmarks.generation`).
+
 2. Overhead: the adapter's stepping (its ``drive``, per step) against a bare loop over the
    same model and initial state by the same per-step path (the two captured graphs of
    collide + ``SolverFeatherstone.step``, replayed as many times as the adapter ran steps),
@@ -267,6 +272,8 @@ def _table(rows: list[dict[str, Any]]) -> str:
 
 
 def main() -> None:
+    from benchmarks.generation import generation
+
     version = get_adapter("newton").version()
     print(f"Newton {version} vs MuJoCo {get_adapter('mujoco').version()}: per-step cost, "
           f"before and after device-side stepping (medians of {REPEATS}, sides alternating)")
@@ -276,6 +283,8 @@ def main() -> None:
           f"injected mode, the end search) vs a bare loop of the same graph launches "
           f"(medians of {REPEATS})")
     print(_table(overhead()))
+    generation("newton", [{"ke": float(k), "kd": 30.0} for k in np.geomspace(3e5, 3e7, 8)],
+               REPEATS)
 
 
 if __name__ == "__main__":

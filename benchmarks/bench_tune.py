@@ -37,8 +37,8 @@ import numpy as np
 from impactbench.engines.base import available_engines, run_safely
 from impactbench.reference.scenarios import PAPER_VELOCITIES_M_S, BallOnPlate
 
+from impactbench.api import TUNE_DISPATCH_MIN_S as DISPATCH_MIN_S
 from impactbench.cluster import Runner
-from impactbench.commands.tune import DISPATCH_MIN_S
 from impactbench.tuning import Objective, make_space, parse_weights, tune
 from impactbench.tuning.names import VARIANTS
 

@@ -71,7 +71,7 @@ import os
 import time
 import traceback
 from abc import ABC, abstractmethod
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any, ClassVar
 
@@ -127,6 +127,11 @@ class Builder:
     oblique impact's friction knobs, :func:`impactbench.engines.oblique_tuned.refused`).
     None: the run needs tuned parameters (``settings.tuned``) and is ``unsupported`` without
     them (:meth:`Adapter.tuned_refusal`)."""
+    batch: str = ""
+    """An adapter method that runs many runs of this scenario in one call,
+    ``(items: [(scenario, mode, settings)]) -> [ImpactRecord]``, each record the one
+    :attr:`run` gives (MJX: one ``vmap`` over worlds); "" runs them one by one
+    (:meth:`Adapter.run_many`)."""
 
 
 CUBE_TOSS_STEP_S = 1.0 / 1480.0
@@ -152,6 +157,43 @@ def cube_toss_builder(engine: str) -> Builder:
                        modes=("default", "custom", "tuned", "native"), own_keys=True,
                        why_not=CUBE_TOSS_NOT_INJECTED[engine])
     return Builder("replay_tosses", CUBE_TOSS_STEP_S, own_keys=True)
+
+
+def checked_params(params: dict[str, Any], keys: tuple[str, ...],
+                   rule: Callable[[str, Any], Any]) -> dict[str, Any]:
+    """The ``custom`` parameters among ``keys`` that ``params`` gives (an engine's own names and
+    units), in the order of ``keys``, each checked by ``rule(f"param {key}", value)`` (a rule
+    of :mod:`impactbench.reference.validation`: the value, or a one-line InvalidValue naming
+    the key): the pieces of an :attr:`Adapter.value_check`."""
+    return {key: rule(f"param {key}", params[key]) for key in keys if key in params}
+
+
+RIGID_FLEXIBLE_MODES = ("native", "injected", "tuned")
+"""The 2-DOF pair's modes in an engine whose ``default``/``custom`` contact cannot carry it."""
+
+
+def scenario_builders(*, ball_s: float, pair_s: float, oblique_s: float,
+                      oblique_tuned_check: Callable[[str, RunSettings], ImpactRecord | None],
+                      engine_3d: str | None = None, pair_run: str = "run_rigid_flexible",
+                      pair_modes: tuple[str, ...] | None = None,
+                      ball_keys: tuple[str, ...] | None = None,
+                      ball_batch: str = "") -> dict[str, Builder]:
+    """An adapter's :attr:`Adapter.builders` for the suite's scenarios: the ball on the plate
+    (``run_ball`` at the default step ``ball_s``, s; ``ball_keys``: its ``custom`` keys;
+    ``ball_batch``: its :attr:`Builder.batch` method), the
+    2-DOF pair (``pair_run`` at ``pair_s``; ``pair_modes``: the modes it runs in, None for
+    all) and the oblique impact (``run_oblique`` at ``oblique_s``, its ``tuned`` runs decided
+    by ``oblique_tuned_check``, :func:`impactbench.engines.oblique_tuned.refused`); a 3D
+    engine (``engine_3d``, its name) adds the cube tosses (:func:`cube_toss_builder`)."""
+    builders = {
+        "ball-on-plate": Builder("run_ball", ball_s, parameter_keys=ball_keys, batch=ball_batch),
+        "rigid-flexible": Builder(pair_run, pair_s, modes=pair_modes),
+        "oblique": Builder("run_oblique", oblique_s, tuned_check=oblique_tuned_check),
+    }
+    if engine_3d is None:
+        return builders
+    cube_builders = {"cube-toss": cube_toss_builder(engine_3d)}
+    return {**builders, **cube_builders}
 
 
 CUBE_TOSS_TWO_D = ("{} is a 2D engine (bodies move in a plane with one rotation angle): a cube "
@@ -294,6 +336,42 @@ class Adapter(ABC):
         of another scenario's) is a ValueError; a mode the adapter or the scenario's builder
         does not implement, an unclipped Kelvin–Voigt law to inject, or a ``tuned`` run
         without tuned parameters (:meth:`tuned_refusal`) is an ``unsupported`` record."""
+        found, settings, rec = self._prologue(scenario, mode, settings)
+        if rec is not None:
+            return rec
+        t0 = time.perf_counter()
+        return self._provenance(self._build(found, scenario, mode, settings), mode, settings,
+                                time.perf_counter() - t0)
+
+    def run_many(self, items: Sequence[tuple[Scenario, str, RunSettings | None]]
+                 ) -> list[ImpactRecord]:
+        """``[self.run(*item) for item in items]``, the same records: the runs whose
+        scenario's builder has a :attr:`Builder.batch` method go to it in one call (each
+        record's ``wall_s``: the call's time shared out), the others one by one."""
+        out: list[ImpactRecord | None] = [None] * len(items)
+        batched: dict[str, list[tuple[int, tuple[Scenario, str, RunSettings]]]] = {}
+        for i, (scenario, mode, settings) in enumerate(items):
+            found = self.builder(scenario)
+            if found is None or not found.batch:
+                out[i] = self.run(scenario, mode, settings)
+                continue
+            found, settings, rec = self._prologue(scenario, mode, settings)
+            if rec is not None:
+                out[i] = rec
+            else:
+                batched.setdefault(found.batch, []).append((i, (scenario, mode, settings)))
+        for method, group in batched.items():
+            t0 = time.perf_counter()
+            recs = getattr(self, method)([item for _, item in group])
+            wall = (time.perf_counter() - t0) / len(group)
+            for (i, (_, mode, settings)), rec in zip(group, recs, strict=True):
+                out[i] = self._provenance(rec, mode, settings, wall)
+        return [r for r in out if r is not None]
+
+    def _prologue(self, scenario: Scenario, mode: str, settings: RunSettings | None
+                  ) -> tuple[Builder, RunSettings, ImpactRecord | None]:
+        """The mode prologue of :meth:`run`: (the builder, the settings with the step filled
+        in, the record when the run stops here: ``unsupported``, or a ``tuned`` refusal)."""
         if mode not in MODES:
             raise ValueError(f"mode = {mode!r}: must be one of {', '.join(MODES)}")
         settings = settings or RunSettings()
@@ -302,21 +380,26 @@ class Adapter(ABC):
             self._check_keys(scenario, found, settings.params or {})
         refused = self._refused(scenario, mode, settings, found)
         if refused is not None:
-            return refused
+            return found, settings, refused  # type: ignore[return-value]
         assert found is not None  # a missing builder is refused
         dt = settings.timestep_s or found.timestep_s
         if settings.timestep_s is None:
             settings = replace(settings, timestep_s=dt)
-        t0 = time.perf_counter()
         rec = self.tuned_refusal(found, settings) if mode == "tuned" else None
-        if rec is None:
-            rec = self._build(found, scenario, mode, settings)
+        if rec is not None:
+            rec = self._provenance(rec, mode, settings, 0.0)
+        return found, settings, rec
+
+    def _provenance(self, rec: ImpactRecord, mode: str, settings: RunSettings,
+                    wall_s: float) -> ImpactRecord:
+        """``rec`` with its provenance: engine, version, mode, step (s), wall time (s), the
+        run's options."""
         rec.meta.update(
             engine=self.name,
             engine_version=self.version(),
             mode=mode,
-            timestep_s=rec.meta.get("timestep_s", dt),  # a builder whose scenario sets it
-            wall_s=time.perf_counter() - t0,
+            timestep_s=rec.meta.get("timestep_s", settings.timestep_s),  # (a scenario's own)
+            wall_s=wall_s,
             **{k: v for k, v in settings.options.items() if k not in rec.meta},
         )
         return rec
@@ -478,3 +561,15 @@ def run_safely(engine: str, scenario: Scenario, mode: str = "native",
     except Exception as exc:  # an engine failure must not lose the other results
         last = traceback.format_exception_only(type(exc), exc)[-1].strip()
         return ImpactRecord.failed(Status.CRASHED, last, **meta)
+
+
+def run_many_safely(engine: str, items: Sequence[tuple[Scenario, str, RunSettings | None]]
+                    ) -> list[ImpactRecord]:
+    """:func:`run_safely` of every ``(scenario, mode, settings)`` item, through
+    :meth:`Adapter.run_many` (one call for a builder that batches); should the batch fail,
+    each run again alone, so that each gets its own status."""
+    try:
+        adapter = get_adapter(engine)
+        return adapter.run_many(items)
+    except Exception:  # bad input, a missing engine, a crash: each alone says which
+        return [run_safely(engine, *item) for item in items]

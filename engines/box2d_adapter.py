@@ -388,32 +388,16 @@ class Box2dAdapter(stepping.SteppedAdapter):
 def parameters(scenario: Scenario, mode: str, settings: RunSettings, ball: bool
                ) -> tuple[dict[str, Any], dict[str, Any]]:
     """The complete Box2D parameter set for ``mode`` and the run's meta (``ball``: the
-    ball-on-plate scenario, else the rigid–flexible pair)."""
-    defaults = engine_defaults()
-    rigid = {"contact": "rigid", "not_comparable": stepping.rigid_artefacts(ball)}
-    if mode == "default":
-        return dict(defaults), {**rigid, "engine_defaults": defaults}
-    if mode == "custom":
-        own = stepping.engine_params("params", settings.params, PARAMETERS)
-        return {**defaults, **own}, {**rigid, "params": own, "engine_defaults": defaults}
-    native = {**defaults, "friction": 0.0}
-    if mode == "injected":
-        law = "hunt_crossley" if ball else scenario.local
-        return native, {"contact": "injected force (no fixtures)", "injected_law": law}
-    meta: dict[str, Any] = dict(rigid)
+    ball-on-plate scenario, else the rigid–flexible pair): :func:`stepping.rigid_parameters`
+    with ``restitution`` (Box2D's fixtures have no bounce below ``b2_velocityThreshold``)."""
     threshold = float(_import_box2d().b2_velocityThreshold)
-    if ball:
-        v_ref = reference_velocity(settings.options)
-        native["restitution"] = native_ball_restitution(scenario, v_ref)
-        meta["reference_velocity_m_s"] = v_ref
-        meta["not_expressible"] = ("contact stiffness and damping (Box2D contacts are rigid); "
-                                   f"any bounce at or below {threshold:g} m/s")
-    else:
-        native["restitution"] = 1.0
-        meta["not_expressible"] = "contact stiffness k1 and the local law (rigid contacts)"
-    stepping.apply_tuned(native, meta, mode, settings, PARAMETERS)
-    meta["restitution"] = native["restitution"]
-    return native, meta
+    return stepping.rigid_parameters(
+        scenario, mode, settings, ball, defaults=engine_defaults(), validators=PARAMETERS,
+        restitution_key="restitution", frictionless={"friction": 0.0},
+        injected_contact="injected force (no fixtures)",
+        not_expressible=("contact stiffness and damping (Box2D contacts are rigid); any bounce "
+                         f"at or below {threshold:g} m/s",
+                         "contact stiffness k1 and the local law (rigid contacts)"))
 
 
 FRICTION_MODEL = ("Coulomb in the rigid velocity-level contact (sequential impulses: the "

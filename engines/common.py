@@ -31,6 +31,7 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
+from impactbench.engines.registry import fds_redirected
 from impactbench.reference.kelvin_voigt import clipped_phase, clipped_restitution
 from impactbench.reference.record import ImpactRecord, Status
 from impactbench.reference.validation import InvalidValue
@@ -170,23 +171,12 @@ def silenced_fds() -> Iterator[None]:
     with printf): Python-level redirection cannot catch a C printf, so the descriptors
     themselves are swapped, and C's stdio buffer is flushed before they are restored.
     Python exceptions (an ImportError) are unaffected."""
-    import ctypes
-
-    sys.stdout.flush()
-    sys.stderr.flush()
-    saved = [os.dup(1), os.dup(2)]
     null = os.open(os.devnull, os.O_WRONLY)
     try:
-        os.dup2(null, 1)
-        os.dup2(null, 2)
-        yield
+        with fds_redirected(null, 1, 2):
+            yield
     finally:
-        with contextlib.suppress(Exception):
-            ctypes.CDLL(None).fflush(None)
-        os.dup2(saved[0], 1)
-        os.dup2(saved[1], 2)
-        for fd in (*saved, null):
-            os.close(fd)
+        os.close(null)
 
 
 @contextlib.contextmanager
@@ -195,20 +185,13 @@ def stderr_without(*noise: str) -> Iterator[None]:
     for the duration (e.g. warp's "could not load the CUDA driver" on a CPU-only machine, which
     a C ``fprintf`` prints whatever Python's warning filters say); every other line is
     written to stderr afterwards, unchanged."""
-    import ctypes
     import tempfile
 
-    sys.stderr.flush()
-    saved = os.dup(2)
     with tempfile.TemporaryFile() as buf:
-        os.dup2(buf.fileno(), 2)
         try:
-            yield
+            with fds_redirected(buf.fileno(), 2):
+                yield
         finally:
-            with contextlib.suppress(Exception):
-                ctypes.CDLL(None).fflush(None)
-            os.dup2(saved, 2)
-            os.close(saved)
             buf.seek(0)
             kept = [line for line in buf.read().decode(errors="replace").splitlines(True)
                     if not any(n in line for n in noise)]

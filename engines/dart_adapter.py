@@ -327,32 +327,17 @@ class ObliqueModel:
 def parameters(scenario: Scenario, mode: str, settings: RunSettings, ball: bool
                ) -> tuple[dict[str, Any], dict[str, Any]]:
     """The complete DART parameter set for ``mode`` and the run's meta (``ball``: the
-    ball-on-plate scenario, else the rigid–flexible pair)."""
+    ball-on-plate scenario, else the rigid–flexible pair): :func:`stepping.rigid_parameters`
+    with ``restitution_coeff``, the plate's coefficient 1 (the pair's, a product, is body
+    1's) except in ``default`` mode, where both shapes keep DART's default."""
     defaults = engine_defaults()
-    rigid = {"contact": "rigid", "not_comparable": stepping.rigid_artefacts(ball)}
-    neutral = {"plate_restitution_coeff": 1.0}  # the pair (product) has body 1's value
-    if mode == "default":
-        both = {"plate_restitution_coeff": defaults["restitution_coeff"]}
-        return {**defaults, **both}, {**rigid, "engine_defaults": defaults}
-    if mode == "custom":
-        own = stepping.engine_params("params", settings.params, PARAMETERS)
-        return {**defaults, **neutral, **own}, {**rigid, "params": own,
-                                                "engine_defaults": defaults}
-    native = {**defaults, **neutral, "friction_coeff": 0.0}
-    if mode == "injected":
-        law = "hunt_crossley" if ball else scenario.local
-        return native, {"contact": "injected joint force (no collision)", "injected_law": law}
-    meta: dict[str, Any] = dict(rigid)
-    if ball:
-        v_ref = reference_velocity(settings.options)
-        native["restitution_coeff"] = native_ball_restitution(scenario, v_ref)
-        meta["reference_velocity_m_s"] = v_ref
-    else:
-        native["restitution_coeff"] = 1.0
-    meta["not_expressible"] = "contact stiffness and damping (DART contacts are rigid)"
-    stepping.apply_tuned(native, meta, mode, settings, PARAMETERS)
-    meta["restitution"] = native["restitution_coeff"]
-    return native, meta
+    rigid_only = "contact stiffness and damping (DART contacts are rigid)"
+    return stepping.rigid_parameters(
+        scenario, mode, settings, ball, defaults=defaults, validators=PARAMETERS,
+        restitution_key="restitution_coeff", frictionless={"friction_coeff": 0.0},
+        injected_contact="injected joint force (no collision)",
+        not_expressible=(rigid_only, rigid_only), neutral={"plate_restitution_coeff": 1.0},
+        default_params={**defaults, "plate_restitution_coeff": defaults["restitution_coeff"]})
 
 
 FRICTION_MODEL = ("Coulomb in the rigid LCP (boxed: the friction impulse within ±μ times the "

@@ -142,12 +142,14 @@ import numpy as np
 from impactbench.engines import oblique_tuned
 from impactbench.engines.base import (
     PIP,
+    RIGID_FLEXIBLE_MODES,
     Adapter,
     Builder,
     EngineUnavailable,
     RunSettings,
     Scenario,
-    cube_toss_builder,
+    checked_params,
+    scenario_builders,
 )
 from impactbench.engines.common import NATIVE_REFERENCE_VELOCITY_M_S, Recorder, classify
 from impactbench.engines.oblique_common import (
@@ -333,13 +335,10 @@ def _integrator(settings: RunSettings) -> str:
 
 def custom_parameters(params: dict[str, Any]) -> dict[str, Any]:
     """Validated ``custom`` parameters (Drake's names; see :data:`PARAMETER_KEYS`)."""
-    out: dict[str, Any] = {}
-    for key in ("point_stiffness", "penetration_allowance", "stiction_tolerance"):
-        if key in params:
-            out[key] = check.positive(f"param {key}", params[key])
-    for key in ("hunt_crossley_dissipation", "relaxation_time"):
-        if key in params:
-            out[key] = check.non_negative(f"param {key}", params[key])
+    out = {**checked_params(params, ("point_stiffness", "penetration_allowance",
+                                     "stiction_tolerance"), check.positive),
+           **checked_params(params, ("hunt_crossley_dissipation", "relaxation_time"),
+                            check.non_negative)}
     if "discrete_contact_solver" in params:
         solver = check.one_of("param discrete_contact_solver",
                               params["discrete_contact_solver"], ("tamsi", "sap"))
@@ -854,14 +853,10 @@ class DrakeAdapter(Adapter):
     tuned_parameters: ClassVar[str] = (
         "point_stiffness_n_per_m, optional hunt_crossley_dissipation_s_per_m; a discrete "
         "plant's discrete_contact_approximation and relaxation_time_s")
-    builders: ClassVar[dict[str, Builder]] = {
-        "ball-on-plate": Builder("run_ball", BALL_TIMESTEP_S),
-        "rigid-flexible": Builder("run_rigid_flexible", RIGID_FLEXIBLE_TIMESTEP_S,
-                                  modes=("native", "injected", "tuned")),
-        "oblique": Builder("run_oblique", OBLIQUE_TIMESTEP_S,
-                           tuned_check=oblique_tuned.refused),
-        "cube-toss": cube_toss_builder("drake"),
-    }
+    builders: ClassVar[dict[str, Builder]] = scenario_builders(
+        ball_s=BALL_TIMESTEP_S, pair_s=RIGID_FLEXIBLE_TIMESTEP_S, oblique_s=OBLIQUE_TIMESTEP_S,
+        oblique_tuned_check=oblique_tuned.refused, engine_3d="drake",
+        pair_modes=RIGID_FLEXIBLE_MODES)
     model_builders: ClassVar[dict[str, Callable[[Any, str, RunSettings], DrakeModel]]] = {
         "ball-on-plate": build_ball,
         "rigid-flexible": build_rigid_flexible,

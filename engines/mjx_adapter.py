@@ -7,8 +7,11 @@ The models are MuJoCo's own (:func:`~impactbench.engines.mujoco_adapter.ball_mjc
 the physical linear spring–damper K = S/A, D_phys = D/A, A = efc_diagA. MJX computes in 64-bit
 floats here (``jax_enable_x64`` is switched on when the engine is first used, for the whole
 process), so it is MuJoCo's arithmetic on another compiler: the test suite checks that both give
-the same record. It serves as MuJoCo's batched twin (:func:`ball_batch`, one ``vmap`` over
-contact parameters).
+the same record. It serves as MuJoCo's batched twin: many ball runs — a tuner's generation of
+contact parameters, at any velocities — step as one ``vmap`` over worlds
+(:func:`run_ball_batch`, :attr:`Builder.batch`; each world driven by the lone run's plan and
+end rule, its record the lone run's bit for bit); :func:`ball_batch` is the raw fixed-length
+form (the benchmarks').
 
 Modes — the MuJoCo adapter's, with its helpers (solref/solimp conversions, the custom keys
 ``solref``, ``solimp``, ``integrator``, ``meta["engine_defaults"]`` read back from the compiled
@@ -79,6 +82,8 @@ from impactbench.engines.mujoco_adapter import (
     ball_start,
     custom_parameters,
     drive,
+    drive_many,
+    driving,
     face_radius_m,
     hertz_duration_s,
     measured_diag_a,
@@ -252,6 +257,34 @@ def injected_parameters(law: Any, diag_a: float) -> np.ndarray | None:
 
 def run_ball(s: BallOnPlate, mode: str, settings: RunSettings) -> ImpactRecord:
     """Ball-on-plate in MJX; the same model, modes and end rule as MuJoCo's ``run_ball``."""
+    setup = _ball_setup(s, mode, settings)
+    if isinstance(setup, ImpactRecord):
+        return setup
+    sim = _MjxSim(setup.model, setup.data, setup.control, setup.params, BALL_CHUNK)
+    out = drive(sim, setup.n_max, setup.first, setup.chunk, ball_end_finder())
+    setup.meta.update(steps=sim.steps, stepping="lax.scan")
+    return ball_outcome_record(s, out, setup.dt, setup.gap, setup.meta)
+
+
+@dataclass
+class _BallSetup:
+    """A ball run set up and planned (:func:`_ball_setup`), before its first step."""
+
+    model: Any
+    data: Any
+    control: str
+    params: np.ndarray
+    meta: dict[str, Any]
+    dt: float
+    gap: float
+    n_max: int
+    first: int
+    chunk: int
+    mjcf: str
+
+
+def _ball_setup(s: BallOnPlate, mode: str, settings: RunSettings) -> _BallSetup | ImpactRecord:
+    """The model, start and drive plan of a ball run (its record when it cannot run)."""
     dt = float(settings.timestep_s or BALL_TIMESTEP_S)
     user = custom_parameters(settings.params or {}) if mode == "custom" else {}
     out_of_box = mode in ("default", "custom")
@@ -272,10 +305,82 @@ def run_ball(s: BallOnPlate, mode: str, settings: RunSettings) -> ImpactRecord:
     else:
         t_est = ball_contact(s, mode, settings, model, dt, a, user, meta)
     gap, n_max, first, chunk = ball_start(s, mode, settings, data, dt, t_est, BALL_CHUNK)
-    sim = _MjxSim(model, data, control, params, BALL_CHUNK)
-    out = drive(sim, n_max, first, chunk, ball_end_finder())
-    meta.update(steps=sim.steps, stepping="lax.scan")
-    return ball_outcome_record(s, out, dt, gap, meta)
+    return _BallSetup(model, data, control, params, meta, dt, gap, n_max, first, chunk,
+                      ball_mjcf(s, dt, integrator, engine_defaults=out_of_box))
+
+
+def run_ball_batch(items: Sequence[tuple[BallOnPlate, str, RunSettings]]) -> list[ImpactRecord]:
+    """Many ball runs in one compiled call per model: worlds whose models differ only in the
+    contact's geom solref and solimp (a tuner's candidates, at any velocities) step together,
+    one ``vmap`` over worlds of the same :data:`BALL_CHUNK`-step scan that :func:`run_ball`
+    takes, each world driven by its own :func:`drive` plan and end rule. Each record is the
+    one :func:`run_ball` gives: the same steps bit for bit (a vmapped step is the same
+    arithmetic; tested)."""
+    out: list[ImpactRecord | None] = [None] * len(items)
+    groups: dict[tuple, list[tuple[int, _BallSetup]]] = {}
+    for i, (s, mode, settings) in enumerate(items):
+        setup = _ball_setup(s, mode, settings)
+        if isinstance(setup, ImpactRecord):
+            out[i] = setup
+        else:
+            key = (setup.mjcf, setup.control, setup.params.tobytes())
+            groups.setdefault(key, []).append((i, setup))
+    for group in groups.values():
+        sims = _BatchWorlds([setup for _, setup in group]).run()
+        for (i, setup), (sim, outcome) in zip(group, sims, strict=True):
+            setup.meta.update(steps=sim.steps, stepping="lax.scan")
+            out[i] = ball_outcome_record(items[i][0], outcome, setup.dt, setup.gap, setup.meta)
+    return [r for r in out if r is not None]
+
+
+class _BatchWorlds:
+    """Worlds of one model but their contact's solref and solimp, stepped together one scan
+    chunk (:data:`BALL_CHUNK` steps) at a time."""
+
+    def __init__(self, setups: Sequence[_BallSetup]) -> None:
+        _, jax, mjx = _mjx()
+        jnp = jax.numpy
+        self.setups = list(setups)
+        first = self.setups[0]
+        self.mx = mjx.put_model(first.model)
+        forward = _compiled_forward()
+        datas = [forward(self.mx, mjx.put_data(st.model, st.data)) for st in self.setups]
+        self.dx = jax.tree_util.tree_map(lambda *xs: jnp.stack(xs), *datas)
+        self.solref = jnp.asarray(np.stack([st.model.geom_solref for st in self.setups]))
+        self.solimp = jnp.asarray(np.stack([st.model.geom_solimp for st in self.setups]))
+        self.params = first.params
+        self.scan = _batched_chunk(BALL_CHUNK, first.control)
+
+    def step(self, n: int) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        """``n`` steps (a multiple of :data:`BALL_CHUNK`) of every world: its samples."""
+        parts = []
+        for _ in range(n // BALL_CHUNK):
+            self.dx, (q, v, f) = self.scan(self.mx, self.dx, self.solref, self.solimp,
+                                           self.params)
+            parts.append((np.asarray(q), np.asarray(v), np.asarray(f)))
+        qs, vs, fs = (np.concatenate(a, axis=1) for a in zip(*parts, strict=True))
+        return [(qs[k], vs[k], fs[k]) for k in range(len(self.setups))]
+
+    def run(self) -> list[tuple[Any, Any]]:
+        return drive_many([functools.partial(_plan, st) for st in self.setups], self.step,
+                          BALL_CHUNK)
+
+
+def _plan(setup: _BallSetup, world: Any) -> Any:
+    return driving(world, setup.n_max, setup.first, setup.chunk, ball_end_finder())
+
+
+@functools.lru_cache(maxsize=4)
+def _batched_chunk(length: int, control: str) -> Any:
+    """:func:`_compiled_scan`'s chunk of ``length`` steps, ``vmap``-ed over worlds: each
+    world's data and its contact's geom solref and solimp (the model otherwise shared)."""
+    _, jax, _ = _mjx()
+    scan = _compiled_scan(0)
+
+    def one(mx: Any, dx: Any, solref: Any, solimp: Any, p: Any) -> Any:
+        return scan(mx.replace(geom_solref=solref, geom_solimp=solimp), dx, p, length, control)
+
+    return jax.jit(jax.vmap(one, in_axes=(None, 0, 0, 0, None)))
 
 
 def run_rigid_flexible(s: RigidFlexible, mode: str, settings: RunSettings) -> ImpactRecord:
@@ -414,6 +519,8 @@ class MjxAdapter(Adapter):
     tuned_parameters = MujocoAdapter.tuned_parameters
     builders: ClassVar[dict[str, Builder]] = {
         **MujocoAdapter.builders,
+        "ball-on-plate": Builder("run_ball", BALL_TIMESTEP_S, parameter_keys=PARAMETER_KEYS,
+                                 batch="run_ball_batch"),  # MuJoCo's, batched
         "rigid-flexible": Builder(
             "run_rigid_flexible", RIGID_FLEXIBLE_TIMESTEP_S, modes=("native", "tuned"),
             why_not={"injected": "rigid–flexible needs the local law's memory updated "
@@ -422,6 +529,7 @@ class MjxAdapter(Adapter):
     }
     # builders only build (Adapter.run has checked the mode, the keys and the tuned file)
     run_ball = staticmethod(run_ball)
+    run_ball_batch = staticmethod(run_ball_batch)
     run_rigid_flexible = staticmethod(run_rigid_flexible)
     run_oblique = staticmethod(run_oblique)
 

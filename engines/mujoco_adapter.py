@@ -124,18 +124,18 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Generator, Sequence
 from dataclasses import dataclass, field
-from typing import Any, ClassVar, Protocol
+from typing import Any, Protocol
 
 import numpy as np
 from impactbench.engines import oblique_tuned
 from impactbench.engines.base import (
+    RIGID_FLEXIBLE_MODES,
     Adapter,
-    Builder,
     EngineUnavailable,
     RunSettings,
-    cube_toss_builder,
+    scenario_builders,
 )
 from impactbench.engines.common import (
     NATIVE_REFERENCE_VELOCITY_M_S,
@@ -202,11 +202,8 @@ def ball_mjcf(scenario: BallOnPlate, timestep_s: float, integrator: str = INTEGR
   <default><geom condim="1" friction="0 0 0"{solimp}/></default>
   <worldbody>
     <geom name="plate" type="plane" size="1 1 0.1"/>
-    <body name="ball" pos="0 0 {r!r}">
-      <joint name="drop" type="slide" axis="0 0 1"/>
-      <inertial pos="0 0 0" mass="{m!r}" diaginertia="{inertia!r} {inertia!r} {inertia!r}"/>
-      <geom name="ball" type="sphere" size="{r!r}"/>
-    </body>
+{sphere_body("ball", f"0 0 {r!r}", '<joint name="drop" type="slide" axis="0 0 1"/>', m,
+              " ".join([repr(inertia)] * 3), r)}
   </worldbody>
   <sensor><contact name="contact" geom1="ball" geom2="plate" data="force" num="1"/></sensor>
 </mujoco>"""
@@ -231,19 +228,29 @@ def rigid_flexible_mjcf(scenario: RigidFlexible, timestep_s: float,
   <option timestep="{timestep_s!r}" gravity="0 0 0" integrator="{integrator}"/>
   <default><geom condim="1" friction="0 0 0" solimp="{_fmt(SOLIMP)}"/></default>
   <worldbody>
-    <body name="body1" pos="{-r!r} 0 0">
-      <joint name="x1" type="slide" axis="1 0 0"/>
-      <inertial pos="0 0 0" mass="{s.m1_kg!r}" diaginertia="1 1 1"/>
-      <geom name="face1" type="sphere" size="{r!r}"/>
-    </body>
-    <body name="body2" pos="{r!r} 0 0">
-      <joint name="x2" type="slide" axis="1 0 0" stiffness="{s.k2_n_per_m!r}" springref="0"/>
-      <inertial pos="0 0 0" mass="{s.m2_kg!r}" diaginertia="1 1 1"/>
-      <geom name="face2" type="sphere" size="{r!r}"/>
-    </body>
+{sphere_body("body1", f"{-r!r} 0 0", '<joint name="x1" type="slide" axis="1 0 0"/>',
+              s.m1_kg, "1 1 1", r, geom="face1")}
+{sphere_body("body2", f"{r!r} 0 0", f'<joint name="x2" type="slide" axis="1 0 0" '
+              f'stiffness="{s.k2_n_per_m!r}" springref="0"/>', s.m2_kg, "1 1 1", r,
+              geom="face2")}
   </worldbody>
   <sensor><contact name="contact" geom1="face1" geom2="face2" data="force" num="1"/></sensor>
 </mujoco>"""
+
+
+def sphere_body(name: str, pos: str | None, joint: str, mass_kg: float, inertia: str,
+                radius_m: float, geom_attributes: str = "", geom: str | None = None) -> str:
+    """An MJCF ``<body>`` (indented for ``<worldbody>``, at ``pos``, "x y z" in m, or its
+    parent's origin) moving on ``joint`` (the joint element: a slide joint, a free joint),
+    with an explicit inertial at its centre (``mass_kg``; ``inertia``, the diagonal "Ixx Iyy
+    Izz" in kg·m²) and a sphere geom of radius ``radius_m`` (m) named ``geom`` (else the
+    body's name), with ``geom_attributes`` appended."""
+    at = "" if pos is None else f' pos="{pos}"'
+    return f"""    <body name="{name}"{at}>
+      {joint}
+      <inertial pos="0 0 0" mass="{mass_kg!r}" diaginertia="{inertia}"/>
+      <geom name="{geom or name}" type="sphere" size="{radius_m!r}"{geom_attributes}/>
+    </body>"""
 
 
 def _fmt(values: tuple[float, ...] | list[float]) -> str:
@@ -405,10 +412,79 @@ def drive(sim: Stepper, n_max: int, first: int, chunk: int, find_end: EndFinder)
 
     A stepper may advance more steps than asked (MJX scans in fixed-length chunks); only
     ``sim.steps`` and the arrays count."""
+    plan = driving(sim, n_max, first, chunk, find_end)
+    try:
+        n = next(plan)
+        while True:
+            sim.step_chunk(n)
+            n = plan.send(None)
+    except StopIteration as done:
+        return done.value
+
+
+@dataclass
+class World:
+    """One world of a batch (:func:`drive_many`): the samples it was given, as a
+    :class:`Stepper` that its own :func:`driving` plan reads."""
+
+    steps: int = 0
+    chunks: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = field(default_factory=list)
+
+    def step_chunk(self, n: int) -> None:  # the batch steps every world together
+        raise NotImplementedError
+
+    def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        qs, vs, fs = zip(*self.chunks, strict=True)
+        return np.concatenate(qs), np.concatenate(vs), np.concatenate(fs)
+
+    def unstable(self) -> bool:
+        return False
+
+
+def drive_many(plans: Sequence[Callable[[World], Generator[int, None, _Outcome]]],
+               step: Callable[[int], Sequence[tuple[np.ndarray, np.ndarray, np.ndarray]]],
+               quantum: int = 1) -> list[tuple[World, _Outcome]]:
+    """:func:`drive` for many worlds stepped together: ``plans[k](world)`` is world k's
+    :func:`driving` plan; ``step(n)`` advances every world n steps (a multiple of
+    ``quantum``, the batch's own chunk) and returns each world's samples of them. Each
+    round takes the fewest steps any unfinished world still asks for, so every world is
+    given exactly the steps, in the same order, that its lone :func:`drive` takes (a world
+    that has ended is stepped on with the others, its samples dropped). Returns each
+    world and its outcome."""
+    worlds = [World() for _ in plans]
+    gens = [plan(world) for plan, world in zip(plans, worlds, strict=True)]
+
+    def owed(n: int) -> int:
+        return -(-n // quantum) * quantum
+
+    wants = [owed(next(g)) for g in gens]
+    outcomes: list[_Outcome | None] = [None] * len(gens)
+    while any(o is None for o in outcomes):
+        n = min(w for w, o in zip(wants, outcomes, strict=True) if o is None)
+        samples = step(n)
+        for k, world in enumerate(worlds):
+            if outcomes[k] is not None:
+                continue
+            world.chunks.append(samples[k])
+            world.steps += n
+            wants[k] -= n
+            if wants[k] == 0:
+                try:
+                    wants[k] = owed(gens[k].send(None))
+                except StopIteration as done:
+                    outcomes[k] = done.value
+    return [(w, o) for w, o in zip(worlds, outcomes, strict=True)]  # type: ignore[misc]
+
+
+def driving(sim: Stepper, n_max: int, first: int, chunk: int, find_end: EndFinder
+            ) -> Generator[int, None, _Outcome]:
+    """:func:`drive` as a generator: it yields how many steps to take next, the caller
+    takes them (``sim.step_chunk``) and sends None; it returns the outcome. Many such drives
+    can step together (MJX's batch: every world one scan chunk at a time)."""
     n = max(1, min(first, n_max))
     while True:
         start = sim.steps
-        sim.step_chunk(n)
+        yield n
         q, v, f = sim.arrays()
         unstable = sim.unstable()
         if unstable:
@@ -719,19 +795,31 @@ def run_rigid_flexible(s: RigidFlexible, mode: str, settings: RunSettings) -> Im
     gap = GAP_STEPS * v1 * dt
     data.qpos[:] = (-gap, 0.0)
     data.qvel[:] = (v1, 0.0)
-    m_eff = s.m1_kg * s.m2_kg / (s.m1_kg + s.m2_kg)
-    t_contact = math.pi * math.sqrt(m_eff / min(s.k1_n_per_m, s.k2_n_per_m))
-    n_max = math.ceil((settings.max_time_s or s.max_time_s) / dt)
-    chunk = max(64, math.ceil(0.1 * t_contact / dt))
-    # a softening structure runs away in finite time after collapse: look often, so the
-    # collapse is seen before MuJoCo's own overflow check resets the state
-    first = chunk if beta else math.ceil(GAP_STEPS) + math.ceil(2.0 * t_contact / dt)
-    collapsed: list[int] = []
-
     sim = _Sim(model, data, hook, commit)
-    out = drive(sim, n_max, first, chunk, rigid_flexible_end_finder(s, structure, collapsed))
+    out, collapsed = drive_pair(sim, s, structure, dt, settings.max_time_s, bool(beta))
     meta.update(steps=sim.steps, stepping="python loop" if hook else "rollout")
     return _mark_unstable(rigid_flexible_record(s, structure, out, dt, gap, meta, collapsed), out)
+
+
+def drive_pair(sim: Stepper, s: RigidFlexible, structure: Any, dt: float,
+               max_time_s: float | None, softening: bool) -> tuple[_Outcome, list[int]]:
+    """Drive a 2-DOF run (MuJoCo's and Newton's) to its end (:func:`drive`,
+    :func:`rigid_flexible_end_finder`); returns the outcome and the collapse marks.
+
+    The plan, from the contact duration t_c = π·√(m_eff/min(k1, k2)) (s; m_eff = m1·m2/(m1 +
+    m2)): the step cap ``max_time_s`` (else the scenario's), chunks of a tenth of t_c (at
+    least 64 steps), the end first looked for after the flight and 2·t_c, or after one chunk
+    for a ``softening`` structure: it runs away in finite time after collapse, so it is
+    looked at often, and the collapse is seen before MuJoCo's own overflow check resets the
+    state."""
+    m_eff = s.m1_kg * s.m2_kg / (s.m1_kg + s.m2_kg)
+    t_contact = math.pi * math.sqrt(m_eff / min(s.k1_n_per_m, s.k2_n_per_m))
+    n_max = math.ceil((max_time_s or s.max_time_s) / dt)
+    chunk = max(64, math.ceil(0.1 * t_contact / dt))
+    first = chunk if softening else math.ceil(GAP_STEPS) + math.ceil(2.0 * t_contact / dt)
+    collapsed: list[int] = []
+    out = drive(sim, n_max, first, chunk, rigid_flexible_end_finder(s, structure, collapsed))
+    return out, collapsed
 
 
 def rigid_flexible_record(s: RigidFlexible, structure: Any, out: _Outcome, dt: float,
@@ -846,11 +934,7 @@ def oblique_mjcf(s: Any, timestep_s: float, integrator: str, c: ObliqueContact) 
   <default><geom{geom}/></default>
   <worldbody>
     <geom name="plate" type="plane" size="1 1 0.1"{off}/>
-    <body name="ball">
-      <freejoint name="ball"/>
-      <inertial pos="0 0 0" mass="{m!r}" diaginertia="{inertia!r} {inertia!r} {inertia!r}"/>
-      <geom name="ball" type="sphere" size="{r!r}"{off}/>
-    </body>
+{sphere_body("ball", None, '<freejoint name="ball"/>', m, " ".join([repr(inertia)] * 3), r, off)}
   </worldbody>
   {pair}
   <sensor><contact name="contact" geom1="ball" geom2="plate" data="force normal tangent"
@@ -1140,13 +1224,10 @@ class MujocoAdapter(Adapter):
                  "a hard velocity constraint (impratio 1e4, direct solreffriction relaxing the "
                  "slip within 1/20 of the contact)")
     tuned_parameters = "solref (2 numbers), optional solimp (5 numbers)"
-    builders: ClassVar[dict[str, Builder]] = {
-        "ball-on-plate": Builder("run_ball", BALL_TIMESTEP_S, parameter_keys=PARAMETER_KEYS),
-        "rigid-flexible": Builder("run_rigid_flexible", RIGID_FLEXIBLE_TIMESTEP_S,
-                                  modes=("native", "injected", "tuned")),
-        "oblique": Builder("run_oblique", OBLIQUE_TIMESTEP_S, tuned_check=oblique_tuned.refused),
-        "cube-toss": cube_toss_builder("mujoco"),
-    }
+    builders = scenario_builders(
+        ball_s=BALL_TIMESTEP_S, pair_s=RIGID_FLEXIBLE_TIMESTEP_S, oblique_s=OBLIQUE_TIMESTEP_S,
+        oblique_tuned_check=oblique_tuned.refused, engine_3d="mujoco",
+        pair_modes=RIGID_FLEXIBLE_MODES, ball_keys=PARAMETER_KEYS)
     # builders only build (Adapter.run has checked the mode, the keys and the tuned file)
     run_ball = staticmethod(run_ball)
     run_rigid_flexible = staticmethod(run_rigid_flexible)

@@ -89,17 +89,11 @@ import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, ClassVar
+from typing import Any
 
 import numpy as np
 from impactbench.engines import oblique_common, oblique_tuned
-from impactbench.engines.base import (
-    Adapter,
-    Builder,
-    EngineUnavailable,
-    RunSettings,
-    cube_toss_builder,
-)
+from impactbench.engines.base import Adapter, EngineUnavailable, RunSettings, scenario_builders
 from impactbench.engines.common import (
     NATIVE_REFERENCE_VELOCITY_M_S,
     SpringDamper,
@@ -110,10 +104,12 @@ from impactbench.engines.mujoco_adapter import (
     ball_end_finder,
     ball_outcome_record,
     drive,
+    drive_many,
+    drive_pair,
     drive_plan,
+    driving,
     face_radius_m,
     hertz_duration_s,
-    rigid_flexible_end_finder,
     rigid_flexible_record,
 )
 from impactbench.reference import validation as check
@@ -244,8 +240,26 @@ def _shape_config(newton: Any, values: dict[str, float]) -> Any:
 
 def ball_model(s: BallOnPlate, values: dict[str, float]) -> Any:
     """Plane at z = 0, sphere on a z prismatic joint, q = height of its lowest point."""
-    wp, newton = _newton()
+    _, newton = _newton()
     b = newton.ModelBuilder(gravity=(0.0, 0.0, -s.gravity_m_s2))
+    _add_ball(b, s, values)
+    return b.finalize(device="cpu")
+
+
+def ball_worlds(balls: list[tuple[BallOnPlate, dict[str, float]]]) -> Any:
+    """One world per (ball, contact values) — :func:`ball_model`'s plane and ball each —
+    in one model (the gravity of the first); joint k is world k's ball."""
+    _, newton = _newton()
+    b = newton.ModelBuilder(gravity=(0.0, 0.0, -balls[0][0].gravity_m_s2))
+    for s, values in balls:
+        b.begin_world()
+        _add_ball(b, s, values)
+        b.end_world()
+    return b.finalize(device="cpu")
+
+
+def _add_ball(b: Any, s: BallOnPlate, values: dict[str, float]) -> None:
+    wp, newton = _newton()
     cfg = _shape_config(newton, values)
     b.add_ground_plane(cfg=cfg)
     r, m = s.radius_m, s.mass_kg
@@ -255,7 +269,6 @@ def ball_model(s: BallOnPlate, values: dict[str, float]) -> Any:
     b.add_articulation([joint])
     b.add_shape_sphere(body, xform=wp.transform((0.0, 0.0, r), wp.quat_identity()),
                        radius=r, cfg=cfg)
-    return b.finalize(device="cpu")
 
 
 def rigid_flexible_model(s: RigidFlexible, values: dict[str, float]) -> Any:
@@ -360,7 +373,8 @@ class NewtonSim:
         states[0].joint_qd.assign(np.asarray(self.qd0, dtype=np.float32))
         newton.eval_fk(m, states[0].joint_q, states[0].joint_qd, states[0])
         solver = newton.solvers.SolverFeatherstone(m)
-        pipeline = newton.CollisionPipeline(m, rigid_contact_max=CONTACT_CAPACITY)
+        worlds = max(1, int(getattr(m, "world_count", 1) or 1))  # a batch: a pair per world
+        pipeline = newton.CollisionPipeline(m, rigid_contact_max=CONTACT_CAPACITY * worlds)
         narrow = getattr(pipeline, "narrow_phase", None)
         if getattr(narrow, "total_num_threads", 0) > NARROW_PHASE_THREADS:
             narrow.total_num_threads = NARROW_PHASE_THREADS
@@ -482,6 +496,75 @@ def run_ball(s: BallOnPlate, mode: str, settings: RunSettings, *,
              graphs: bool = True) -> ImpactRecord:
     """Ball-on-plate in Newton; see the module docstring. ``graphs=False``: the step-by-step
     reference path (eager launches, see :class:`NewtonSim`)."""
+    st = _ball_setup(s, mode, settings)
+    sim = NewtonSim(ball_model(s, st.values), st.dt, (st.gap,), (-s.velocity_m_s,), st.force,
+                    secant=st.secant, graphs=graphs)
+    out = drive(sim, *st.plan, ball_end_finder())
+    st.meta.update(steps=sim.steps, stepping=sim.stepping)
+    return ball_outcome_record(s, out, st.dt, st.gap, st.meta)
+
+
+def run_ball_batch(items: list[tuple[BallOnPlate, str, RunSettings]]) -> list[ImpactRecord]:
+    """Many ball runs in one Newton model, one world per run (a tuner's generation of
+    contact parameters, at any velocities): runs at one step and gravity step together, each
+    world driven by its lone run's plan and end rule (:func:`drive_many`), so each record is
+    the one :func:`run_ball` gives, bit for bit (tested); ``injected`` runs (their contact
+    stiffness set in Python every step) run alone."""
+    out: list[ImpactRecord | None] = [None] * len(items)
+    groups: dict[tuple[float, float], list[int]] = {}
+    setups = [_ball_setup(*item) for item in items]
+    for i, ((s, mode, settings), st) in enumerate(zip(items, setups, strict=True)):
+        if st.secant is not None:
+            out[i] = run_ball(s, mode, settings)
+        else:
+            groups.setdefault((st.dt, s.gravity_m_s2), []).append(i)
+    for (dt, g), group in groups.items():
+        balls = [items[i][0] for i in group]
+        masses = np.array([s.mass_kg for s in balls])
+
+        def force(q: np.ndarray, qd: np.ndarray, qd_next: np.ndarray,
+                  masses: np.ndarray = masses, dt: float = dt, g: float = g) -> np.ndarray:
+            return np.where(q < 0.0, masses * ((qd_next - qd) / dt + g), 0.0)
+
+        sim = NewtonSim(ball_worlds([(s, setups[i].values) for s, i in zip(balls, group,
+                                                                          strict=True)]),
+                        dt, tuple(setups[i].gap for i in group),
+                        tuple(-s.velocity_m_s for s in balls), force)
+
+        def step(n: int, sim: NewtonSim = sim) -> list[tuple[np.ndarray, ...]]:
+            sim.chunks.clear()
+            sim.step_chunk(n)
+            q, qd, f = sim.arrays()
+            return [(q[:, [k]], qd[:, [k]], f[:, k]) for k in range(q.shape[1])]
+
+        plans = [functools.partial(_ball_plan, setups[i]) for i in group]
+        for i, (world, outcome) in zip(group, drive_many(plans, step), strict=True):
+            st = setups[i]
+            st.meta.update(steps=world.steps, stepping=sim.stepping)
+            out[i] = ball_outcome_record(items[i][0], outcome, st.dt, st.gap, st.meta)
+    return [r for r in out if r is not None]
+
+
+def _ball_plan(st: _BallSetup, world: Any) -> Any:
+    return driving(world, *st.plan, ball_end_finder())
+
+
+@dataclass
+class _BallSetup:
+    """A ball run's contact values, recorder and drive plan (:func:`_ball_setup`)."""
+
+    values: dict[str, float]
+    meta: dict[str, Any]
+    dt: float
+    gap: float
+    plan: tuple[int, int, int]
+    force: Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]
+    secant: Callable[[list[float], list[float]], float] | None
+
+
+def _ball_setup(s: BallOnPlate, mode: str, settings: RunSettings) -> _BallSetup:
+    """The contact values, meta, start gap (m), drive plan and force recorder of a ball
+    run."""
     dt = float(settings.timestep_s or BALL_TIMESTEP_S)
     v0, m, g = s.velocity_m_s, s.mass_kg, s.gravity_m_s2
     meta: dict[str, Any] = {"solver": SOLVER, "float": "float32"}
@@ -509,11 +592,8 @@ def run_ball(s: BallOnPlate, mode: str, settings: RunSettings, *,
 
     meta.update(force_output="m·Δv/dt of the ball where in contact (no contact output)")
     gap = GAP_STEPS * v0 * dt
-    sim = NewtonSim(ball_model(s, values), dt, (gap,), (-v0,), force, secant=secant,
-                    graphs=graphs)
-    out = drive(sim, *drive_plan(settings, dt, gap / v0, t_est, 8), ball_end_finder())
-    meta.update(steps=sim.steps, stepping=sim.stepping)
-    return ball_outcome_record(s, out, dt, gap, meta)
+    return _BallSetup(values, meta, dt, gap, drive_plan(settings, dt, gap / v0, t_est, 8),
+                      force, secant)
 
 
 def run_rigid_flexible(s: RigidFlexible, mode: str, settings: RunSettings, *,
@@ -555,13 +635,7 @@ def run_rigid_flexible(s: RigidFlexible, mode: str, settings: RunSettings, *,
     # the softening term β·q2³ goes into control.joint_f on the device (the record kernel)
     sim = NewtonSim(rigid_flexible_model(s, values), dt, (-gap, 0.0), (v1, 0.0), force,
                     secant=secant, commit=commit, beta=beta, graphs=graphs)
-    m_eff = s.m1_kg * s.m2_kg / (s.m1_kg + s.m2_kg)
-    t_contact = math.pi * math.sqrt(m_eff / min(s.k1_n_per_m, s.k2_n_per_m))
-    n_max = math.ceil((settings.max_time_s or s.max_time_s) / dt)
-    chunk = max(64, math.ceil(0.1 * t_contact / dt))
-    first = chunk if beta else math.ceil(GAP_STEPS) + math.ceil(2.0 * t_contact / dt)
-    collapsed: list[int] = []
-    out = drive(sim, n_max, first, chunk, rigid_flexible_end_finder(s, structure, collapsed))
+    out, collapsed = drive_pair(sim, s, structure, dt, settings.max_time_s, bool(beta))
     meta.update(steps=sim.steps, stepping=sim.stepping)
     return rigid_flexible_record(s, structure, out, dt, gap, meta, collapsed)
 
@@ -711,15 +785,13 @@ class NewtonAdapter(Adapter):
     modes = ("native", "injected", "tuned", "default", "custom")
     parameter_keys = PARAMETER_KEYS
     tuned_parameters = "ke, optional kd"
-    builders: ClassVar[dict[str, Builder]] = {
-        "ball-on-plate": Builder("run_ball", BALL_TIMESTEP_S),
-        "rigid-flexible": Builder("run_rigid_flexible", RIGID_FLEXIBLE_TIMESTEP_S),
-        "oblique": Builder("run_oblique", BALL_TIMESTEP_S,
-                           tuned_check=oblique_tuned.refused),
-        "cube-toss": cube_toss_builder("newton"),
-    }
+    builders = scenario_builders(
+        ball_s=BALL_TIMESTEP_S, pair_s=RIGID_FLEXIBLE_TIMESTEP_S, oblique_s=BALL_TIMESTEP_S,
+        oblique_tuned_check=oblique_tuned.refused, engine_3d="newton",
+        ball_batch="run_ball_batch")
     # builders only build (Adapter.run has checked the mode, the keys and the tuned file)
     run_ball = staticmethod(run_ball)
+    run_ball_batch = staticmethod(run_ball_batch)
     run_rigid_flexible = staticmethod(run_rigid_flexible)
     run_oblique = staticmethod(run_oblique)
 

@@ -136,16 +136,16 @@ import functools
 import math
 import time
 from collections.abc import Callable
-from typing import Any, ClassVar
+from typing import Any
 
 from impactbench.engines import oblique_tuned
 from impactbench.engines.base import (
+    RIGID_FLEXIBLE_MODES,
     Adapter,
-    Builder,
     EngineUnavailable,
     RunSettings,
     Scenario,
-    cube_toss_builder,
+    scenario_builders,
 )
 from impactbench.engines.common import (
     NATIVE_REFERENCE_VELOCITY_M_S,
@@ -445,13 +445,10 @@ class PybulletAdapter(Adapter):
                  "step; oblique: with Bullet's own rigid Coulomb friction (lateral friction "
                  "rows clamped at μ times the normal impulse)")
     tuned_parameters = "contact_stiffness, optional contact_damping"
-    builders: ClassVar[dict[str, Builder]] = {
-        "ball-on-plate": Builder("run_ball", BALL_DEFAULT_DT_S, parameter_keys=PARAMETER_KEYS),
-        "rigid-flexible": Builder("run_rigid_flexible", RF_DEFAULT_DT_S,
-                                  modes=("native", "injected", "tuned")),
-        "oblique": Builder("run_oblique", OBLIQUE_DT_S, tuned_check=oblique_tuned.refused),
-        "cube-toss": cube_toss_builder("pybullet"),
-    }
+    builders = scenario_builders(
+        ball_s=BALL_DEFAULT_DT_S, pair_s=RF_DEFAULT_DT_S, oblique_s=OBLIQUE_DT_S,
+        oblique_tuned_check=oblique_tuned.refused, engine_3d="pybullet",
+        pair_modes=RIGID_FLEXIBLE_MODES, ball_keys=PARAMETER_KEYS)
 
     def version(self) -> str:
         return _version()

@@ -144,11 +144,13 @@ import numpy as np
 from impactbench.engines import oblique_common, oblique_tuned, stepping
 from impactbench.engines.base import (
     CUBE_TOSS_TWO_D,
+    RIGID_FLEXIBLE_MODES,
     Adapter,
-    Builder,
     RunSettings,
     Scenario,
+    checked_params,
     import_engine,
+    scenario_builders,
 )
 from impactbench.engines.common import NATIVE_REFERENCE_VELOCITY_M_S, classify
 from impactbench.reference import validation as check
@@ -475,13 +477,10 @@ class PymunkAdapter(Adapter):
                  "±μ·F_n (options injection = restitution: pymunk's own rigid contact and "
                  "Coulomb friction, with the law's restitution)")
     tuned_parameters = "elasticity"
-    builders: ClassVar[dict[str, Builder]] = {
-        "ball-on-plate": Builder("run_ball", 1e-6, parameter_keys=tuple(
-            k for k in PARAMETER_KEYS if k not in OBLIQUE_KEYS)),
-        "rigid-flexible": Builder("run_rigid_flexible", 1e-5,
-                                  modes=("native", "injected", "tuned")),
-        "oblique": Builder("run_oblique", 1e-6, tuned_check=oblique_tuned.refused),
-    }
+    builders = scenario_builders(
+        ball_s=1e-6, pair_s=1e-5, oblique_s=1e-6, oblique_tuned_check=oblique_tuned.refused,
+        pair_modes=RIGID_FLEXIBLE_MODES,
+        ball_keys=tuple(k for k in PARAMETER_KEYS if k not in OBLIQUE_KEYS))
     missing_builders: ClassVar[dict[str, str]] = {"cube-toss": CUBE_TOSS_TWO_D.format("pymunk")}
 
     def version(self) -> str:
@@ -528,17 +527,19 @@ def _reference_restitution(scenario: BallOnPlate) -> float:
     return float(hunt_crossley.solve(scenario)["restitution"])
 
 
+def _fraction(field: str, value: object) -> float:
+    """A fraction in [0, 1] (a per-step bias or velocity damping factor)."""
+    out = check.non_negative(field, value)
+    if out > 1.0:
+        raise InvalidValue(f"{field} = {value!r}: must be in [0, 1]")
+    return out
+
+
 def custom_parameters(params: dict[str, Any]) -> dict[str, Any]:
     """Validated ``custom`` parameters (pymunk's names; see :data:`PARAMETER_KEYS`)."""
-    out: dict[str, Any] = {}
-    for key in ("elasticity", "collision_slop", "friction"):
-        if key in params:
-            out[key] = check.non_negative(f"param {key}", params[key])
-    for key in ("collision_bias", "damping"):
-        if key in params:
-            out[key] = check.non_negative(f"param {key}", params[key])
-            if out[key] > 1.0:
-                raise InvalidValue(f"param {key} = {params[key]!r}: must be in [0, 1]")
+    out = {**checked_params(params, ("elasticity", "collision_slop", "friction"),
+                            check.non_negative),
+           **checked_params(params, ("collision_bias", "damping"), _fraction)}
     if "iterations" in params:
         it = params["iterations"]
         if isinstance(it, bool) or not isinstance(it, int | float) or it != int(it) or it < 1:

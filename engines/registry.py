@@ -384,18 +384,31 @@ PIP: Mapping[str, str] = _Facts(
 
 
 @contextlib.contextmanager
-def stdout_to_stderr() -> Iterator[None]:
-    """Send C-level stdout to stderr for the duration (engines print banners on import —
-    pybullet its build time — which would corrupt ``--json`` output)."""
+def fds_redirected(target: int, *fds: int) -> Iterator[None]:
+    """Point the file descriptors ``fds`` (1, stdout; 2, stderr) at the open descriptor
+    ``target`` for the duration. The descriptors themselves are swapped, so what C code
+    prints (a ``printf``, which Python-level redirection cannot catch) follows them; Python's
+    buffers of those streams are flushed first, C's stdio buffers before they are restored."""
     import ctypes
 
-    sys.stdout.flush()
-    saved = os.dup(1)
+    for fd in fds:
+        {1: sys.stdout, 2: sys.stderr}[fd].flush()
+    saved = [os.dup(fd) for fd in fds]
     try:
-        os.dup2(2, 1)
+        for fd in fds:
+            os.dup2(target, fd)
         yield
     finally:
         with contextlib.suppress(Exception):
             ctypes.CDLL(None).fflush(None)
-        os.dup2(saved, 1)
-        os.close(saved)
+        for fd, kept in zip(fds, saved, strict=True):
+            os.dup2(kept, fd)
+            os.close(kept)
+
+
+@contextlib.contextmanager
+def stdout_to_stderr() -> Iterator[None]:
+    """Send C-level stdout to stderr for the duration (engines print banners on import —
+    pybullet its build time — which would corrupt ``--json`` output)."""
+    with fds_redirected(2, 1):
+        yield

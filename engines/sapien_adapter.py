@@ -247,27 +247,49 @@ class PhysxWorld:
         return total / self.dt
 
 
-class BallModel:
-    """The ball above the plate; ``law`` set: the ball has no shape and the law is applied."""
+class _BallAbovePlate:
+    """A ball (a sphere of radius R, or no shape when its contact is ``driven`` by applied
+    forces) at the gap above a static plate whose top face is z = −R, so that the ball's
+    penetration is −z; rigid (``impulsive``) when its contact is PhysX's with a restitution
+    ≥ 0. The base of :class:`BallModel` and :class:`ObliqueModel`."""
 
-    def __init__(self, scenario: BallOnPlate, params: dict[str, Any], dt: float,
-                 law: Any = None) -> None:
+    def __init__(self, params: dict[str, Any], dt: float, gravity_m_s2: float,
+                 radius_m: float, mass_kg: float, inertia_kg_m2: float,
+                 velocity_m_s: list[float], spin_rad_s: list[float] | None,
+                 driven: bool) -> None:
+        """``velocity_m_s`` (x, y, z; its −z part the approach speed that sets the gap) and
+        ``spin_rad_s`` (about x, y, z; None: not set) are the ball's at the start;
+        ``gravity_m_s2`` is along z."""
         import numpy as np
 
-        self.world = w = PhysxWorld(params, dt, -scenario.gravity_m_s2, axis=2)
-        radius = scenario.radius_m
+        self.world = w = PhysxWorld(params, dt, gravity_m_s2, axis=2)
         self.plate_thickness_m = 2.0
-        w.add([0.0, 0.0, -radius - 1.0], 0.0, w.box(1.0), static=True)  # top face z = −R
-        shape = None if law is not None else w.sphere(radius)
-        self.body = w.add([0.0, 0.0, stepping.gap_m(scenario.velocity_m_s, dt)],
-                          scenario.mass_kg, shape)
-        self.body.set_linear_velocity([0.0, 0.0, -scenario.velocity_m_s])
-        self.law = law
-        self.impulsive = law is None and params["restitution"] >= 0.0  # rigid
+        w.add([0.0, 0.0, -radius_m - 1.0], 0.0, w.box(1.0), static=True)  # top face z = −R
+        shape = None if driven else w.sphere(radius_m)
+        self.body = w.add([0.0, 0.0, stepping.gap_m(-velocity_m_s[2], dt)], mass_kg, shape,
+                          inertia=inertia_kg_m2)
+        self.body.set_linear_velocity(velocity_m_s)
+        if spin_rad_s is not None:
+            self.body.set_angular_velocity(spin_rad_s)
+        self.impulsive = not driven and params["restitution"] >= 0.0  # rigid
         self._force = np.zeros(3, dtype=np.float32)
         self._torque = np.zeros(3, dtype=np.float32)
         self._reach = params["contact_offset"]
         self._last = self.state()
+
+    def state(self) -> tuple[float, float, float, float]:
+        raise NotImplementedError
+
+
+class BallModel(_BallAbovePlate):
+    """The ball above the plate; ``law`` set: the ball has no shape and the law is applied."""
+
+    def __init__(self, scenario: BallOnPlate, params: dict[str, Any], dt: float,
+                 law: Any = None) -> None:
+        self.law = law
+        super().__init__(params, dt, -scenario.gravity_m_s2, scenario.radius_m,
+                         scenario.mass_kg, 1.0, [0.0, 0.0, -scenario.velocity_m_s], None,
+                         driven=law is not None)
 
     def state(self) -> tuple[float, float, float, float]:
         self._last = out = (-float(self.body.entity_pose.p[2]),
@@ -368,32 +390,21 @@ class PairModel:
         return f
 
 
-class ObliqueModel:
+class ObliqueModel(_BallAbovePlate):
     """The oblique impact: the ball (a sphere with its own moment of inertia) moving along +x
     and −z onto the plate; ``contact`` set: no collision shape and the injected normal law
     and Coulomb friction act at the contact point."""
 
     def __init__(self, scenario: Oblique, params: dict[str, Any], dt: float,
                  contact: stepping.CoulombContact | None = None) -> None:
-        import numpy as np
-
-        self.world = w = PhysxWorld(params, dt, 0.0, axis=2)
-        self.radius = radius = scenario.radius_m
+        self.radius = scenario.radius_m
         self.mass, self.dt = scenario.mass_kg, dt
-        self.plate_thickness_m = 2.0
-        w.add([0.0, 0.0, -radius - 1.0], 0.0, w.box(1.0), static=True)  # top face z = −R
-        shape = None if contact is not None else w.sphere(radius)
-        self.body = w.add([0.0, 0.0, stepping.gap_m(scenario.normal_velocity_m_s, dt)],
-                          scenario.mass_kg, shape, inertia=scenario.moment_of_inertia_kg_m2)
-        self.body.set_linear_velocity([scenario.tangential_velocity_m_s, 0.0,
-                                       -scenario.normal_velocity_m_s])
-        self.body.set_angular_velocity([0.0, scenario.spin_rad_s, 0.0])  # n × t = +y
         self.contact = contact
-        self.impulsive = contact is None and params["restitution"] >= 0.0  # rigid
-        self._force = np.zeros(3, dtype=np.float32)
-        self._torque = np.zeros(3, dtype=np.float32)
-        self._reach = params["contact_offset"]
-        self._last = self.state()
+        super().__init__(params, dt, 0.0, scenario.radius_m, scenario.mass_kg,
+                         scenario.moment_of_inertia_kg_m2,
+                         [scenario.tangential_velocity_m_s, 0.0, -scenario.normal_velocity_m_s],
+                         [0.0, scenario.spin_rad_s, 0.0],  # n × t = +y
+                         driven=contact is not None)
 
     def state(self) -> tuple[float, float, float, float]:
         body = self.body

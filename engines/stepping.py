@@ -39,14 +39,13 @@ from typing import Any, ClassVar, Protocol
 
 import numpy as np
 from impactbench.engines import oblique_common
-from impactbench.engines.base import (
-    Adapter,
-    Builder,
-    RunSettings,
-    Scenario,
-    cube_toss_builder,
+from impactbench.engines.base import Adapter, Builder, RunSettings, Scenario, scenario_builders
+from impactbench.engines.common import (
+    Recorder,
+    classify,
+    native_ball_restitution,
+    reference_velocity,
 )
-from impactbench.engines.common import Recorder, classify
 from impactbench.reference.laws import StructuralLaw, no_further_contact
 from impactbench.reference.oblique_scenario import Oblique
 from impactbench.reference.record import ImpactRecord, Status
@@ -140,6 +139,51 @@ def apply_tuned(native: dict[str, Any], meta: dict[str, Any], mode: str, setting
         tuned = engine_params("tuned", settings.tuned, validators)
         native.update(tuned)
         meta["tuned"] = tuned
+
+
+def rigid_parameters(scenario: Scenario, mode: str, settings: RunSettings, ball: bool, *,
+                     defaults: dict[str, Any], validators: dict[str, Callable[[str, Any], Any]],
+                     restitution_key: str, frictionless: dict[str, Any],
+                     injected_contact: str, not_expressible: tuple[str, str],
+                     neutral: dict[str, Any] | None = None,
+                     default_params: dict[str, Any] | None = None
+                     ) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The complete parameter set for ``mode`` and the run's meta of an engine whose contacts
+    are rigid (a one-step impulse with a restitution coefficient, no stiffness: Box2D, DART);
+    ``ball``: the ball-on-plate scenario, else the rigid–flexible pair.
+
+    ``default``: ``default_params`` (the engine's ``defaults`` when None); ``custom``: the
+    defaults, ``neutral`` (plate values that leave the pair's coefficient to body 1's) and
+    the user's validated ``settings.params``; ``injected``: the defaults, ``neutral`` and
+    ``frictionless`` (the law acts as a force, described by ``injected_contact``); ``native``
+    and ``tuned``: that with ``restitution_key`` set to the ball's native restitution at the
+    reference velocity (m/s, ``settings.options``) or, for the pair, 1 (an elastic impulse:
+    a rigid contact has no stiffness k1 to carry the local law), ``not_expressible`` (ball,
+    pair) noted, and in ``tuned`` the tuned parameters over it (:func:`apply_tuned`)."""
+    neutral = neutral or {}
+    rigid = {"contact": "rigid", "not_comparable": rigid_artefacts(ball)}
+    if mode == "default":
+        params = dict(defaults) if default_params is None else default_params
+        return params, {**rigid, "engine_defaults": defaults}
+    if mode == "custom":
+        own = engine_params("params", settings.params, validators)
+        return {**defaults, **neutral, **own}, {**rigid, "params": own,
+                                                "engine_defaults": defaults}
+    native = {**defaults, **neutral, **frictionless}
+    if mode == "injected":
+        law = "hunt_crossley" if ball else scenario.local
+        return native, {"contact": injected_contact, "injected_law": law}
+    meta: dict[str, Any] = dict(rigid)
+    if ball:
+        v_ref = reference_velocity(settings.options)
+        native[restitution_key] = native_ball_restitution(scenario, v_ref)
+        meta["reference_velocity_m_s"] = v_ref
+    else:
+        native[restitution_key] = 1.0
+    meta["not_expressible"] = not_expressible[0] if ball else not_expressible[1]
+    apply_tuned(native, meta, mode, settings, validators)
+    meta["restitution"] = native[restitution_key]
+    return native, meta
 
 
 class SteppedModel(Protocol):
@@ -502,12 +546,6 @@ def builders(oblique_tuned_check: TunedCheck, engine_3d: str | None = None
     2-DOF pair and the oblique impact, whose ``tuned`` runs ``oblique_tuned_check`` decides
     (:func:`impactbench.engines.oblique_tuned.refused`, which imports this module, so the
     adapter passes it in); a 3D engine (``engine_3d``, its name) adds the cube tosses."""
-    stepped_builders = {
-        "ball-on-plate": Builder("run_ball", 1e-6),
-        "rigid-flexible": Builder("run_pair", 1e-5),
-        "oblique": Builder("run_oblique", OBLIQUE_TIMESTEP_S, tuned_check=oblique_tuned_check),
-    }
-    if engine_3d is None:
-        return stepped_builders
-    cube_builders = {"cube-toss": cube_toss_builder(engine_3d)}
-    return {**stepped_builders, **cube_builders}
+    return scenario_builders(ball_s=1e-6, pair_s=1e-5, oblique_s=OBLIQUE_TIMESTEP_S,
+                             oblique_tuned_check=oblique_tuned_check, engine_3d=engine_3d,
+                             pair_run="run_pair")

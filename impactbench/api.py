@@ -74,10 +74,12 @@ RUN_KEYWORDS = ("engine", "scenario", "mode", "params", "param_set", "tuned_file
 """The keywords of :func:`run` besides the scenario's fields and options."""
 TUNE_KEYWORDS = ("engine", "scenario", "velocities_m_s", "targets", "weights", "parameters",
                  "solref_form", "timestep_s", "budget_s", "max_evals", "params", "out", "plot",
-                 "store", "fresh", "workers", "scheduler")
+                 "store", "fresh", "workers", "scheduler", "yes")
 """The keywords of :func:`tune` besides the scenario's fields and options."""
 TUNE_DISPATCH_MIN_S = 0.5
-"""A tuning batch estimated below this runs in this process (``impactbench tune``'s rule)."""
+"""A tuning batch of runs estimated (from the runs so far) below this runs in this process: on
+two cores a cluster start costs ~1 s and a round trip ~10–30 ms (``python -m benchmarks
+tune``)."""
 
 
 # ------------------------------------------------------------------------------ results
@@ -228,6 +230,8 @@ class TuneFit:
     files: dict[str, str]
     result: Any = field(default=None, repr=False, compare=False)
     data: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
+    ran_on: str = field(default="", compare=False)
+    """Where the engine runs went (:meth:`impactbench.cluster.Runner.describe`)."""
     """The whole ``tune --json`` object (:func:`impactbench.tuning.output.as_json`)."""
 
     def to_dict(self) -> dict[str, Any]:
@@ -327,7 +331,7 @@ def _scenario_name(scenario: str | None, study: str = "") -> str:
     return scenarios.get(scenario).name
 
 
-def _scenario_keywords(name: str, *, point: bool = True) -> tuple[str, ...]:
+def scenario_keywords(name: str, *, point: bool = True) -> tuple[str, ...]:
     """The scenario keywords of scenario ``name``: its fields (axes first; ``point = False``
     leaves the axes out) and its further options (:func:`impactbench.flags.option_names`)."""
     from impactbench.flags import option_names
@@ -489,7 +493,7 @@ def reference_solution(scenario: str | None = None, **fields: Any) -> dict[str, 
     """
     name = _scenario_name(scenario)
     _check_keywords(f"impactbench.reference_solution(scenario={name!r})", fields,
-                    ("scenario", *_scenario_keywords(name)))
+                    ("scenario", *scenario_keywords(name)))
     spec = scenarios.get(name)
     built = _build(name, fields)
     ref = dict(spec.reference_metrics(built))
@@ -573,7 +577,7 @@ def run(engine: str, scenario: str | None = None, mode: str | None = None, *,
         raise ValueError(f"{say.name('velocity_m_s')} = {_g(velocity)}: {name} has no impact "
                          f"velocity (drop {say.option('velocity_m_s')})")
     _check_keywords(f"impactbench.run(scenario={name!r})", fields,
-                    (*RUN_KEYWORDS, *_scenario_keywords(name)))
+                    (*RUN_KEYWORDS, *scenario_keywords(name)))
     _one_of("engine", engine, engine_names())
     params = dict(params or {})
     mode = _run_mode(spec, mode, params, param_set, tuned_file)
@@ -620,7 +624,7 @@ def tune(engine: str, scenario: str | None = None, *,
          max_evals: int | None = None, params: Mapping[str, Any] | None = None,
          out: str | Path | None = None, plot: str | Path | None = None,
          store: str | Path | bool | None = None, fresh: bool = False, workers: int | None = 0,
-         scheduler: str | None = None, **fields: Any) -> TuneFit:
+         scheduler: str | None = None, yes: bool = False, **fields: Any) -> TuneFit:
     """Fit an engine's contact parameters to the reference (``impactbench tune``).
 
     Args:
@@ -643,6 +647,8 @@ def tune(engine: str, scenario: str | None = None, *,
         fresh: run everything again instead of serving stored runs.
         workers, scheduler: where engine runs execute: 0 (default) in this process, N local
             Dask workers, or an existing Dask scheduler. The fit is the same wherever it runs.
+        yes: fit even when one evaluation (a run per velocity) is estimated above 1e7
+            integration steps (the budget is checked between evaluations only).
         **fields: the scenario's fields and further options (``mass_kg``, ``material``, …).
 
     Returns a :class:`TuneFit`.
@@ -666,15 +672,18 @@ def tune(engine: str, scenario: str | None = None, *,
     ('tuned', 'ok', True)
     """
     from impactbench.cluster import Runner
+    from impactbench.engines.base import get_adapter
     from impactbench.engines.registry import engine_names, stdout_to_stderr
+    from impactbench.evaluate import reference_metrics
     from impactbench.publish import check_file_target
+    from impactbench.reference import validation as check
     from impactbench.tuned import write_tuned
     from impactbench.tuning import optimize, output
     from impactbench.tuning.names import DEFAULT_BUDGET_S
 
     name = _scenario_name(scenario, "tuning")
     _check_keywords(f"impactbench.tune(scenario={name!r})", fields,
-                    (*TUNE_KEYWORDS, *_scenario_keywords(name, point=False)))
+                    (*TUNE_KEYWORDS, *scenario_keywords(name, point=False)))
     _one_of("engine", engine, engine_names())
     from numbers import Integral
 
@@ -689,11 +698,24 @@ def tune(engine: str, scenario: str | None = None, *,
         valid = tuned_keys(engine)
         for key in params:
             if valid is not None and key not in valid:
-                raise ValueError(f"params = {key!r}: not a {engine} tuned key"
+                raise ValueError(f"{_say().name('params')} = {key!r}: not a {engine} tuned key"
                                  f"{_hint(key, valid)}; valid keys: {', '.join(valid)}")
     built = _build(name, fields)
     if isinstance(velocities_m_s, int | float):
         velocities_m_s = (float(velocities_m_s),)
+    if velocities_m_s is not None:
+        if not velocities_m_s:
+            raise ValueError(f"{_say().name('velocities_m_s')} = []: must list at least one "
+                             "impact velocity")
+        if timestep_s is not None:  # one evaluation must fit the cost limit
+            from impactbench.cliutil import check_cost
+            from impactbench.matrix import estimated_steps_of
+
+            check.positive(_say().name("timestep_s"), timestep_s)
+            steps = sum(estimated_steps_of(reference_metrics(built.replace(velocity_m_s=v)),
+                                           timestep_s) for v in velocities_m_s)
+            _yes(check_cost, steps, f"{_say().name('timestep_s')} = {timestep_s!r}", yes,
+                 "integration steps per evaluation")
     if isinstance(targets, str):
         targets = (targets,)
     files_to = {"tuned": Path(out) if out is not None else None,
@@ -709,6 +731,8 @@ def tune(engine: str, scenario: str | None = None, *,
         results_store = Store(Path(store) if store not in (None, True) else default_path())
     with stdout_to_stderr(), Runner(workers, scheduler,
                                     min_dispatch_s=TUNE_DISPATCH_MIN_S) as runner:
+        get_adapter(engine).version()  # its import banner before any output, on stderr
+        ran_on = runner.describe()
         result = optimize.tune(
             engine, built, None if velocities_m_s is None else list(velocities_m_s),
             None if targets is None else list(targets),
@@ -719,8 +743,11 @@ def tune(engine: str, scenario: str | None = None, *,
             runner=runner)
     files: dict[str, str] = {}
     if files_to["tuned"] is not None:
-        header = (f"impactbench.tune: {result.space.engine} ({result.space.variant}) fitted "
-                  f"to the {name} reference.\nRead by `impactbench run --mode tuned` and the "
+        model = getattr(built, "model", name)
+        if getattr(built, "nominal_restitution", None) is not None:
+            model += f" (nominal e = {built.nominal_restitution:g})"
+        header = (f"impactbench tune: {result.space.engine} ({result.space.variant}) fitted "
+                  f"to {model} on {name}.\nRead by `impactbench run --mode tuned` and the "
                   "report; [parameters] uses the adapter's tuned keys.")
         files["tuned"] = str(write_tuned(files_to["tuned"], output.tuned_tables(result),
                                          header))
@@ -733,7 +760,8 @@ def tune(engine: str, scenario: str | None = None, *,
                    objective_start=data["objective_start"],
                    objective_tuned=data["objective_tuned"], residuals=data["residuals"],
                    summary=data["summary"], honesty=data["honesty"], stop=data["stop"],
-                   timestep_s=data["timestep_s"], files=files, result=result, data=data)
+                   timestep_s=data["timestep_s"], files=files, result=result, data=data,
+                   ran_on=ran_on)
 
 
 def build_report(config: str | Path | Mapping[str, Any] | None = None,

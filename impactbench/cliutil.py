@@ -223,9 +223,12 @@ def write_table(table, path) -> None:
 def progress_bar(total: int, unit: str = "run"):
     """Progress of ``total`` items on stderr; returns (update, close).
 
-    On a terminal a tqdm bar; elsewhere (CI logs, pipes) a line at the first item done, then
-    one at most every :data:`PROGRESS_EVERY_S` seconds (``update(0)``, a heartbeat, prints one
-    even when nothing finished) and a last one at the end, so a long run is never silent.
+    On a terminal a tqdm bar (with its estimate of the time left); elsewhere (CI logs, pipes)
+    a line at the first item done, then one at most every :data:`PROGRESS_EVERY_S` seconds
+    (``update(0)``, a heartbeat, prints one even when nothing finished) and a last one at the
+    end, so a long run is never silent. From :data:`ETA_AFTER_S` on, a line adds the time left
+    at the rate of the items done since the first update (what a store served at once does
+    not count; the longest runs go first, so early estimates err long).
     """
     if sys.stderr.isatty():
         from tqdm import tqdm
@@ -234,17 +237,21 @@ def progress_bar(total: int, unit: str = "run"):
         return bar.update, bar.close
     import time
 
-    state = {"done": 0, "last": time.monotonic(), "start": time.monotonic(), "said": None}
+    state: dict[str, Any] = {"done": 0, "last": time.monotonic(), "start": time.monotonic(),
+                             "said": None, "first": None}
 
     def update(n: int) -> None:
         """``n`` more done (0: nothing new; a line still every PROGRESS_EVERY_S)."""
         state["done"] += n
         now = time.monotonic()
+        if n and state["first"] is None:  # the rate counts from here (a store serves at once)
+            state["first"] = (now, state["done"])
         if (n and state["said"] is None) or now - state["last"] >= PROGRESS_EVERY_S:
             state["last"] = now
             state["said"] = state["done"]
             print(f"impactbench: {state['done']} of {total} {unit}s done "
-                  f"({now - state['start']:.0f} s)", file=sys.stderr, flush=True)
+                  f"({now - state['start']:.0f} s{_left(state, total, now)})",
+                  file=sys.stderr, flush=True)
 
     def close() -> None:
         if state["said"] is not None:
@@ -255,6 +262,24 @@ def progress_bar(total: int, unit: str = "run"):
 
 
 PROGRESS_EVERY_S = 10.0
+ETA_AFTER_S = 10.0
+"""How long a progress line waits before estimating the time left (a rate from fewer seconds
+says little)."""
+
+
+def _left(state: Mapping[str, Any], total: int, now: float) -> str:
+    """``", about 3 min left"``: the items not done at the rate of those done since the
+    first update; "" before :data:`ETA_AFTER_S` or without a rate."""
+    if state["first"] is None or now - state["start"] < ETA_AFTER_S:
+        return ""
+    since, at = state["first"]
+    rate = (state["done"] - at) / (now - since) if now > since else 0.0
+    if rate <= 0.0 or state["done"] >= total:
+        return ""
+    left = (total - state["done"]) / rate
+    return f", about {left:.0f} s left" if left < 120 else f", about {left / 60:.0f} min left"
+
+
 COST_LIMIT = 10_000_000
 """Runs over this many integration steps, or sweeps over this many points, need ``--yes``."""
 

@@ -17,6 +17,7 @@ from impactbench.engines.base import (
     RunSettings,
     Scenario,
     get_adapter,
+    run_many_safely,
     run_safely,
 )
 from impactbench.reference import metrics
@@ -68,12 +69,8 @@ def compare(engine: str, scenario: Scenario, mode: str,
     """
     from impactbench import cluster
 
-    spec = spec_of(scenario)
-    scenario, step_source = spec.at_timestep(scenario, settings.timestep_s if settings else None)
-    if step_source and settings is not None:  # the scenario's own fields now carry the step
-        settings = replace(settings, timestep_s=None)
-    ref = reference if reference is not None else reference_metrics(scenario)
-    rec = _unbound(engine, scenario, mode, settings)
+    scenario, settings, step_source, ref, rec = _prepared(engine, scenario, mode, settings,
+                                                          reference)
     if rec is None and timeout_s is None:  # (a caller's own alarm passes through)
         rec = run_safely(engine, scenario, mode, settings)
     elif rec is None:
@@ -83,6 +80,43 @@ def compare(engine: str, scenario: Scenario, mode: str,
                 rec = run_safely(engine, scenario, mode, settings)
         except cluster.RunTimeout:
             return timed_out(engine, scenario, mode, settings, ref, timeout_s), None
+    return _scored(engine, scenario, mode, settings, step_source, ref, rec), rec
+
+
+def compare_many(engine: str, items: list[tuple[Scenario, str, RunSettings | None,
+                                                dict[str, Any] | None]]
+                 ) -> list[dict[str, Any]]:
+    """:func:`compare`'s object of each ``(scenario, mode, settings, reference)`` item, the
+    same objects (``wall_s`` aside): the runs go to the engine together
+    (:func:`~impactbench.engines.base.run_many_safely`), so an engine that batches (MJX's
+    ball: one ``vmap``) runs them in one call — a tuner's generation."""
+    prepared = [_prepared(engine, *item) for item in items]
+    todo = [i for i, p in enumerate(prepared) if p[4] is None]
+    recs = dict(zip(todo, run_many_safely(engine, [(prepared[i][0], items[i][1],
+                                                    prepared[i][1]) for i in todo]),
+                    strict=True))
+    return [_scored(engine, p[0], item[1], p[1], p[2], p[3], recs.get(i, p[4]))
+            for i, (p, item) in enumerate(zip(prepared, items, strict=True))]
+
+
+def _prepared(engine: str, scenario: Scenario, mode: str, settings: RunSettings | None,
+              reference: dict[str, Any] | None) -> tuple[Scenario, RunSettings | None, str,
+                                                         dict[str, Any], ImpactRecord | None]:
+    """What :func:`compare` runs: (the scenario at the run's step, the settings, where the
+    step came from, the reference metrics, a record when the run stops before the engine —
+    tuned parameters bound to another case)."""
+    spec = spec_of(scenario)
+    scenario, step_source = spec.at_timestep(scenario, settings.timestep_s if settings else None)
+    if step_source and settings is not None:  # the scenario's own fields now carry the step
+        settings = replace(settings, timestep_s=None)
+    ref = reference if reference is not None else reference_metrics(scenario)
+    return scenario, settings, step_source, ref, _unbound(engine, scenario, mode, settings)
+
+
+def _scored(engine: str, scenario: Scenario, mode: str, settings: RunSettings | None,
+            step_source: str, ref: dict[str, Any], rec: ImpactRecord) -> dict[str, Any]:
+    """:func:`compare`'s object of an engine record."""
+    spec = spec_of(scenario)
     got = record_metrics(rec, scenario)
     resolved = record_resolution(rec, scenario)
     out: dict[str, Any] = {
@@ -119,7 +153,7 @@ def compare(engine: str, scenario: Scenario, mode: str,
     if problem:  # the reference itself is outside its model: nothing to compare with
         out.update(status=str(Status.UNSUPPORTED), message=problem,
                    rel_error=dict.fromkeys(got, math.nan))
-    return out, rec
+    return out
 
 
 def timed_out(engine: str, scenario: Scenario, mode: str, settings: RunSettings | None,

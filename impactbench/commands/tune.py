@@ -22,23 +22,20 @@ from impactbench import scenarios
 from impactbench.cliutil import (
     add_execution_flags,
     check_workers,
+    flag_names,
     key_value,
     number,
     number_list,
     print_json,
     print_table,
-    stdout_to_stderr,
 )
 from impactbench.engines.registry import ENGINES
-from impactbench.flags import add_parameter_flags, scenario_from_args
+from impactbench.flags import add_parameter_flags
 from impactbench.reference import validation as check
 from impactbench.reference.scenarios import PAPER_VELOCITIES_M_S
 
 HELP = ("fit an engine's native contact parameters to the reference (Hunt–Crossley, or any "
         "--model)")
-DISPATCH_MIN_S = 0.5
-"""A batch of runs estimated (from the runs so far) below this runs in this process: on two
-cores a cluster start costs ~1 s and a round trip ~10–30 ms (``python -m benchmarks tune``)."""
 REPO_FIGURES = Path(__file__).resolve().parents[2] / "reports" / "figures"
 
 
@@ -124,7 +121,7 @@ def register(top: argparse._SubParsersAction, groups: dict) -> None:
     added: set[str] = set()
     for name in tunable + data_driven + own:
         add_parameter_flags(p, name, added=added)
-    p.set_defaults(func=main)
+    p.set_defaults(func=main, flags={**flag_names(p), "params": "--param"})
 
 
 def _paths(args: argparse.Namespace) -> tuple[Path, Path | None]:
@@ -140,10 +137,8 @@ def _paths(args: argparse.Namespace) -> tuple[Path, Path | None]:
 
 
 def main(args: argparse.Namespace) -> int:
+    from impactbench import api
     from impactbench.engines.base import EngineUnavailable
-    from impactbench.tuned import write_tuned
-    from impactbench.tuning import output
-    from impactbench.tuning.optimize import tune
 
     check.one_of("engine", args.engine, tuple(ENGINES))
     check.one_of("scenario", args.scenario, scenarios.names())
@@ -170,86 +165,28 @@ def main(args: argparse.Namespace) -> int:
         tunable = [s.name for s in scenarios.specs() if "tuning" in s.studies]
         raise ValueError(f"scenario = {args.scenario!r}: tuning is not supported yet for it "
                          f"({', '.join(tunable)} only)")
-    _check_fixed_keys(args.engine, args.fixed)
-    if not args.velocities_m_s:
-        raise ValueError("velocities = []: must list at least one impact velocity")
-    if args.timestep_s is not None:
-        check.positive("timestep", args.timestep_s)
-    scenario = scenario_from_args(args.scenario, args)
-    _check_cost(scenario, args)
-    from impactbench.publish import check_file_target
-
     tuned_file, plot_file = _paths(args)
-    check_file_target(tuned_file, "out")  # before minutes of tuning, not after
-    if plot_file is not None:
-        check_file_target(plot_file, "plot")
-    from impactbench.store import Store, default_path
-
-    store = Store(args.store or default_path())
-    from impactbench.cluster import Runner
-
     check_workers(args.workers)
+    fields = {k: getattr(args, k) for k in api.scenario_keywords(args.scenario, point=False)
+              if getattr(args, k, None) is not None}
     try:
-        _load_quietly(args.engine)
-        with Runner(args.workers, args.scheduler, min_dispatch_s=DISPATCH_MIN_S) as runner:
-                result = tune(args.engine, scenario, args.velocities_m_s, args.targets,
-                          args.weights, parameters=args.parameters,
-                          solref_form=args.solref_form, timestep_s=args.timestep_s,
-                          budget_s=args.budget_s, max_evals=args.max_evals,
-                          fixed=dict(args.fixed) or None, store=store, fresh=args.fresh,
-                          runner=runner)
+        with api.command_line(args.flags):
+            fit = api.tune(args.engine, args.scenario, velocities_m_s=args.velocities_m_s,
+                           targets=args.targets, weights=args.weights,
+                           parameters=args.parameters, solref_form=args.solref_form,
+                           timestep_s=args.timestep_s, budget_s=args.budget_s,
+                           max_evals=args.max_evals, params=dict(args.fixed) or None,
+                           out=tuned_file, plot=plot_file, store=args.store,
+                           fresh=args.fresh, workers=args.workers, scheduler=args.scheduler,
+                           yes=args.yes, **fields)
     except EngineUnavailable as exc:
         print(f"impactbench: error: {exc}")
         return 1
-    model = scenario.model + (f" (nominal e = {scenario.nominal_restitution:g})"
-                              if scenario.nominal_restitution is not None else "")
-    header = (f"impactbench tune: {result.space.engine} ({result.space.variant}) fitted to "
-              f"{model} on ball-on-plate.\nRead by `impactbench run --mode tuned` and "
-              f"the report; [parameters] uses the adapter's tuned keys.")
-    files = {"tuned": str(write_tuned(tuned_file, output.tuned_tables(result), header))}
-    if plot_file is not None:
-        files["plot"] = str(output.plot(result, plot_file))
     if args.json:
-        print_json(output.as_json(result, files))
+        print_json(fit.data)
         return 0
-    _print_text(result, files, runner.describe())
+    _print_text(fit.result, fit.files, fit.ran_on)
     return 0
-
-
-def _check_fixed_keys(engine: str, fixed: list[tuple[str, object]]) -> None:
-    """A --param the engine's tuned mode does not read is a one-line error (it would be
-    written into the tuned file and ignored by every run of it)."""
-    from impactbench.config import did_you_mean
-    from impactbench.tuned import tuned_keys
-
-    valid = tuned_keys(engine)
-    for key, _ in fixed:
-        if valid is not None and key not in valid:
-            raise ValueError(f"param = {key!r}: not a {engine} tuned key{did_you_mean(key, valid)}"
-                             f"; valid keys: {', '.join(valid)}")
-
-
-def _check_cost(scenario, args: argparse.Namespace) -> None:
-    """Refuse (unless ``--yes``) a step at which one evaluation, a run per velocity, needs
-    more than ``COST_LIMIT`` steps: the budget is checked between evaluations only."""
-    if args.timestep_s is None:
-        return
-    from impactbench.cliutil import check_cost
-    from impactbench.evaluate import reference_metrics
-    from impactbench.matrix import estimated_steps_of
-
-    steps = sum(estimated_steps_of(reference_metrics(scenario.replace(velocity_m_s=v)),
-                                   args.timestep_s) for v in args.velocities_m_s)
-    check_cost(steps, f"timestep = {args.timestep_s!r}", args.yes,
-               "integration steps per evaluation")
-
-
-def _load_quietly(engine: str) -> None:
-    """Import the engine before any output (its import banner goes to stderr)."""
-    from impactbench.engines.base import get_adapter
-
-    with stdout_to_stderr():
-        get_adapter(engine).version()
 
 
 def _print_text(result, files: dict[str, str], where: str) -> None:

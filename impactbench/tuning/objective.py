@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 
 from impactbench.engines.tuning_spaces import Space
-from impactbench.evaluate import compare, reference_metrics
+from impactbench.evaluate import compare_many, reference_metrics
 from impactbench.reference import validation as check
 from impactbench.reference.metrics import BALL_METRICS, relative_error
 from impactbench.reference.record import Status
@@ -65,12 +65,18 @@ def quiet(engine: str) -> Iterator[None]:
         mujoco.set_mju_user_warning(previous)
 
 
-def run_one(item: tuple[str, Any, str, Any, dict[str, Any]]) -> dict[str, Any]:
-    """One engine run of the objective, ``(engine, scenario, mode, settings, reference)`` →
-    its comparison object (``evaluate.compare``), in a worker process or here."""
-    engine, scenario, mode, settings, reference = item
+def run_many(items: Sequence[tuple[str, Any, str, Any, dict[str, Any]]]
+             ) -> list[dict[str, Any]]:
+    """The engine runs of the objective, each ``(engine, scenario, mode, settings,
+    reference)`` → its comparison object (``evaluate.compare``'s), in a worker process or
+    here; all of one engine, handed to it together (:func:`impactbench.evaluate.compare_many`):
+    an engine that batches (MJX's ball: one ``vmap`` over the candidates) runs a generation in
+    one call, with the same objects."""
+    if not items:
+        return []
+    engine = items[0][0]
     with quiet(engine):
-        return compare(engine, scenario, mode, settings, reference)[0]
+        return compare_many(engine, [item[1:] for item in items])
 
 
 def crashed_run(item: tuple, why: str) -> dict[str, Any]:
@@ -264,14 +270,18 @@ class Objective:
                     self.served += 1
                     del wanted[k]
         todo = list(wanted)
-        if self.runner is None:
-            runs = [run_one(wanted[k]) for k in todo]
+        if self.runner is None or not todo:
+            runs = run_many([wanted[k] for k in todo])
         else:
-            # one task per worker: a round trip costs about as much as a short run
+            # one task per worker (a round trip costs about as much as a short run), its runs
+            # handed to the engine together
             per_task = math.ceil(len(todo) / self.runner.size)
-            runs = self.runner.map(run_one, [wanted[k] for k in todo], on_crash=crashed_run,
-                                   label="tune", batch_size=per_task,
-                                   estimate_s=len(todo) * self._mean_run_s())
+            tasks = [[wanted[k] for k in todo[i:i + per_task]]
+                     for i in range(0, len(todo), per_task)]
+            runs = [run for got in self.runner.map(
+                run_many, tasks, on_crash=lambda task, why: [crashed_run(i, why) for i in task],
+                label="tune", batch_size=1, estimate_s=len(todo) * self._mean_run_s())
+                for run in got]
         self._ready.update(zip(todo, runs, strict=True))
         self._walls += [float(r["wall_s"]) for r in runs
                         if math.isfinite(float(r.get("wall_s", math.nan)))]

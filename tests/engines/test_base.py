@@ -58,3 +58,23 @@ def test_absent_engine_becomes_status_unavailable(engine: str) -> None:
     got = json.loads(out.stdout.strip().splitlines()[-1])
     assert got["status"] == "unavailable"
     assert PIP[engine] in got["message"]
+
+
+def test_run_many_without_a_batch_is_run_one_by_one() -> None:
+    """An engine whose builders do not batch (pymunk): run_many gives run's records, a
+    refused run (tuned without parameters) included; bad input still raises, one line."""
+    pytest.importorskip("pymunk", reason=f"pymunk not installed: run `{spec('pymunk').pip}`")
+    from impactbench.engines.base import run_many_safely
+
+    adapter = get_adapter("pymunk")
+    items = [(BallOnPlate(velocity_m_s=v), mode, RunSettings(timestep_s=1e-5))
+             for v in (0.5, 2.0) for mode in ("native", "tuned")]
+    many = adapter.run_many(items)
+    alone = [adapter.run(*item) for item in items]
+    assert [str(r.status) for r in many] == [str(r.status) for r in alone]
+    assert "unsupported" in {str(r.status) for r in many}
+    for a, b in zip(alone, many, strict=True):
+        assert list(a.penetration_m) == list(b.penetration_m) and a.message == b.message
+    with pytest.raises(ValueError, match="param = 'nope'"):
+        run_many_safely("pymunk", [(BallOnPlate(), "custom",
+                                    RunSettings(params={"nope": 1.0}))])

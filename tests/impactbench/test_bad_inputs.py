@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import pytest
@@ -135,3 +136,22 @@ def test_progress_is_reported_on_stderr_when_not_a_terminal(capsys, monkeypatch)
     err = capsys.readouterr().err.splitlines()
     assert err[0].startswith("impactbench: 1 of 3 runs done")
     assert err[-1].endswith("3 of 3 runs done")
+
+
+def test_progress_estimates_the_time_left(capsys, monkeypatch) -> None:
+    """A line estimates the time left from the rate since the first update: 5 served at
+    once, then 2 in ~0.2 s → 3 left in about 0.3 s (#32: an estimate from the first minute)."""
+    import time
+
+    monkeypatch.setattr(cliutil, "PROGRESS_EVERY_S", 0.0)
+    monkeypatch.setattr(cliutil, "ETA_AFTER_S", 0.0)
+    update, close = cliutil.progress_bar(10)
+    update(5)  # served by the store: the rate starts here
+    for _ in range(2):
+        time.sleep(0.1)
+        update(1)
+    close()
+    err = capsys.readouterr().err.splitlines()
+    assert "left" not in err[0]  # no rate yet
+    left = re.search(r"7 of 10 runs done \(\d+ s, about (\d+) s left\)", err[2])
+    assert left and 0 <= int(left.group(1)) <= 5, err
