@@ -160,16 +160,33 @@ def evaluate(engine: str, scenario: Any, pts: list[tuple[float, float]], dt: flo
              parameters: dict[str, Any]) -> Evaluation:
     """Run ``engine`` in ``mode`` (``tuned`` with ``parameters``, or ``native``) at every
     (velocity, angle) of ``pts`` and score it (module doc)."""
-    from impactbench.evaluate import compare
+    return evaluate_many(engine, scenario, pts, dt, references, weights, mode,
+                         [parameters])[0]
 
+
+def evaluate_many(engine: str, scenario: Any, pts: list[tuple[float, float]], dt: float,
+                  references: list[dict[str, Any]], weights: dict[str, float], mode: str,
+                  candidates: Sequence[dict[str, Any]]) -> list[Evaluation]:
+    """:func:`evaluate` of each candidate, every run of them all handed to the engine at
+    once (:func:`impactbench.evaluate.compare_many`: an engine whose oblique builder batches
+    runs them in one call; the same objects as one by one)."""
+    from impactbench.evaluate import compare_many
+
+    items = [(scenario.replace(angle_deg=a, velocity_m_s=v), mode,
+              RunSettings(timestep_s=dt, tuned=dict(c) if mode == "tuned" else None), ref)
+             for c in candidates for (v, a), ref in zip(pts, references, strict=True)]
+    with np.errstate(all="ignore"):
+        outs = compare_many(engine, items)
+    n = len(pts)
+    return [_scored(c, outs[i * n:(i + 1) * n], weights) for i, c in enumerate(candidates)]
+
+
+def _scored(parameters: dict[str, Any], outs: list[dict[str, Any]],
+            weights: dict[str, float]) -> Evaluation:
+    """The :class:`Evaluation` of one candidate's runs (module doc's objective)."""
     statuses, got, errs = [], [], []
     total = 0.0
-    for (v, a), ref in zip(pts, references, strict=True):
-        s = scenario.replace(angle_deg=a, velocity_m_s=v)
-        settings = RunSettings(timestep_s=dt, tuned=dict(parameters) if mode == "tuned"
-                               else None)
-        with np.errstate(all="ignore"):
-            out, _ = compare(engine, s, mode, settings, ref)
+    for out in outs:
         statuses.append(str(out["status"]))
         got.append({k: float(out.get(k, math.nan)) for k in SHOWN})
         rel = {k: float(out["rel_error"].get(k, math.nan)) for k in SHOWN}
@@ -262,8 +279,8 @@ def knob_space(knobs: Sequence[Knob], scenario: Any, dt: float) -> search.KnobSp
 @dataclass
 class Sweep:
     """The fit's batch objective (:class:`~impactbench.tuning.search.BatchObjective`): each
-    candidate (knob key → value) run in ``tuned`` mode at every point of the sweep, one by
-    one (an oblique run takes milliseconds), and scored (:func:`evaluate`); every
+    candidate (knob key → value) run in ``tuned`` mode at every point of the sweep, the whole
+    batch's runs handed to the engine at once (:func:`evaluate_many`), and scored; every
     :class:`Evaluation` kept by its candidate, in evaluation order."""
 
     engine: str
@@ -275,13 +292,11 @@ class Sweep:
     evaluations: dict[tuple, Evaluation] = field(default_factory=dict)
 
     def evaluate_batch(self, candidates: Sequence[dict[str, Any]]) -> list[float]:
-        out = []
-        for c in candidates:
-            ev = evaluate(self.engine, self.scenario, self.pts, self.dt, self.references,
-                          self.weights, "tuned", dict(c))
+        evs = evaluate_many(self.engine, self.scenario, self.pts, self.dt, self.references,
+                            self.weights, "tuned", [dict(c) for c in candidates])
+        for c, ev in zip(candidates, evs, strict=True):
             self.evaluations[search.candidate_key(c)] = ev
-            out.append(ev.objective)
-        return out
+        return [ev.objective for ev in evs]
 
 
 def _closest_of_best(evals: list[Evaluation], space: search.KnobSpace) -> Evaluation:
