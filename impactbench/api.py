@@ -703,19 +703,20 @@ def tune(engine: str, scenario: str | None = None, *,
     built = _build(name, fields)
     if isinstance(velocities_m_s, int | float):
         velocities_m_s = (float(velocities_m_s),)
-    if velocities_m_s is not None:
-        if not velocities_m_s:
-            raise ValueError(f"{_say().name('velocities_m_s')} = []: must list at least one "
-                             "impact velocity")
-        if timestep_s is not None:  # one evaluation must fit the cost limit
-            from impactbench.cliutil import check_cost
-            from impactbench.matrix import estimated_steps_of
+    if velocities_m_s is not None and not velocities_m_s:
+        raise ValueError(f"{_say().name('velocities_m_s')} = []: must list at least one "
+                         "impact velocity")
+    if timestep_s is not None:  # one evaluation (a run per velocity) must fit the cost limit
+        from impactbench.cliutil import check_cost
+        from impactbench.matrix import estimated_steps_of
+        from impactbench.reference.scenarios import PAPER_VELOCITIES_M_S
 
-            check.positive(_say().name("timestep_s"), timestep_s)
-            steps = sum(estimated_steps_of(reference_metrics(built.replace(velocity_m_s=v)),
-                                           timestep_s) for v in velocities_m_s)
-            _yes(check_cost, steps, f"{_say().name('timestep_s')} = {timestep_s!r}", yes,
-                 "integration steps per evaluation")
+        check.positive(_say().name("timestep_s"), timestep_s)
+        steps = sum(estimated_steps_of(reference_metrics(built.replace(velocity_m_s=v)),
+                                       timestep_s)
+                    for v in (velocities_m_s or PAPER_VELOCITIES_M_S))  # (the fit's default)
+        _yes(check_cost, steps, f"{_say().name('timestep_s')} = {timestep_s!r}", yes,
+             "integration steps per evaluation")
     if isinstance(targets, str):
         targets = (targets,)
     files_to = {"tuned": Path(out) if out is not None else None,

@@ -291,3 +291,13 @@ def test_the_package_docstring_names_the_api() -> None:
     for name in ("impactbench.run", "impactbench.reference_solution", "impactbench.tune",
                  "impactbench.build_report"):
         assert name in impactbench.__doc__
+
+
+def test_tune_refuses_an_evaluation_over_the_cost_limit_in_the_callers_words() -> None:
+    """The per-evaluation cost check lives in the API (the command calls it): with the
+    default velocities too, before any run; the advice names ``yes=True`` from Python."""
+    import impactbench
+
+    with pytest.raises(ValueError, match=r"timestep_s = 1e-11: about 1\.1\de\+08 "
+                       r"\(integration steps per evaluation\).*pass yes=True"):
+        impactbench.tune(engine="pymunk", timestep_s=1e-11, max_evals=1, store=False)
