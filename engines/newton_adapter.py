@@ -496,7 +496,11 @@ def run_ball(s: BallOnPlate, mode: str, settings: RunSettings, *,
              graphs: bool = True) -> ImpactRecord:
     """Ball-on-plate in Newton; see the module docstring. ``graphs=False``: the step-by-step
     reference path (eager launches, see :class:`NewtonSim`)."""
-    st = _ball_setup(s, mode, settings)
+    return _run_alone(s, _ball_setup(s, mode, settings), graphs)
+
+
+def _run_alone(s: BallOnPlate, st: _BallSetup, graphs: bool = True) -> ImpactRecord:
+    """A set-up ball run (:func:`_ball_setup`) in a model of its own."""
     sim = NewtonSim(ball_model(s, st.values), st.dt, (st.gap,), (-s.velocity_m_s,), st.force,
                     secant=st.secant, graphs=graphs)
     out = drive(sim, *st.plan, ball_end_finder())
@@ -513,9 +517,9 @@ def run_ball_batch(items: list[tuple[BallOnPlate, str, RunSettings]]) -> list[Im
     out: list[ImpactRecord | None] = [None] * len(items)
     groups: dict[tuple[float, float], list[int]] = {}
     setups = [_ball_setup(*item) for item in items]
-    for i, ((s, mode, settings), st) in enumerate(zip(items, setups, strict=True)):
+    for i, ((s, _, _), st) in enumerate(zip(items, setups, strict=True)):
         if st.secant is not None:
-            out[i] = run_ball(s, mode, settings)
+            out[i] = _run_alone(s, st)  # (its set-up, not made twice)
         else:
             groups.setdefault((st.dt, s.gravity_m_s2), []).append(i)
     for (dt, g), group in groups.items():
