@@ -46,6 +46,7 @@ from impactbench.engines.common import (
     native_ball_restitution,
     reference_velocity,
 )
+from impactbench.reference.bounce_scenario import Bounce
 from impactbench.reference.laws import StructuralLaw, no_further_contact
 from impactbench.reference.oblique_scenario import Oblique
 from impactbench.reference.record import ImpactRecord, Status
@@ -521,6 +522,28 @@ class SteppedAdapter(Adapter):
         threshold = getattr(law, "contact_threshold", None)
         return run_pair(model, scenario, dt, settings.max_time_s, meta, threshold)
 
+    def run_bounce(self, scenario: Bounce, mode: str, settings: RunSettings) -> ImpactRecord:
+        """The bounce to rest: the ball's model for ``mode`` at its first impact
+        (:meth:`Bounce.ball`), built with the ball at rest ``height_m`` above the plate
+        (``drop_height_m``), stepped by :func:`impactbench.engines.bounce.run_stepped`."""
+        from impactbench.engines import bounce
+
+        dt = float(settings.timestep_s)
+        ball = scenario.ball()
+        params, meta = self.parameters(ball, mode, settings, ball=True)
+        law = ball.law() if mode == "injected" else None
+        model = self.ball_model(ball, params, dt, law, drop_height_m=scenario.height_m)
+        threshold = self.bounce_threshold(model)
+        if threshold is not None:
+            meta["bounce_threshold_m_s"] = threshold
+        return bounce.run_stepped(model, scenario, dt, settings.max_time_s, meta)
+
+    def bounce_threshold(self, model: SteppedModel) -> float | None:
+        """The restitution velocity threshold (m/s) the engine applies to ``model``'s ball,
+        read back from the engine (below it a rigid contact does not bounce); None for an
+        engine or mode without one."""
+        return None
+
     @abstractmethod
     def oblique_parameters(self, scenario: Oblique, mode: str, settings: RunSettings
                            ) -> tuple[dict[str, Any], dict[str, Any]]:
@@ -540,12 +563,13 @@ TunedCheck = Callable[[str, RunSettings], ImpactRecord | None]
 """A builder's ``tuned`` check (:attr:`~impactbench.engines.base.Builder.tuned_check`)."""
 
 
-def builders(oblique_tuned_check: TunedCheck, engine_3d: str | None = None
-             ) -> dict[str, Builder]:
+def builders(oblique_tuned_check: TunedCheck, engine_3d: str | None = None,
+             bounce_s: float | None = None) -> dict[str, Builder]:
     """A stepped engine's :attr:`~impactbench.engines.base.Adapter.builders`: the ball, the
     2-DOF pair and the oblique impact, whose ``tuned`` runs ``oblique_tuned_check`` decides
     (:func:`impactbench.engines.oblique_tuned.refused`, which imports this module, so the
-    adapter passes it in); a 3D engine (``engine_3d``, its name) adds the cube tosses."""
+    adapter passes it in); a 3D engine (``engine_3d``, its name) adds the cube tosses; the
+    bounce to rest runs at ``bounce_s``, the engine's customary step, where given."""
     return scenario_builders(ball_s=1e-6, pair_s=1e-5, oblique_s=OBLIQUE_TIMESTEP_S,
                              oblique_tuned_check=oblique_tuned_check, engine_3d=engine_3d,
-                             pair_run="run_pair")
+                             pair_run="run_pair", bounce_s=bounce_s)

@@ -29,6 +29,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     # subcommands (reference NAME, sweep NAME) are here too; a plug-in's come from its spec
     # (``register_commands``).
     "impactbench.commands.ball_on_plate",
+    "impactbench.commands.bounce",
     "impactbench.commands.calibrate",
     "impactbench.commands.cube_toss",
     "impactbench.commands.figures",

@@ -45,6 +45,7 @@ BUILTIN: dict[str, str] = {
     "ball-on-plate": "impactbench.scenarios.ball_on_plate:SPEC",
     "rigid-flexible": "impactbench.scenarios.rigid_flexible:SPEC",
     "oblique": "impactbench.scenarios.oblique:SPEC",
+    "bounce": "impactbench.scenarios.bounce:SPEC",
     "cube-toss": "impactbench.scenarios.cube_toss:SPEC",
 }
 """The packaged scenarios, in the report's order (registry name → ``"module:attr"``): the one
