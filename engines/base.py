@@ -194,7 +194,8 @@ def scenario_builders(*, ball_s: float, pair_s: float, oblique_s: float,
         "oblique": Builder("run_oblique", oblique_s, tuned_check=oblique_tuned_check),
     }
     if bounce_s is not None:
-        builders["bounce"] = Builder("run_bounce", bounce_s, parameter_keys=ball_keys)
+        bounce_builders = {"bounce": Builder("run_bounce", bounce_s, parameter_keys=ball_keys)}
+        builders.update(bounce_builders)
     if engine_3d is None:
         return builders
     cube_builders = {"cube-toss": cube_toss_builder(engine_3d)}

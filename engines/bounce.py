@@ -9,9 +9,10 @@ The metrics (apexes, bounces, sinking at rest) are read from that record by the 
 spec, alike for every engine.
 
 At rest: once the engine has reported contact, |ẋ| stays below :data:`SETTLE_SPEED_M_S` for
-:data:`SETTLE_S`. A ball in flight cannot: gravity takes it past that speed within
-SETTLE_SPEED/g ≈ 1 ms. A ball still bouncing at the cap is ``max_time`` (its bounces are
-still measured).
+:data:`SETTLE_S`; ``meta["rest_from_s"]`` is when that quiet stretch began (the sinking and
+jitter at rest are read from there on). A ball in flight cannot: gravity takes it past that
+speed within SETTLE_SPEED/g ≈ 1 ms. A ball still bouncing at the cap is ``max_time`` (its
+bounces are still measured).
 
 Each engine's contact settings for a mode are its head-on ball's at the first impact
 (:meth:`Bounce.ball`: V0 = √(2gh), gravity on): native's spring–damper, the ball's tuned
@@ -27,12 +28,16 @@ from typing import Any
 
 from impactbench.engines.common import Recorder, classify
 from impactbench.reference.bounce_scenario import Bounce
-from impactbench.reference.record import ImpactRecord
+from impactbench.reference.record import ImpactRecord, Status
 
 SETTLE_SPEED_M_S = 0.01
 """At rest: |ẋ| below this (m/s; a bounce this fast rises 5 µm) ..."""
 SETTLE_S = 0.1
 """... for this long (s) after the engine's first contact."""
+GAIN_STOP = 2.0
+"""A run stops, ``diverged``, once the ball's mechanical energy ½ẋ² + g·(−x) (per unit mass,
+the plate's surface its zero) exceeds this many times the drop's g·h: a contact that
+diverged would otherwise fly on to the time cap."""
 
 
 class BounceEnd:
@@ -47,7 +52,13 @@ class BounceEnd:
         self.settle_steps = max(1, math.ceil(SETTLE_S / dt))
         self.deep_m = scenario.radius_m if deep_m is None else deep_m
         self.touched = self.settled = self.tunneled = self.nonfinite = False
+        self.gained = 0.0
+        self.rest_from_s = math.nan
+        self._dt = dt
+        self._calls = 0
         self._quiet = 0
+        self._g = scenario.gravity_m_s2
+        self._limit = GAIN_STOP * scenario.gravity_m_s2 * scenario.height_m
 
     def ended(self, x: float, v: float, force: float) -> bool:
         """After a step: the state (x, ẋ) it ended in and its force F."""
@@ -57,18 +68,32 @@ class BounceEnd:
         if x > self.deep_m:
             self.tunneled = True
             return True
+        if 0.5 * v * v - self._g * x > self._limit:  # (per unit mass; the plate at x = 0)
+            self.gained = (0.5 * v * v - self._g * x) * GAIN_STOP / self._limit
+            return True
         if force > 0.0:
             self.touched = True
+        self._calls += 1
         self._quiet = self._quiet + 1 if self.touched and abs(v) < SETTLE_SPEED_M_S else 0
+        if self._quiet == 1:  # this state, after step _calls, is sample _calls's (t = k·dt)
+            self.rest_from_s = self._calls * self._dt
         self.settled = self._quiet >= self.settle_steps
         return self.settled
 
-    def finish(self, rec: Recorder, scenario: Bounce, v_end: float, **meta: Any
+    def finish(self, rec: Recorder, scenario: Bounce, v_end: float, /, **meta: Any
                ) -> ImpactRecord:
-        """The record with its status: diverged (non-finite, or ending with more kinetic
-        energy than the drop's m·g·h), tunneled, no_contact, max_time (not at rest at the
-        cap), else ok."""
-        out = rec.record(scenario.mass_kg, **meta, settled=self.settled)
+        """The record with its status: diverged (non-finite, ending with more kinetic energy
+        than the drop's m·g·h, or stopped for energy gained), tunneled, no_contact, max_time
+        (not at rest at the cap), else ok. The head-on ball's ``not_comparable`` (its
+        metrics) does not apply here and is left out."""
+        meta.pop("not_comparable", None)
+        out = rec.record(scenario.mass_kg, **meta, settled=self.settled,
+                         rest_from_s=self.rest_from_s if self.settled else math.nan)
+        if self.gained:
+            out.status = Status.DIVERGED
+            out.message = (f"mechanical energy ×{self.gained:.3g} the drop's m·g·h: stopped at "
+                           f"×{GAIN_STOP:g}")
+            return out
         drop_j = scenario.mass_kg * scenario.gravity_m_s2 * scenario.height_m
         out = classify(out, initial_kinetic_j=drop_j,
                        final_kinetic_j=0.5 * scenario.mass_kg * v_end * v_end,

@@ -65,8 +65,14 @@ along the world manifold) / dt.
 - ``default``: Box2D's defaults (restitution 0) with the scenario's μ; ``custom``: that plus
   ``settings.params``; ``tuned``: ``unsupported``.
 
+Bounce to rest (:class:`~impactbench.reference.bounce_scenario.Bounce`): the ball's model for
+the mode at the first impact (``Bounce.ball()``), started at rest with its lowest point
+``height_m`` above the plate circle's top, gravity on. A rigid contact with e > 0 records
+``b2_velocityThreshold`` (1 m/s, read from the build) as ``meta["bounce_threshold_m_s"]``:
+the bounces stop once the ball meets the plate at ≤ 1 m/s (a drop of ≤ 5.1 cm).
+
 The run loop and stopping rules are :mod:`impactbench.engines.stepping`'s. Default timesteps:
-ball and oblique 1e-6 s, rigid–flexible 1e-5 s.
+ball and oblique 1e-6 s, rigid–flexible 1e-5 s, bounce 1/60 s (the Box2D manual's).
 """
 
 from __future__ import annotations
@@ -222,18 +228,28 @@ class Box2dWorld:
 
 
 class BallModel(stepping.WorldModel):
-    """The ball above the plate circle; ``law`` set: no fixture and the law acts."""
+    """The ball above the plate circle; ``law`` set: no fixture and the law acts.
+
+    ``drop_height_m`` None: the ball starts at its gap, approaching at V0; a value (m): at
+    rest with its lowest point that high above the plate (the bounce to rest), gravity
+    −``scenario.gravity_m_s2`` along y as always. The ball moves along the plate circle's
+    vertical axis only (no force has an x part), so it rests on its top for seconds; the
+    world never sleeps (:class:`Box2dWorld`)."""
 
     def __init__(self, scenario: BallOnPlate, params: dict[str, Any], dt: float,
-                 law: Any = None) -> None:
+                 law: Any = None, drop_height_m: float | None = None) -> None:
         self.w = w = Box2dWorld(params, dt, -scenario.gravity_m_s2)
         radius = scenario.radius_m
         self.plate_thickness_m = 2.0 * PLATE_RADIUS_M
         w.circle((0.0, -radius - PLATE_RADIUS_M), PLATE_RADIUS_M, 0.0,
                  PLATE_RESTITUTION, static=True)  # top at y = −R
-        self.body = w.circle((0.0, stepping.gap_m(scenario.velocity_m_s, dt)), radius,
-                             scenario.mass_kg, None if law is not None else params["restitution"])
-        self.body.linearVelocity = (0.0, -scenario.velocity_m_s)
+        dropped = drop_height_m is not None
+        y0 = drop_height_m if dropped else stepping.gap_m(scenario.velocity_m_s, dt)
+        self.body = w.circle((0.0, y0), radius, scenario.mass_kg,
+                             None if law is not None else params["restitution"])
+        self.body.linearVelocity = (0.0, 0.0 if dropped else -scenario.velocity_m_s)
+        if dropped and law is not None:
+            self.plate_thickness_m = 0.0  # no fixture: past x = R the law's ball went through
         self.law = law
         self.impulsive = law is None  # Box2D contacts are rigid
         if self.impulsive:
@@ -361,7 +377,9 @@ class Box2dAdapter(stepping.SteppedAdapter):
     name = "box2d"
     parameter_keys = tuple(PARAMETERS)
     ball_model, pair_model, oblique_model = BallModel, PairModel, ObliqueModel
-    builders = stepping.builders(oblique_tuned.refused)
+    # the bounce at 1/60 s, the Box2D v2.3 manual's step (World, "Simulation": "A time step of
+    # 1/60 seconds will usually deliver a high quality simulation"; Hello Box2D uses 1.0f/60.0f)
+    builders = stepping.builders(oblique_tuned.refused, bounce_s=1.0 / 60.0)
     missing_builders: ClassVar[dict[str, str]] = {"cube-toss": CUBE_TOSS_TWO_D.format("Box2D")}
     injection = ("cannot: Box2D's contacts are rigid impulses with no compliance; the law is a "
                  "force on the body (no fixture) integrated by Box2D's semi-implicit Euler step"
@@ -370,6 +388,18 @@ class Box2dAdapter(stepping.SteppedAdapter):
 
     def version(self) -> str:
         return str(_import_box2d().__version__)
+
+    def bounce_threshold(self, model: stepping.SteppedModel) -> float | None:
+        """``b2_velocityThreshold`` (m/s), read back from the Box2D build, for a rigid contact
+        with restitution e > 0 (a contact approaching slower gets no restitution: b2ContactSolver
+        sets the velocity bias −e·vₙ only if vₙ < −b2_velocityThreshold); None for e = 0 or
+        an injected law (no fixture)."""
+        body = getattr(model, "body", None)
+        if not getattr(model, "impulsive", False) or body is None:
+            return None
+        if max(f.restitution for f in body.fixtures) <= 0.0:  # b2MixRestitution: the max,
+            return None  # and the plate's is 0
+        return float(_import_box2d().b2_velocityThreshold)
 
     def parameters(self, scenario: Scenario, mode: str, settings: RunSettings, ball: bool
                    ) -> tuple[dict[str, Any], dict[str, Any]]:

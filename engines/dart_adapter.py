@@ -58,8 +58,14 @@ Tangential force: DART's own ``Contact.force`` (impulse / dt) along x, taken on 
   shapes; :data:`impactbench.engines.oblique_tuned.SPACES`); no file: ``unsupported`` with the
   reason.
 
+Bounce to rest (:class:`~impactbench.reference.bounce_scenario.Bounce`): the ball's model for
+the mode at the first impact (``Bounce.ball()``), started at rest with its lowest point
+``height_m`` above the plate, gravity on. A rigid contact with e > 0 records DART's bounce
+threshold (:data:`BOUNCING_VELOCITY_THRESHOLD_M_S`, on the rebound speed e·vₙ) as
+``meta["bounce_threshold_m_s"]``.
+
 The run loop and stopping rules are :mod:`impactbench.engines.stepping`'s. Default timesteps:
-ball and oblique 1e-6 s, rigid–flexible 1e-5 s.
+ball and oblique 1e-6 s, rigid–flexible 1e-5 s, bounce 1e-3 s (DART's ``World`` default).
 """
 
 from __future__ import annotations
@@ -94,6 +100,15 @@ PARAMETERS: dict[str, Any] = {
 
 BODY_HALF_SIZE_M = 0.1
 """Radius of body 1 and half-size of body 2 in the 2-DOF model (m)."""
+
+BOUNCING_VELOCITY_THRESHOLD_M_S = 0.1
+"""DART's restitution threshold (m/s): a contact bounces only when its rebound target e·vₙ⁻
+exceeds it (``DART_BOUNCING_VELOCITY_THRESHOLD`` 1e-1, a ``#define`` in DART 6's
+dart/constraint/ContactConstraint.cpp, ``getInformation``: ``if (restitutionVel >
+DART_BOUNCING_VELOCITY_THRESHOLD)``; bounce is on at all only for e > 1e-3,
+``DART_RESTITUTION_COEFF_THRESHOLD``). dartpy does not expose it, so it cannot be read back.
+Unlike PhysX's and Box2D's it applies to the rebound speed, not the approach: the ball stops
+dead below an approach of 0.1/e m/s."""
 
 
 def _import_dart() -> Any:
@@ -189,22 +204,36 @@ class DartWorld:
 
 
 class BallModel(stepping.WorldModel):
-    """The ball above the plate; ``law`` set: the ball has no collision and the law acts."""
+    """The ball above the plate; ``law`` set: the ball has no collision and the law acts.
+
+    ``drop_height_m`` None: the ball starts at its gap, approaching at V0; a value (m): at
+    rest with its lowest point that high above the plate (the bounce to rest), gravity
+    −``scenario.gravity_m_s2`` along z as always."""
 
     def __init__(self, scenario: BallOnPlate, params: dict[str, Any], dt: float,
-                 law: Any = None) -> None:
+                 law: Any = None, drop_height_m: float | None = None) -> None:
         self.w = w = DartWorld(params, dt, -scenario.gravity_m_s2, axis=2)
         radius = scenario.radius_m
+        # a welded box 2 m wide and 2 m thick: one step cannot carry the ball through it,
+        # and a ball resting on it for seconds stays on its flat top
         self.plate_thickness_m = 2.0
         w.wall([0.0, 0.0, -radius - 1.0], 1.0)  # top face z = −R
         shape = w.dart.dynamics.SphereShape(radius)
         restitution = None if law is not None else params["restitution_coeff"]
         self.skeleton, self.joint = w.slider("ball", [0.0, 0.0, 0.0], scenario.mass_kg, shape,
                                              restitution)
-        self.skeleton.setPosition(0, stepping.gap_m(scenario.velocity_m_s, dt))
-        self.skeleton.setVelocity(0, -scenario.velocity_m_s)
+        if drop_height_m is None:
+            self.skeleton.setPosition(0, stepping.gap_m(scenario.velocity_m_s, dt))
+            self.skeleton.setVelocity(0, -scenario.velocity_m_s)
+        else:
+            self.skeleton.setPosition(0, drop_height_m)  # q = −x: at rest, h above
+            if law is not None:
+                self.plate_thickness_m = 0.0  # no collision: past x = R the law's ball is through
         self.law = law
         self.impulsive = law is None  # DART contacts are rigid
+        # the pair's e: the product of the two shapes' coefficients (DART's rule)
+        self.pair_restitution = 0.0 if law is not None else \
+            params["restitution_coeff"] * params["plate_restitution_coeff"]
 
     def state(self) -> tuple[float, float, float, float]:
         return -self.skeleton.getPosition(0), -self.skeleton.getVelocity(0), 0.0, 0.0
@@ -405,7 +434,8 @@ class DartAdapter(stepping.SteppedAdapter):
     ball_model, pair_model, oblique_model = BallModel, PairModel, ObliqueModel
     parameters = staticmethod(parameters)
     oblique_parameters = staticmethod(oblique_parameters)
-    builders = stepping.builders(oblique_tuned.refused, "dart")
+    # the bounce at DART's default step: dart.simulation.World().getTimeStep(), 0.001 s
+    builders = stepping.builders(oblique_tuned.refused, "dart", bounce_s=1e-3)
     injection = ("cannot: DART's contacts are rigid LCP impulses with no compliance; the law is "
                  "a joint force (collision off) integrated by DART's semi-implicit Euler step; "
                  "oblique: Coulomb friction is a joint force and torque too (no contact with "
@@ -413,3 +443,11 @@ class DartAdapter(stepping.SteppedAdapter):
 
     def version(self) -> str:
         return str(_import_dart().__version__)
+
+    def bounce_threshold(self, model: stepping.SteppedModel) -> float | None:
+        """:data:`BOUNCING_VELOCITY_THRESHOLD_M_S` for a rigid contact that bounces (the pair's
+        e above DART's 1e-3), None otherwise (e = 0, or an injected law): DART compiles it
+        in and does not expose it, so it is the source's value, not read back."""
+        if getattr(model, "impulsive", False) and getattr(model, "pair_restitution", 0.0) > 1e-3:
+            return BOUNCING_VELOCITY_THRESHOLD_M_S
+        return None

@@ -66,6 +66,18 @@ Out of the box (ball; ``default`` and ``custom`` modes)
     applied over that step, so sample k pairs the state before step k with that force, as the
     other engines' records do.
 
+Bounce to rest (:class:`~impactbench.reference.bounce_scenario.Bounce`)
+    The ball's diagram for the mode at the first impact (``scenario.ball()``, V0 = √(2gh),
+    gravity on: the same plant, contact settings and injected law as the head-on ball), the
+    ball released at rest with its lowest point ``height_m`` above the 1 m plate box, stepped
+    at Drake's customary 1 ms (``MultibodyPlantConfig().time_step``) until it rests or the
+    cap (:class:`~impactbench.engines.bounce.BounceEnd`), every step recorded as the ball's
+    are (the continuous plant: each state with the force there; the discrete plant: the state
+    before each step with that step's contact force). Drake's contact is compliant: no
+    restitution velocity threshold, so no ``bounce_threshold_m_s``. At 1 ms the paper ball's
+    continuous-plant modes (native, injected, a continuous tuned file: ω·dt ≈ 30) are far past
+    RK3's stability and diverge; the discrete plant's default contact stops the ball dead.
+
 Rigid–flexible (MODELS.md §2)
     Two bodies on prismatic joints along world x, positions measured from first touch: body 1
     (a sphere whose front surface is at q1) and body 2 (a box whose front face is at q2);
@@ -151,6 +163,7 @@ from impactbench.engines.base import (
     checked_params,
     scenario_builders,
 )
+from impactbench.engines.bounce import BounceEnd
 from impactbench.engines.common import NATIVE_REFERENCE_VELOCITY_M_S, Recorder, classify
 from impactbench.engines.oblique_common import (
     REGULARISATION_STEPS,
@@ -162,6 +175,7 @@ from impactbench.engines.oblique_common import (
     start,
 )
 from impactbench.reference import validation as check
+from impactbench.reference.bounce_scenario import Bounce
 from impactbench.reference.laws import LocalLaw, StructuralLaw, no_further_contact
 from impactbench.reference.record import ImpactRecord, Status
 from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
@@ -172,6 +186,7 @@ and no sample sits on the contact edge (where the metrics' edge location degener
 DEFAULT_INTEGRATOR = "runge_kutta3"
 BALL_TIMESTEP_S = 1e-6
 RIGID_FLEXIBLE_TIMESTEP_S = 1e-5
+BOUNCE_TIMESTEP_S = 1e-3  # Drake's customary step: MultibodyPlantConfig().time_step (1.51)
 PLATE_SIDE_M = 1.0
 """Side of the cubic plate (m), top face at z = 0 (a box, not a HalfSpace: Drake warns about
 half-spaces on every registration)."""
@@ -370,9 +385,10 @@ def _discrete_parameters(mode: str, settings: RunSettings) -> dict[str, Any] | N
     return None
 
 
-def build_discrete_ball(scenario: BallOnPlate, params: dict[str, Any], dt: float
-                        ) -> DrakeModel:
-    """The ball on a discrete plant with Drake's defaults plus ``params`` (see module doc)."""
+def build_discrete_ball(scenario: BallOnPlate, params: dict[str, Any], dt: float,
+                        drop_height_m: float | None = None) -> DrakeModel:
+    """The ball on a discrete plant with Drake's defaults plus ``params`` (see module doc),
+    starting as :func:`_ball_start` says (``drop_height_m``: at rest that high, m)."""
     d = _drake()
     m, r = scenario.mass_kg, scenario.radius_m
     config_keys = ("discrete_contact_approximation", "contact_model", "penetration_allowance",
@@ -409,19 +425,32 @@ def build_discrete_ball(scenario: BallOnPlate, params: dict[str, Any], dt: float
         "force_source": "contact results output port (sampled: the force of the last step)",
         "params": dict(params), "engine_defaults": defaults}
     sim, context = _simulator(d, builder, plant, dt, DEFAULT_INTEGRATOR)
-    gap = FREE_FLIGHT_STEPS * scenario.velocity_m_s * dt
-    model = DrakeModel(sim, plant, context, dt, np.array([r + gap]),
-                       np.array([-scenario.velocity_m_s]), lambda: 0.0, meta=meta)
+    model = DrakeModel(sim, plant, context, dt, *_ball_start(scenario, dt, drop_height_m),
+                       lambda: 0.0, meta=meta)
     model.force = _force_reader(model, axis=2)
     return model
 
 
-def build_ball(scenario: BallOnPlate, mode: str, settings: RunSettings) -> DrakeModel:
-    """The ball-on-plate diagram for ``mode`` (every mode; see the module docstring)."""
+def _ball_start(scenario: BallOnPlate, dt: float, drop_height_m: float | None
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """The ball's initial (q0, v0) = ([z], [ż]) (m, m/s; z its centre above the plate's top
+    face z = 0): the head-on ball ``FREE_FLIGHT_STEPS`` steps of flight (``dt``, s) above the
+    plate at −V0; with ``drop_height_m`` (the bounce) at rest, its lowest point that high."""
+    r = scenario.radius_m
+    if drop_height_m is not None:
+        return np.array([r + drop_height_m]), np.array([0.0])
+    gap = FREE_FLIGHT_STEPS * scenario.velocity_m_s * dt
+    return np.array([r + gap]), np.array([-scenario.velocity_m_s])
+
+
+def build_ball(scenario: BallOnPlate, mode: str, settings: RunSettings,
+               drop_height_m: float | None = None) -> DrakeModel:
+    """The ball-on-plate diagram for ``mode`` (every mode; see the module docstring); the
+    ball starts as :func:`_ball_start` says (``drop_height_m``: at rest that high, m)."""
     dt = float(settings.timestep_s or BALL_TIMESTEP_S)
     discrete = _discrete_parameters(mode, settings)
     if discrete is not None:
-        return build_discrete_ball(scenario, discrete, dt)
+        return build_discrete_ball(scenario, discrete, dt, drop_height_m)
     d = _drake()
     m, r = scenario.mass_kg, scenario.radius_m
     builder = d.DiagramBuilder()
@@ -462,11 +491,16 @@ def build_ball(scenario: BallOnPlate, mode: str, settings: RunSettings) -> Drake
     integrator = _integrator(settings)
     sim, context = _simulator(d, builder, plant, dt, integrator)
     meta["integrator"] = f"{integrator}, fixed step"
-    gap = FREE_FLIGHT_STEPS * scenario.velocity_m_s * dt
-    model = DrakeModel(sim, plant, context, dt, np.array([r + gap]),
-                       np.array([-scenario.velocity_m_s]), lambda: 0.0, meta=meta)
+    model = DrakeModel(sim, plant, context, dt, *_ball_start(scenario, dt, drop_height_m),
+                       lambda: 0.0, meta=meta)
     model.force = _force_reader(model, axis=2, applied=applied, sign=1.0)
     return model
+
+
+def build_bounce(scenario: Bounce, mode: str, settings: RunSettings) -> DrakeModel:
+    """The bounce's diagram: the head-on ball's for ``mode`` at the first impact
+    (:meth:`Bounce.ball`, gravity on), the ball at rest ``height_m`` above the plate."""
+    return build_ball(scenario.ball(), mode, settings, drop_height_m=scenario.height_m)
 
 
 def build_rigid_flexible(scenario: RigidFlexible, mode: str, settings: RunSettings
@@ -856,11 +890,12 @@ class DrakeAdapter(Adapter):
     builders: ClassVar[dict[str, Builder]] = scenario_builders(
         ball_s=BALL_TIMESTEP_S, pair_s=RIGID_FLEXIBLE_TIMESTEP_S, oblique_s=OBLIQUE_TIMESTEP_S,
         oblique_tuned_check=oblique_tuned.refused, engine_3d="drake",
-        pair_modes=RIGID_FLEXIBLE_MODES)
+        pair_modes=RIGID_FLEXIBLE_MODES, bounce_s=BOUNCE_TIMESTEP_S)
     model_builders: ClassVar[dict[str, Callable[[Any, str, RunSettings], DrakeModel]]] = {
         "ball-on-plate": build_ball,
         "rigid-flexible": build_rigid_flexible,
         "oblique": build_oblique,
+        "bounce": build_bounce,
     }
     """Scenario name → the function that builds its diagram (:meth:`build`)."""
 
@@ -893,6 +928,11 @@ class DrakeAdapter(Adapter):
     def run_oblique(self, scenario: Scenario, mode: str, settings: RunSettings) -> ImpactRecord:
         return self._run_with(_run_oblique, scenario, mode, settings)
 
+    def run_bounce(self, scenario: Bounce, mode: str, settings: RunSettings) -> ImpactRecord:
+        """The bounce to rest: the ball's diagram for ``mode`` (:func:`build_bounce`),
+        stepped at ``settings.timestep_s`` until at rest or the cap (:func:`_run_bounce`)."""
+        return self._run_with(_run_bounce, scenario, mode, settings)
+
     def _run_with(self, run: Callable[[DrakeModel, Any, RunSettings], ImpactRecord],
                   scenario: Scenario, mode: str, settings: RunSettings) -> ImpactRecord:
         """What every scenario shares: :meth:`build`, then ``run``."""
@@ -901,9 +941,10 @@ class DrakeAdapter(Adapter):
             return run(model, scenario, settings)
 
 
-def _advance(model: DrakeModel, monitor: Callable[[Any], bool], t_cap: float
-             ) -> tuple[bool, str]:
-    """Step to ``t_cap`` calling ``monitor(state)`` after each step; True = it stopped the run.
+def _advance(model: DrakeModel, monitor: Callable[[Any], bool], t_cap: float,
+             initial: bool = True) -> tuple[bool, str]:
+    """Step to ``t_cap`` calling ``monitor(state)`` after each step (and on the initial state
+    first where ``initial``); True = it stopped the run.
 
     Returns (stopped_by_monitor, error message if Drake raised)."""
     d = _drake()
@@ -912,7 +953,11 @@ def _advance(model: DrakeModel, monitor: Callable[[Any], bool], t_cap: float
 
     model.reset()
     if model.plant.time_step() > 0.0:
-        read = model.state
+        plant_context = model.plant.GetMyContextFromRoot(model.context)
+        positions_and_velocities = model.plant.GetPositionsAndVelocities
+
+        def read() -> list[float]:
+            return positions_and_velocities(plant_context).tolist()
     else:
         view = model.context.get_continuous_state_vector()  # a view that stays valid
 
@@ -922,7 +967,8 @@ def _advance(model: DrakeModel, monitor: Callable[[Any], bool], t_cap: float
     def on_step(_context: Any) -> Any:
         return stop if monitor(read()) else go
 
-    monitor(model.state())  # sample 0: the initial state
+    if initial:
+        monitor(model.state())  # sample 0: the initial state
     model.simulator.set_monitor(on_step)
     try:
         status = model.simulator.AdvanceTo(t_cap)
@@ -944,15 +990,22 @@ def _ball_time_cap(scenario: BallOnPlate, settings: RunSettings, dt: float) -> f
     return (FREE_FLIGHT_STEPS + 1) * dt + max(BALL_TIME_CAP_DURATIONS * elastic, 1000 * dt)
 
 
+def _tunnel_depth_m(model: DrakeModel, radius_m: float) -> float:
+    """The overlap x = R − z (m) past which the ball has tunnelled: in the continuous plant
+    the whole ball past the surface (2R); in the discrete plant (a soft default contact may
+    sink the ball deeper than its diameter) its centre past the plate box's mid-plane."""
+    if model.plant.time_step() > 0.0:
+        return radius_m + PLATE_SIDE_M / 2.0
+    return 2.0 * radius_m
+
+
 def _run_ball(model: DrakeModel, scenario: BallOnPlate, settings: RunSettings) -> ImpactRecord:
     r, dt = scenario.radius_m, model.timestep_s
     rec = Recorder()
     flags = {"tunneled": False}
     context = model.context
     discrete = model.plant.time_step() > 0.0
-    # continuous: the whole ball past the surface; discrete (a soft default contact may sink
-    # the ball deeper than its diameter): its centre past the plate box's mid-plane
-    beyond = r + PLATE_SIDE_M / 2.0 if discrete else 2.0 * r
+    beyond = _tunnel_depth_m(model, r)
     before: list[float] = []  # discrete: the state before the step whose force is sampled
 
     def monitor(state: list[float]) -> bool:
@@ -1038,4 +1091,41 @@ def _run_rigid_flexible(model: DrakeModel, scenario: RigidFlexible, settings: Ru
     elif flags["collapsed"] and out.status is not Status.DIVERGED:
         out.status = Status.STRUCTURE_COLLAPSED
         out.message = "body 2's energy exceeded the softening structure's collapse energy"
+    return out
+
+
+def _run_bounce(model: DrakeModel, scenario: Bounce, settings: RunSettings) -> ImpactRecord:
+    """Step the bounce to rest (:class:`~impactbench.engines.bounce.BounceEnd`) and record
+    every step as the ball does: continuous plant, the state after each step with the force
+    Drake applies there (sample 0: the release); discrete plant, the state before each step
+    with the contact force of that step (sampled port), then the last state with F = 0."""
+    r, dt = scenario.radius_m, model.timestep_s
+    discrete = model.plant.time_step() > 0.0
+    end = BounceEnd(scenario, dt, settings.max_time_s, _tunnel_depth_m(model, r))
+    n_max, ended, force = end.n_max, end.ended, model.force
+    rec = Recorder()
+    append = rec.append
+    x0, v0 = r - float(model.q0[0]), -float(model.v0[0])
+    last = [x0, v0]  # the state before the step just taken (x m, ẋ m/s)
+    steps = [0]
+
+    def monitor(state: list[float]) -> bool:
+        x, v = r - state[0], -state[1]
+        f = force()
+        k = steps[0] = steps[0] + 1
+        if discrete:
+            append((k - 1) * dt, last[0], last[1], f, last[1])
+        else:
+            append(k * dt, x, v, f, v)
+        last[0], last[1] = x, v
+        return ended(x, v, f) or k >= n_max
+
+    if not discrete:
+        append(0.0, x0, v0, 0.0, v0)  # the release: at rest, in flight (no force)
+    _, error = _advance(model, monitor, (n_max + 0.5) * dt, initial=False)
+    if discrete:
+        append(steps[0] * dt, last[0], last[1], 0.0, last[1])  # the last state
+    out = end.finish(rec, scenario, last[1], **model.meta, steps=steps[0])
+    if error and out.status is not Status.DIVERGED:
+        out.status, out.message = Status.DIVERGED, f"Drake stopped: {error}"
     return out

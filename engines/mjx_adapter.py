@@ -67,6 +67,7 @@ from impactbench.engines.base import (
 )
 from impactbench.engines.mujoco_adapter import (
     BALL_TIMESTEP_S,
+    BOUNCE_TIMESTEP_S,
     GAP_STEPS,
     OBLIQUE_KEYS,
     OBLIQUE_SENSOR_WIDTH,
@@ -80,6 +81,8 @@ from impactbench.engines.mujoco_adapter import (
     ball_mjcf,
     ball_outcome_record,
     ball_start,
+    bounce_record,
+    bounce_start,
     custom_parameters,
     drive,
     drive_many,
@@ -98,6 +101,7 @@ from impactbench.engines.mujoco_adapter import (
     set_contact,
 )
 from impactbench.engines.mujoco_adapter import custom_parameters as mujoco_custom_parameters
+from impactbench.reference.bounce_scenario import Bounce
 from impactbench.reference.models import KelvinVoigt
 from impactbench.reference.record import ImpactRecord, Status
 from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
@@ -286,6 +290,36 @@ class _BallSetup:
 def _ball_setup(s: BallOnPlate, mode: str, settings: RunSettings) -> _BallSetup | ImpactRecord:
     """The model, start and drive plan of a ball run (its record when it cannot run)."""
     dt = float(settings.timestep_s or BALL_TIMESTEP_S)
+    built = _ball_contact(s, mode, settings, dt)
+    if isinstance(built, ImpactRecord):
+        return built
+    gap, n_max, first, chunk = ball_start(s, mode, settings, built.data, dt, built.t_est_s,
+                                          BALL_CHUNK)
+    return _BallSetup(built.model, built.data, built.control, built.params, built.meta, dt,
+                      gap, n_max, first, chunk, built.mjcf)
+
+
+@dataclass
+class _BallContact:
+    """The ball's model with a mode's contact (:func:`_ball_contact`), its state not yet
+    set: the head-on ball's and the bounce's."""
+
+    model: Any
+    data: Any
+    control: str
+    """The scan's per-step control (:data:`CONTROLS`): ``secant`` injected, else ``none``."""
+    params: np.ndarray
+    meta: dict[str, Any]
+    t_est_s: float
+    """The contact duration (s) a run is planned with."""
+    mjcf: str
+
+
+def _ball_contact(s: BallOnPlate, mode: str, settings: RunSettings, dt: float
+                  ) -> _BallContact | ImpactRecord:
+    """The ball's model at step ``dt`` (s) with ``mode``'s contact: MuJoCo's
+    (:func:`~impactbench.engines.mujoco_adapter.ball_contact`), or injected's law written
+    into the solref inside the scan (its ``unsupported`` record for a law that cannot be)."""
     user = custom_parameters(settings.params or {}) if mode == "custom" else {}
     out_of_box = mode in ("default", "custom")
     integrator = str(user.get("integrator", settings.options.get("integrator", "Euler")))
@@ -304,9 +338,8 @@ def _ball_setup(s: BallOnPlate, mode: str, settings: RunSettings) -> _BallSetup 
         meta.update(law=s.model, solimp=list(SOLIMP))
     else:
         t_est = ball_contact(s, mode, settings, model, dt, a, user, meta)
-    gap, n_max, first, chunk = ball_start(s, mode, settings, data, dt, t_est, BALL_CHUNK)
-    return _BallSetup(model, data, control, params, meta, dt, gap, n_max, first, chunk,
-                      ball_mjcf(s, dt, integrator, engine_defaults=out_of_box))
+    return _BallContact(model, data, control, params, meta, t_est,
+                        ball_mjcf(s, dt, integrator, engine_defaults=out_of_box))
 
 
 def run_ball_batch(items: Sequence[tuple[BallOnPlate, str, RunSettings]]) -> list[ImpactRecord]:
@@ -409,6 +442,24 @@ def run_rigid_flexible(s: RigidFlexible, mode: str, settings: RunSettings) -> Im
                 rigid_flexible_end_finder(s, structure, collapsed))
     meta.update(steps=sim.steps, stepping="lax.scan")
     return rigid_flexible_record(s, structure, out, dt, gap, meta, collapsed)
+
+
+def run_bounce(scenario: Bounce, mode: str, settings: RunSettings) -> ImpactRecord:
+    """The bounce to rest in MJX: MuJoCo's bounce (:func:`~impactbench.engines.
+    mujoco_adapter.run_bounce`: the head-on ball's model and contact for ``mode`` at the
+    first impact, released from rest ``height_m`` above the plane, the same end rule and
+    record), stepped by MJX in the ball's compiled :data:`BALL_CHUNK`-step scans (compiled
+    once per process, shared with the ball; the steps past the end are cut off)."""
+    dt = float(settings.timestep_s or BOUNCE_TIMESTEP_S)
+    built = _ball_contact(scenario.ball(), mode, settings, dt)
+    if isinstance(built, ImpactRecord):
+        return built
+    end, find_end, n_max, first, chunk = bounce_start(scenario, built.data, dt, settings,
+                                                      BALL_CHUNK)
+    sim = _MjxSim(built.model, built.data, built.control, built.params, BALL_CHUNK)
+    out = drive(sim, n_max, first, chunk, find_end)
+    built.meta["stepping"] = "lax.scan"
+    return bounce_record(scenario, out, end, find_end, dt, built.meta)
 
 
 # --------------------------------------------------------------------------- batches
@@ -526,12 +577,14 @@ class MjxAdapter(Adapter):
             why_not={"injected": "rigid–flexible needs the local law's memory updated "
                                  "between steps, which a compiled scan cannot call"}),
         "cube-toss": cube_toss_builder("mjx"),
+        "bounce": Builder("run_bounce", BOUNCE_TIMESTEP_S, parameter_keys=PARAMETER_KEYS),
     }
     # builders only build (Adapter.run has checked the mode, the keys and the tuned file)
     run_ball = staticmethod(run_ball)
     run_ball_batch = staticmethod(run_ball_batch)
     run_rigid_flexible = staticmethod(run_rigid_flexible)
     run_oblique = staticmethod(run_oblique)
+    run_bounce = staticmethod(run_bounce)
 
     def version(self) -> str:
         from importlib.metadata import version

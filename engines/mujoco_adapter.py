@@ -137,8 +137,10 @@ from impactbench.engines.base import (
     RunSettings,
     scenario_builders,
 )
+from impactbench.engines.bounce import BounceEnd
 from impactbench.engines.common import (
     NATIVE_REFERENCE_VELOCITY_M_S,
+    Recorder,
     SpringDamper,
     classify,
     native_ball_spring_damper,
@@ -154,6 +156,7 @@ from impactbench.engines.oblique_common import (
     start,
 )
 from impactbench.reference import validation as check
+from impactbench.reference.bounce_scenario import Bounce
 from impactbench.reference.laws import no_further_contact
 from impactbench.reference.models import spring_damper
 from impactbench.reference.record import ImpactRecord, Status
@@ -620,6 +623,58 @@ def native_or_tuned(model: Any, mode: str, settings: RunSettings,
     return {"solref": list(solref), "solimp": list(solimp)}
 
 
+@dataclass
+class BallModel:
+    """The ball's compiled model for a mode (:func:`ball_model`), its state not yet set."""
+
+    model: Any
+    data: Any
+    hook: Callable[[list[float], list[float]], None] | None
+    """Injected: the per-step solref schedule (:func:`injected_hook`); else None (rollout)."""
+    meta: dict[str, Any]
+    """The contact's provenance (integrator, efc_diagA, solref/solimp, defaults, params)."""
+    t_est_s: float
+    """The contact duration (s) a run is planned with."""
+
+
+def ball_model(s: BallOnPlate, mode: str, settings: RunSettings, dt: float) -> BallModel:
+    """The ball-on-plate model of ``mode`` at step ``dt`` (s), with the mode's contact
+    (``injected``: the law's schedule, :func:`injected_hook`; else :func:`ball_contact`):
+    the head-on ball's and the bounce's."""
+    user = custom_parameters(settings.params or {}) if mode == "custom" else {}
+    out_of_box = mode in ("default", "custom")
+    integrator = str(user.get("integrator", settings.options.get(
+        "integrator", INTEGRATOR)))
+    model, data = _new_model(ball_mjcf(s, dt, integrator, engine_defaults=out_of_box))
+    a = measured_diag_a(model, data, (-1e-9,))
+    meta: dict[str, Any] = {"integrator": integrator, "efc_diagA": a}
+    hook = None
+    if mode == "injected":
+        t_est = hertz_duration_s(s, s.velocity_m_s)
+        hook = injected_hook(model, s.law(), a)
+        meta.update(law=s.model, solimp=list(SOLIMP))
+    else:
+        t_est = ball_contact(s, mode, settings, model, dt, a, user, meta)
+    return BallModel(model, data, hook, meta, t_est)
+
+
+def injected_hook(model: Any, law: Any, a: float) -> Callable[[list[float], list[float]], None]:
+    """The injected schedule (slide joint, x = −q): before each step in contact, the global
+    override solref is set to the law's secant stiffness k and damping d at the start state
+    (F = k·x + d·ẋ; Hunt–Crossley k = c·x^(n−1), d = c·b·xⁿ; Kelvin–Voigt k, d as given),
+    times the compliance ``a`` (1/kg)."""
+    solref = _enable_override(model)
+
+    def hook(q: list[float], v: list[float]) -> None:
+        x = -q[0]
+        if x > 0.0:
+            k, d = spring_damper(law, x)
+            solref[0] = -k * a
+            solref[1] = -d * a
+
+    return hook
+
+
 def run_ball(s: BallOnPlate, mode: str, settings: RunSettings) -> ImpactRecord:
     """Ball-on-plate in MuJoCo; see the module docstring for the model and the modes.
 
@@ -627,35 +682,12 @@ def run_ball(s: BallOnPlate, mode: str, settings: RunSettings) -> ImpactRecord:
     the surface (a 20 ms default contact at 5 m/s); that is ``tunneled`` only if the ball is
     still moving into the plate when the run ends."""
     dt = float(settings.timestep_s or BALL_TIMESTEP_S)
-    user = custom_parameters(settings.params or {}) if mode == "custom" else {}
-    out_of_box = mode in ("default", "custom")
-    integrator = str(user.get("integrator", settings.options.get(
-        "integrator", INTEGRATOR)))
-    model, data = _new_model(ball_mjcf(s, dt, integrator, engine_defaults=out_of_box))
-    a = measured_diag_a(model, data, (-1e-9,))
-    v0 = s.velocity_m_s
-    meta: dict[str, Any] = {"integrator": integrator, "efc_diagA": a}
-    hook = None
-    if mode == "injected":
-        t_est = hertz_duration_s(s, v0)
-        solref = _enable_override(model)
-        law = s.law()  # the scenario's contact model (Hunt–Crossley family or Kelvin–Voigt)
-
-        def hook(q: list[float], v: list[float]) -> None:
-            x = -q[0]
-            if x > 0.0:
-                # F = k·x + d·ẋ: HC k = c·x^(n−1), d = c·b·xⁿ; Kelvin–Voigt k, d as given
-                k, d = spring_damper(law, x)
-                solref[0] = -k * a
-                solref[1] = -d * a
-
-        meta.update(law=s.model, solimp=list(SOLIMP))
-    else:
-        t_est = ball_contact(s, mode, settings, model, dt, a, user, meta)
-    gap, n_max, first, chunk = ball_start(s, mode, settings, data, dt, t_est, 8)
-    sim = _Sim(model, data, hook)
+    built = ball_model(s, mode, settings, dt)
+    meta = built.meta
+    gap, n_max, first, chunk = ball_start(s, mode, settings, built.data, dt, built.t_est_s, 8)
+    sim = _Sim(built.model, built.data, built.hook)
     out = drive(sim, n_max, first, chunk, ball_end_finder())
-    meta.update(steps=sim.steps, stepping="python loop" if hook else "rollout")
+    meta.update(steps=sim.steps, stepping="python loop" if built.hook else "rollout")
     return ball_outcome_record(s, out, dt, gap, meta)
 
 
@@ -742,6 +774,94 @@ def _mark_unstable(rec: ImpactRecord, out: _Outcome) -> ImpactRecord:
         rec.status = Status.DIVERGED
         rec.message = "MuJoCo reported an unstable state (bad qpos/qvel/qacc) and reset it"
     return rec
+
+
+# --------------------------------------------------------------------------- bounce to rest
+
+
+BOUNCE_TIMESTEP_S = 0.002  # MuJoCo's default <option timestep> (mjModel.opt.timestep 0.002 s)
+BOUNCE_CHUNK_S = 0.25
+"""Simulated time per chunk of a bounce run (s): its end is looked for after each."""
+
+
+def bounce_start(scenario: Bounce, data: Any, dt: float, settings: RunSettings,
+                 min_chunk: int) -> tuple[BounceEnd, EndFinder, int, int, int]:
+    """Put the ball at rest with its lowest point ``height_m`` above the plate into ``data``
+    (slide joint: q = the gap) and plan the drive (MuJoCo's and MJX's): (the end rule, its
+    finder, the step cap of :func:`drive`, the first chunk — the fall and one more —, the
+    chunk, steps). The plane is a half-space: the contact pushes the ball out from any depth,
+    so no depth is a tunnel (the ball builder's ``tunneled`` needs the ball still moving into
+    the plate at its end; a ball at rest below R is measured as resting there)."""
+    data.qpos[0], data.qvel[0] = scenario.height_m, 0.0
+    end = BounceEnd(scenario, dt, settings.max_time_s, deep_m=math.inf)
+    chunk = max(min_chunk, math.ceil(BOUNCE_CHUNK_S / dt))
+    first = math.ceil(scenario.fall_time_s / dt) + chunk
+    # n_max steps and the state after the last: the cap's record ends there
+    return end, bounce_end_finder(end), end.n_max + 1, first, chunk
+
+
+def bounce_end_finder(end: BounceEnd) -> EndFinder:
+    """The bounce's end rule (:class:`~impactbench.engines.bounce.BounceEnd`) over driven
+    samples (slide joint: x = −q, ẋ = −q̇): step k ends in sample k+1's state with the force
+    f_k it reported, so ``end.ended(x_{k+1}, ẋ_{k+1}, f_k)`` is asked once per step, in
+    order, as samples arrive. Returns k+1 for the step that ended the run, ``end.n_max`` once
+    that many steps have run (the cap), else None; the same answer once it has one."""
+    done: list[int] = []
+    checked = [0]  # the next step to ask about
+
+    def find_end(q: np.ndarray, v: np.ndarray, f: np.ndarray, start: int) -> int | None:
+        if done:
+            return done[0]
+        lo, hi = checked[0], min(len(f) - 1, end.n_max)
+        ended = end.ended
+        xs, vs = q[lo + 1:hi + 1, 0].tolist(), v[lo + 1:hi + 1, 0].tolist()
+        for j, (q1, v1, force) in enumerate(zip(xs, vs, f[lo:hi].tolist(), strict=True)):
+            if ended(-q1, -v1, force):
+                done.append(lo + j + 1)
+                return done[0]
+        checked[0] = max(lo, hi)
+        if checked[0] >= end.n_max:
+            done.append(end.n_max)
+            return done[0]
+        return None
+
+    return find_end
+
+
+def bounce_record(scenario: Bounce, out: _Outcome, end: BounceEnd, find_end: EndFinder,
+                  dt: float, meta: dict[str, Any]) -> ImpactRecord:
+    """The bounce's record of a driven run (MuJoCo's and MJX's): every step k as (k·dt, x_k,
+    ẋ_k, F_k, ẋ_k), the final state with force 0 (no step taken from it), its status by
+    :meth:`BounceEnd.finish`, and ``diverged`` on an instability MuJoCo reported. Samples a
+    non-finite state or an instability cut short are given to the end rule first."""
+    stop = find_end(out.qpos, out.qvel, out.force_n, 0)
+    n = len(out.force_n) if stop is None else stop + 1
+    xs = (-out.qpos[:n, 0]).tolist()
+    vs = (-out.qvel[:n, 0]).tolist()
+    fs = out.force_n[:n].tolist()
+    rec = Recorder()
+    append = rec.append
+    for k in range(n - 1):
+        append(k * dt, xs[k], vs[k], fs[k], vs[k])
+    append((n - 1) * dt, xs[-1], vs[-1], 0.0, vs[-1])
+    meta["steps"] = n - 1
+    return _mark_unstable(end.finish(rec, scenario, vs[-1], **meta), out)
+
+
+def run_bounce(scenario: Bounce, mode: str, settings: RunSettings) -> ImpactRecord:
+    """The bounce to rest in MuJoCo: the head-on ball's model and contact for ``mode`` at the
+    first impact (:meth:`Bounce.ball`: the plane, a half-space, and the sphere on its slide
+    joint, gravity on), the ball released from rest ``height_m`` above the plane, every step
+    recorded until :class:`~impactbench.engines.bounce.BounceEnd` ends the run. MuJoCo's
+    contact is soft (no restitution threshold). Stepped by :func:`drive`: rollout chunks, or
+    the Python loop of the injected schedule."""
+    dt = float(settings.timestep_s or BOUNCE_TIMESTEP_S)
+    built = ball_model(scenario.ball(), mode, settings, dt)
+    end, find_end, n_max, first, chunk = bounce_start(scenario, built.data, dt, settings, 8)
+    sim = _Sim(built.model, built.data, built.hook)
+    out = drive(sim, n_max, first, chunk, find_end)
+    built.meta["stepping"] = "python loop" if built.hook else "rollout"
+    return bounce_record(scenario, out, end, find_end, dt, built.meta)
 
 
 # --------------------------------------------------------------------------- rigid–flexible
@@ -1227,11 +1347,12 @@ class MujocoAdapter(Adapter):
     builders = scenario_builders(
         ball_s=BALL_TIMESTEP_S, pair_s=RIGID_FLEXIBLE_TIMESTEP_S, oblique_s=OBLIQUE_TIMESTEP_S,
         oblique_tuned_check=oblique_tuned.refused, engine_3d="mujoco",
-        pair_modes=RIGID_FLEXIBLE_MODES, ball_keys=PARAMETER_KEYS)
+        pair_modes=RIGID_FLEXIBLE_MODES, ball_keys=PARAMETER_KEYS, bounce_s=BOUNCE_TIMESTEP_S)
     # builders only build (Adapter.run has checked the mode, the keys and the tuned file)
     run_ball = staticmethod(run_ball)
     run_rigid_flexible = staticmethod(run_rigid_flexible)
     run_oblique = staticmethod(run_oblique)
+    run_bounce = staticmethod(run_bounce)
 
     def version(self) -> str:
         return str(_mujoco().__version__)

@@ -65,6 +65,13 @@ through Newton's own contact; ``default``: ShapeConfig defaults (kf 1e3) with mu
 finalized model (``shape_material_mu``, ``shape_material_kf``); no file: ``unsupported`` with
 the reason. Forces: m·Δv/dt, normal and tangential.
 
+Bounce to rest (:func:`run_bounce`): the ball's model and contact for each mode (its first
+impact's, :meth:`~impactbench.reference.bounce_scenario.Bounce.ball`), the ball released at rest
+``height_m`` above the plane under gravity, stepped at :data:`BOUNCE_TIMESTEP_S` (Newton's own
+Featherstone contact example) in the same captured graphs and recorded every step until the
+shared end rule (:class:`~impactbench.engines.bounce.BounceEnd`). Featherstone's penalty contact
+has no restitution velocity threshold.
+
 Stepping (:class:`NewtonSim`) stays on warp's CPU device: one step (a record kernel, then
 ``clear_forces``, ``collide``, ``SolverFeatherstone.step``) is captured once per direction of
 the two-state swap as a warp CPU graph (warp ≥ 1.19 records CPU launches and replays them in
@@ -94,8 +101,10 @@ from typing import Any
 import numpy as np
 from impactbench.engines import oblique_common, oblique_tuned
 from impactbench.engines.base import Adapter, EngineUnavailable, RunSettings, scenario_builders
+from impactbench.engines.bounce import BounceEnd
 from impactbench.engines.common import (
     NATIVE_REFERENCE_VELOCITY_M_S,
+    Recorder,
     SpringDamper,
     stderr_without,
 )
@@ -113,6 +122,7 @@ from impactbench.engines.mujoco_adapter import (
     rigid_flexible_record,
 )
 from impactbench.reference import validation as check
+from impactbench.reference.bounce_scenario import Bounce
 from impactbench.reference.oblique_scenario import Oblique
 from impactbench.reference.record import ImpactRecord
 from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
@@ -224,6 +234,8 @@ def contact_parameters(mode: str, settings: RunSettings,
         for key, value in given.items():
             values[key] = check.non_negative(f"param.{key}", value)
         meta["engine_defaults"] = {k: v for k, v in defaults.items() if k not in given}
+        if mode == "custom":
+            meta["params"] = dict(given)
     meta.update(values)
     return values, meta
 
@@ -465,6 +477,11 @@ class NewtonSim:
         qs, vs, fs = zip(*self.chunks, strict=True)
         return np.concatenate(qs), np.concatenate(vs), np.concatenate(fs)
 
+    def state(self) -> tuple[list[float], list[float]]:
+        """The current state (the end of the last step): joint coordinates and rates."""
+        q, qd = self._views[self._parity]
+        return [float(v) for v in q], [float(v) for v in qd]
+
     def unstable(self) -> bool:
         return False  # a blow-up shows as non-finite state
 
@@ -570,9 +587,33 @@ def _ball_setup(s: BallOnPlate, mode: str, settings: RunSettings) -> _BallSetup:
     """The contact values, meta, start gap (m), drive plan and force recorder of a ball
     run."""
     dt = float(settings.timestep_s or BALL_TIMESTEP_S)
-    v0, m, g = s.velocity_m_s, s.mass_kg, s.gravity_m_s2
+    v0 = s.velocity_m_s
+    contact = _ball_contact(s, mode, settings)
+    gap = GAP_STEPS * v0 * dt
+    return _BallSetup(contact.values, contact.meta, dt, gap,
+                      drive_plan(settings, dt, gap / v0, contact.t_est, 8),
+                      _ball_force(s, dt), contact.secant)
+
+
+@dataclass
+class _BallContact:
+    """A ball's contact for a mode (:func:`_ball_contact`): the shapes' contact values, the
+    run's meta, the injected secant (None: Newton's own law) and a contact duration estimate
+    (s)."""
+
+    values: dict[str, float]
+    meta: dict[str, Any]
+    secant: Callable[[list[float], list[float]], float] | None
+    t_est: float
+
+
+def _ball_contact(s: BallOnPlate, mode: str, settings: RunSettings) -> _BallContact:
+    """The ball's contact in ``mode`` — native's matched ke, kd at the reference velocity,
+    the tuned file's, ``default``'s ShapeConfig defaults, ``custom``'s params, or the
+    injected law's secant (ke set each step, kd = 0) — with its meta (shared by the head-on
+    ball and the bounce to rest)."""
     meta: dict[str, Any] = {"solver": SOLVER, "float": "float32"}
-    t_est = hertz_duration_s(s, v0)
+    t_est = hertz_duration_s(s, s.velocity_m_s)
     secant = None
     if mode == "injected":
         values = {"ke": 0.0, "kd": 0.0, "kf": 0.0, "mu": 0.0}
@@ -589,15 +630,22 @@ def _ball_setup(s: BallOnPlate, mode: str, settings: RunSettings) -> _BallSetup:
         values, more = contact_parameters(mode, settings, native)
         meta.update(more, stiffness_n_per_m=values["ke"], damping_ns_per_m=values["kd"])
         if values["ke"] > 0.0:
-            t_est = approach_damped_duration_s(values["ke"], values["kd"], m)
+            t_est = approach_damped_duration_s(values["ke"], values["kd"], s.mass_kg)
+    meta.update(force_output="m·Δv/dt of the ball where in contact (no contact output)")
+    return _BallContact(values, meta, secant, t_est)
+
+
+def _ball_force(s: BallOnPlate, dt: float
+                ) -> Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]:
+    """The ball's recorded normal force (N) from a chunk's samples (q = the gap, one row
+    per step): F_k = m·(Δu/dt + g), the upward momentum change Newton applied over step k
+    plus gravity's share, where the contact kernel's test holds (q_k < 0), else 0."""
+    m, g = s.mass_kg, s.gravity_m_s2
 
     def force(q: np.ndarray, qd: np.ndarray, qd_next: np.ndarray) -> np.ndarray:
         return np.where(q[:, 0] < 0.0, m * ((qd_next[:, 0] - qd[:, 0]) / dt + g), 0.0)
 
-    meta.update(force_output="m·Δv/dt of the ball where in contact (no contact output)")
-    gap = GAP_STEPS * v0 * dt
-    return _BallSetup(values, meta, dt, gap, drive_plan(settings, dt, gap / v0, t_est, 8),
-                      force, secant)
+    return force
 
 
 def run_rigid_flexible(s: RigidFlexible, mode: str, settings: RunSettings, *,
@@ -773,6 +821,73 @@ def run_oblique(s: Oblique, mode: str, settings: RunSettings, *,
                                  timed_out=out.timed_out)
 
 
+# --------------------------------------------------------------------------- bounce to rest
+
+BOUNCE_TIMESTEP_S = 1.0 / 1200.0  # newton 1.8, examples/contacts/example_newton_cradle.py
+"""The bounce's customary step (s): Newton's own example of spheres in Featherstone's penalty
+contact, ``newton/examples/contacts/example_newton_cradle.py`` (newton 1.8), steps at
+``fps = 60`` with ``SUBSTEPS["featherstone"] = 20``, 1/1200 s (its other Featherstone contact
+examples step finer: ``example_balance_bird.py`` 1/3000 s, ``example_domino_spiral.py``
+1/6000 s)."""
+BOUNCE_CHUNK_S = 0.1
+"""Simulated time (s) stepped per chunk of a bounce run (at most :data:`RECORD_CAPACITY`
+steps): the end rule is checked after every step of a chunk, and the steps a chunk takes past
+the end (less than a chunk, ≈ 1 ms of wall time at 1/1200 s) are dropped."""
+
+
+def run_bounce(scenario: Bounce, mode: str, settings: RunSettings, *,
+               graphs: bool = True) -> ImpactRecord:
+    """The bounce to rest in Newton: :func:`ball_model` (the ground plane, a half-space, and
+    the ball on its z prismatic joint) with the head-on ball's contact for ``mode``
+    (:meth:`Bounce.ball`, :func:`_ball_contact`), the ball released at rest with its lowest
+    point ``height_m`` above the plane, gravity g along −z throughout, stepped at
+    ``settings.timestep_s`` in warp CPU graphs (:class:`NewtonSim`) and recorded every step:
+    x = −q (m), ẋ = −q̇ (m/s), F = m·(Δu/dt + g) where in contact (N, :func:`_ball_force`,
+    Newton reports no contact force), until :class:`~impactbench.engines.bounce.BounceEnd`
+    (tunnelled: the centre R below the surface, as the ball's). Featherstone's penalty
+    contact has no restitution velocity threshold (the material ``restitution`` is read by
+    XPBD only), so no ``bounce_threshold_m_s``."""
+    ball = scenario.ball()
+    dt = float(settings.timestep_s or BOUNCE_TIMESTEP_S)
+    contact = _ball_contact(ball, mode, settings)
+    sim = NewtonSim(ball_model(ball, contact.values), dt, (scenario.height_m,), (0.0,),
+                    _ball_force(ball, dt), secant=contact.secant, graphs=graphs)
+    end = BounceEnd(scenario, dt, settings.max_time_s, ball.radius_m)
+    rec, steps, v_end = _bounce_steps(sim, end, dt)
+    contact.meta.update(steps=steps, stepping=sim.stepping)
+    return end.finish(rec, scenario, v_end, **contact.meta)
+
+
+def _bounce_steps(sim: NewtonSim, end: BounceEnd, dt: float) -> tuple[Recorder, int, float]:
+    """Step ``sim`` in chunks and record each step — its start state (x, ẋ) and force —
+    until ``end`` says so after a step or its step cap; then the state the last step ended
+    in (force 0). Returns the recorder, the steps recorded and the final ẋ (m/s)."""
+    rec = Recorder()
+    append, ended = rec.append, end.ended
+    chunk = max(1, min(RECORD_CAPACITY, math.ceil(BOUNCE_CHUNK_S / dt)))
+    q_end, qd_end = sim.state()
+    x, v = -q_end[0], -qd_end[0]
+    k, done = 0, False
+    while not done and k < end.n_max:
+        sim.chunks.clear()
+        sim.step_chunk(min(chunk, end.n_max - k))
+        q, qd, f = sim.chunks[0]
+        q_end, qd_end = sim.state()
+        xs = (-q[1:, 0]).tolist()
+        xs.append(-q_end[0])
+        vs = (-qd[1:, 0]).tolist()
+        vs.append(-qd_end[0])
+        for f_k, x_next, v_next in zip(f.tolist(), xs, vs, strict=True):
+            append(k * dt, x, v, f_k, v)
+            x, v = x_next, v_next
+            k += 1
+            if ended(x, v, f_k):
+                done = True
+                break
+    append(k * dt, x, v, 0.0, v)
+    return rec, k, v
+
+
 # --------------------------------------------------------------------------- the adapter
 
 
@@ -792,12 +907,13 @@ class NewtonAdapter(Adapter):
     builders = scenario_builders(
         ball_s=BALL_TIMESTEP_S, pair_s=RIGID_FLEXIBLE_TIMESTEP_S, oblique_s=BALL_TIMESTEP_S,
         oblique_tuned_check=oblique_tuned.refused, engine_3d="newton",
-        ball_batch="run_ball_batch")
+        ball_batch="run_ball_batch", bounce_s=BOUNCE_TIMESTEP_S)
     # builders only build (Adapter.run has checked the mode, the keys and the tuned file)
     run_ball = staticmethod(run_ball)
     run_ball_batch = staticmethod(run_ball_batch)
     run_rigid_flexible = staticmethod(run_rigid_flexible)
     run_oblique = staticmethod(run_oblique)
+    run_bounce = staticmethod(run_bounce)
 
     def version(self) -> str:
         wp, newton = _newton()

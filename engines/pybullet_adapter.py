@@ -95,6 +95,17 @@ run stops once it moves away, out of the overlap, with zero force; the rigid–f
 above the softening potential's peak → ``structure_collapsed`` — once body 2 has escaped past
 the peak), or at the time cap (``max_time``).
 
+Bounce to rest (``_run_bounce``; :class:`~impactbench.reference.bounce_scenario.Bounce`): the
+ball's world and contact for the mode, as the head-on ball at its first impact
+(:meth:`Bounce.ball`, V0 = √(2gh)) has them, with the ball released from rest ``height_m``
+above the plate under gravity; every step recorded until
+:class:`~impactbench.engines.bounce.BounceEnd` (at rest, tunnelled past the plate's mid-plane
+or, injected, past the surface by R, non-finite, the cap). At the customary 1/240 s (pybullet's
+default ``fixedTimeStep``) Bullet's rigid contact of ``default``/``custom`` bounces by its
+restitution (the pair's product; 0 out of the box) only above ``restitutionVelocityThreshold``
+(0.2 m/s by default), which the run records in ``meta["bounce_threshold_m_s"]`` whenever the
+pair's restitution is above 0.
+
 Oblique impact (``_run_oblique``; frame and channels of
 :mod:`impactbench.engines.oblique_common`): the free sphere starts along +x and −z with spin
 about +y over a box plate 2 m wide, gravity off. Friction: ``lateralFriction`` μ on the ball
@@ -136,6 +147,7 @@ import functools
 import math
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 from impactbench.engines import oblique_tuned
@@ -147,6 +159,7 @@ from impactbench.engines.base import (
     Scenario,
     scenario_builders,
 )
+from impactbench.engines.bounce import BounceEnd
 from impactbench.engines.common import (
     NATIVE_REFERENCE_VELOCITY_M_S,
     Recorder,
@@ -165,6 +178,7 @@ from impactbench.engines.oblique_common import (
     start,
 )
 from impactbench.reference import validation as check
+from impactbench.reference.bounce_scenario import Bounce
 from impactbench.reference.models import spring_damper
 from impactbench.reference.record import ImpactRecord, Status
 from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
@@ -175,6 +189,12 @@ FLIGHT_STEPS = 2.5
 first touch between two samples, so the shared metrics locate it by the penetration's zero
 crossing instead of extrapolating the force."""
 BREAKING_THRESHOLD_M = 1e-12
+BULLET_BREAKING_THRESHOLD_M = 0.02
+"""Bullet's default ``contactBreakingThreshold`` (m; ``gContactBreakingThreshold`` in
+btPersistentManifold.cpp). pybullet keeps it in that process-wide global, not per client:
+a native run's 1e-12 would outlive its client and reach the next ``default`` run, whose
+later impacts then differ (measured: a bounce with restitution 0.9 that settles after
+138 contacts times out after 87). The out-of-box worlds set this value back explicitly."""
 PLATE_HALF_THICKNESS_M = 0.01
 PLATE_STEPS = 20.0
 """The plate's half thickness is max(1 cm, 20·V0·dt): thick at a practical step, so a contact
@@ -211,6 +231,7 @@ RF_MIN_RADIUS_M = 0.05
 INJECTIONS = ("secant", "explicit")
 BALL_DEFAULT_DT_S = 1e-6
 RF_DEFAULT_DT_S = 1e-5
+BOUNCE_DT_S = 1.0 / 240.0  # pybullet's default fixedTimeStep (getPhysicsEngineParameters)
 MIN_STEPS = 64
 OUT_OF_BOX_TIME_CAP_S = 0.5
 """``default``/``custom`` without a soft contact: the rigid contact's push-out (ERP) spans a
@@ -285,17 +306,27 @@ class BallWorld:
     """Free sphere above a static box plate; pair contact K (N/m), D (N·s/m).
 
     ``out_of_box`` (``default``/``custom`` modes): Bullet's defaults plus these user
-    parameters instead of impactbench's contact set-up (K and D are then ignored)."""
+    parameters instead of impactbench's contact set-up (K and D are then ignored).
+    ``drop_height_m`` (the bounce to rest): the ball starts at rest with its lowest point this
+    far above the plate (m) instead of ``FLIGHT_STEPS`` steps away at −V0."""
 
     def __init__(self, p: Any, scenario: BallOnPlate, dt: float, k: float, d: float,
-                 out_of_box: dict[str, Any] | None = None) -> None:
+                 out_of_box: dict[str, Any] | None = None,
+                 drop_height_m: float | None = None) -> None:
         self.p, self.dt, self.radius = p, dt, scenario.radius_m
         self.out_of_box = out_of_box
+        self.drop_height_m = drop_height_m
+        # the restitutionVelocityThreshold this world sets (m/s): _connect's 0, else the
+        # user's key or Bullet's default (btContactSolverInfo.h, 0.2)
+        self.threshold_set_m_s = 0.0 if out_of_box is None else float(out_of_box.get(
+            "restitutionVelocityThreshold", RESTITUTION_VELOCITY_THRESHOLD_M_S))
         if out_of_box is None:
             self.cid = _connect(p, dt, -scenario.gravity_m_s2)
         else:
             self.cid = p.connect(p.DIRECT)
-            p.setPhysicsEngineParameter(fixedTimeStep=dt, physicsClientId=self.cid)
+            p.setPhysicsEngineParameter(  # Bullet's default, process-wide: set it back
+                fixedTimeStep=dt, contactBreakingThreshold=BULLET_BREAKING_THRESHOLD_M,
+                physicsClientId=self.cid)
             p.setGravity(0.0, 0.0, -scenario.gravity_m_s2, physicsClientId=self.cid)
         try:
             self._build(scenario, k, d)
@@ -313,6 +344,7 @@ class BallWorld:
                 "restitution": info[5], "contactDamping": info[8], "contactStiffness": info[9],
                 "collisionMargin_m": info[11],
                 "restitutionVelocityThreshold": RESTITUTION_VELOCITY_THRESHOLD_M_S,
+                "contactBreakingThreshold": BULLET_BREAKING_THRESHOLD_M,
                 "contact": "rigid (ERP/CFM): contactStiffness/contactDamping unset (-1)"}
 
     def _apply_custom(self, params: dict[str, Any]) -> None:
@@ -340,7 +372,8 @@ class BallWorld:
                                        physicsClientId=cid)
         sphere = p.createCollisionShape(p.GEOM_SPHERE, radius=scenario.radius_m,
                                         physicsClientId=cid)
-        self.gap_m = FLIGHT_STEPS * scenario.velocity_m_s * dt
+        drop = self.drop_height_m
+        self.gap_m = FLIGHT_STEPS * scenario.velocity_m_s * dt if drop is None else drop
         self.ball = p.createMultiBody(scenario.mass_kg, sphere,
                                       basePosition=[0.0, 0.0, scenario.radius_m + self.gap_m],
                                       physicsClientId=cid)
@@ -356,12 +389,27 @@ class BallWorld:
             p.changeDynamics(self.plate, -1, contactStiffness=math.inf, contactDamping=0.0,
                              physicsClientId=cid)
             self.set_contact(k, d)
-        p.resetBaseVelocity(self.ball, [0.0, 0.0, -scenario.velocity_m_s], [0.0, 0.0, 0.0],
-                            physicsClientId=cid)
+        v0 = scenario.velocity_m_s if drop is None else 0.0
+        p.resetBaseVelocity(self.ball, [0.0, 0.0, -v0], [0.0, 0.0, 0.0], physicsClientId=cid)
 
     def set_contact(self, k: float, d: float) -> None:
         self.p.changeDynamics(self.ball, -1, contactStiffness=k, contactDamping=d,
                               physicsClientId=self.cid)
+
+    def restitution_threshold_m_s(self) -> float | None:
+        """Bullet's ``restitutionVelocityThreshold`` (m/s; below this approach speed a contact
+        gets no restitution) where a restitution is in effect — the pair's, the product of the
+        two bodies' as ``getDynamicsInfo`` reports them, above 0 — else None. pybullet
+        (3.2.7) does not report the threshold in ``getPhysicsEngineParameters``: then it is
+        the value this world set (the user's key, else Bullet's default 0.2 m/s,
+        ``btContactSolverInfo::m_restitutionVelocityThreshold`` in btContactSolverInfo.h)."""
+        p, cid = self.p, self.cid
+        pair = (p.getDynamicsInfo(self.ball, -1, physicsClientId=cid)[5]
+                * p.getDynamicsInfo(self.plate, -1, physicsClientId=cid)[5])
+        if not pair > 0.0:
+            return None
+        reported = p.getPhysicsEngineParameters(physicsClientId=cid)
+        return float(reported.get("restitutionVelocityThreshold", self.threshold_set_m_s))
 
     def close(self) -> None:
         self.p.disconnect(self.cid)
@@ -448,13 +496,17 @@ class PybulletAdapter(Adapter):
     builders = scenario_builders(
         ball_s=BALL_DEFAULT_DT_S, pair_s=RF_DEFAULT_DT_S, oblique_s=OBLIQUE_DT_S,
         oblique_tuned_check=oblique_tuned.refused, engine_3d="pybullet",
-        pair_modes=RIGID_FLEXIBLE_MODES, ball_keys=PARAMETER_KEYS)
+        pair_modes=RIGID_FLEXIBLE_MODES, ball_keys=PARAMETER_KEYS,
+        bounce_s=BOUNCE_DT_S)
 
     def version(self) -> str:
         return _version()
 
     def run_ball(self, scenario: BallOnPlate, mode: str, settings: RunSettings) -> ImpactRecord:
         return self._run_with(_run_ball, scenario, mode, settings)
+
+    def run_bounce(self, scenario: Bounce, mode: str, settings: RunSettings) -> ImpactRecord:
+        return self._run_with(_run_bounce, scenario, mode, settings)
 
     def run_oblique(self, scenario: Scenario, mode: str, settings: RunSettings
                     ) -> ImpactRecord:
@@ -547,7 +599,9 @@ class ObliqueWorld(BallWorld):
         else:
             self.cid = p.connect(p.DIRECT)
             self.threshold = None
-            p.setPhysicsEngineParameter(fixedTimeStep=dt, physicsClientId=self.cid)
+            p.setPhysicsEngineParameter(  # Bullet's default, process-wide: set it back
+                fixedTimeStep=dt, contactBreakingThreshold=BULLET_BREAKING_THRESHOLD_M,
+                physicsClientId=self.cid)
             p.setGravity(0.0, 0.0, 0.0, physicsClientId=self.cid)
         try:
             self._build(s, k, d)
@@ -805,24 +859,49 @@ class _BallEnd:
         return False
 
 
-def _run_ball(p: Any, s: BallOnPlate, mode: str, settings: RunSettings, dt: float,
-              injection: str) -> ImpactRecord:
-    """Record the ball's impact; see the module docstring for the physics."""
+@dataclass
+class _BallSetup:
+    """One ball run's world and what goes with it: the run's meta, the contact that
+    :func:`_contact_start` chose (``out_of_box`` settings or None, native/tuned stiffness
+    ``k0``), the injected law's scheduler (None unless injected) and the tunnelling depth
+    ``beyond`` (m: the centre that far below the surface)."""
+
+    world: BallWorld
+    meta: dict[str, Any]
+    out_of_box: dict[str, Any] | None
+    k0: float
+    inject: _Injection | None
+    beyond: float
+
+
+def _ball_setup(p: Any, s: BallOnPlate, mode: str, settings: RunSettings, dt: float,
+                injection: str, drop_height_m: float | None = None) -> _BallSetup:
+    """The head-on ball's world for ``mode`` (``drop_height_m``: released from rest that high,
+    the bounce to rest): its contact (:func:`_contact_start`), Bullet's defaults read back
+    in default/custom (``meta["engine_defaults"]``), the injected law's scheduler."""
     injected = mode == "injected"
     meta, out_of_box, k0, d0 = _contact_start(s, mode, settings, injection,
                                               custom_parameters, _ball_native)
-    n_max = _step_cap(s, settings, dt, _hertz_duration_s(s), injected, out_of_box, k0)
-    m, radius = s.mass_kg, s.radius_m
     # tunnelled: the centre past the plate's mid-plane, where the normal would flip; injected,
     # whose explicit force overshoots at a coarse step, already once past the surface
-    beyond = radius if injected else radius + plate_half_thickness_m(s, dt)
-    law = s.law()
-    g_dt = s.gravity_m_s2 * dt
-    rec = Recorder()
-    world = BallWorld(p, s, dt, k0, d0, out_of_box)
+    beyond = s.radius_m if injected else s.radius_m + plate_half_thickness_m(s, dt)
+    world = BallWorld(p, s, dt, k0, d0, out_of_box, drop_height_m)
     if out_of_box is not None:
         meta["engine_defaults"] = world.defaults
-    inject = _Injection(world, law, injection, dt, m, g_dt) if injected else None
+    inject = (_Injection(world, s.law(), injection, dt, s.mass_kg, s.gravity_m_s2 * dt)
+              if injected else None)
+    return _BallSetup(world, meta, out_of_box, k0, inject, beyond)
+
+
+def _run_ball(p: Any, s: BallOnPlate, mode: str, settings: RunSettings, dt: float,
+              injection: str) -> ImpactRecord:
+    """Record the ball's impact; see the module docstring for the physics."""
+    setup = _ball_setup(p, s, mode, settings, dt, injection)
+    world, meta, inject, beyond = setup.world, setup.meta, setup.inject, setup.beyond
+    n_max = _step_cap(s, settings, dt, _hertz_duration_s(s), inject is not None,
+                      setup.out_of_box, setup.k0)
+    m, radius = s.mass_kg, s.radius_m
+    rec = Recorder()
     end = _BallEnd(beyond)
     try:
         ball, plate, cid = world.ball, world.plate, world.cid
@@ -854,6 +933,51 @@ def _run_ball(p: Any, s: BallOnPlate, mode: str, settings: RunSettings, dt: floa
                                                       * world.gap_m),
                     final_kinetic_j=0.5 * m * v_end**2, tunneled=tunneled,
                     timed_out=end.timed_out and not tunneled)
+
+
+def _run_bounce(p: Any, scenario: Bounce, mode: str, settings: RunSettings, dt: float,
+                injection: str) -> ImpactRecord:
+    """Record the bounce to rest: the head-on ball's world for ``mode`` at the first impact
+    (:meth:`Bounce.ball`) with the ball released from rest ``height_m`` above the plate,
+    every step (t, x = R − z, ẋ = −ż, Bullet's normal force ``getContactPoints()[9]`` over
+    the step, ẋ) until :class:`~impactbench.engines.bounce.BounceEnd` ends it."""
+    setup = _ball_setup(p, scenario.ball(), mode, settings, dt, injection,
+                        drop_height_m=scenario.height_m)
+    world, meta, inject = setup.world, setup.meta, setup.inject
+    # BounceEnd.finish takes the scenario itself as ``scenario``: no meta key of that name
+    meta.pop("scenario", None)
+    end = BounceEnd(scenario, dt, settings.max_time_s, setup.beyond)
+    rec = Recorder()
+    append, ended, n_max, radius = rec.append, end.ended, end.n_max, scenario.radius_m
+    try:
+        threshold = world.restitution_threshold_m_s()
+        if threshold is not None:
+            meta["bounce_threshold_m_s"] = threshold
+        ball, plate, cid = world.ball, world.plate, world.cid
+        get_pos, get_vel = p.getBasePositionAndOrientation, p.getBaseVelocity
+        contacts, step = p.getContactPoints, p.stepSimulation
+        loop_start = time.perf_counter()
+        x = radius - get_pos(ball, physicsClientId=cid)[0][2]
+        v = -get_vel(ball, physicsClientId=cid)[0][2]
+        k = 0
+        while k < n_max:
+            if inject is not None:
+                inject(x, v)
+            step(physicsClientId=cid)
+            force = 0.0
+            for cp in contacts(ball, plate, physicsClientId=cid):
+                force += cp[9]
+            append(k * dt, x, v, force, v)
+            x = radius - get_pos(ball, physicsClientId=cid)[0][2]
+            v = -get_vel(ball, physicsClientId=cid)[0][2]
+            k += 1
+            if ended(x, v, force):
+                break
+        meta["loop_wall_s"] = time.perf_counter() - loop_start
+    finally:
+        world.close()
+    append(k * dt, x, v, 0.0, v)
+    return end.finish(rec, scenario, v, **meta, steps=k)
 
 
 def _run_flex(p: Any, s: RigidFlexible, mode: str, settings: RunSettings, dt: float,

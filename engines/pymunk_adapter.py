@@ -124,13 +124,39 @@ Friction: Chipmunk's Coulomb in the rigid contact, the pair's μ the product of 
   ``custom``: that plus ``settings.params`` (``friction`` the pair's μ); ``tuned``:
   ``unsupported`` (no fit covers friction).
 
+Bounce to rest (:class:`~impactbench.reference.bounce_scenario.Bounce`): the ball's space and
+contact for each mode (:func:`ball_model` with the first impact's ball, ``Bounce.ball()``), the
+ball built at rest with its lowest point ``height_m`` above the plate (the same 0.5 m-thick
+segment, ±10·R wide: the ball moves along y only), gravity along −y throughout, stepped by
+:func:`run_bounce` until :class:`~impactbench.engines.bounce.BounceEnd` ends it; default step
+1/60 s. Chipmunk applies restitution at every speed: ``cpArbiterPreStep`` (Chipmunk2D
+src/cpArbiter.c) sets each contact's target ``bounce = vₙ·e`` with no velocity threshold, so no
+``bounce_threshold_m_s`` is recorded (measured: a 2 mm drop, 0.2 m/s, at dt = 1 ms rises to
+e²·h within 0.15 %). Nothing else eats a bounce:
+
+- ``collision_bias`` (beyond ``collision_slop``) corrects overlap through separate bias
+  velocities (``v_bias``, ``jBias`` in ``cpArbiterApplyImpulse``) that move the body but never
+  enter its velocity. With slop 0 (native, tuned, injected restitution) it lifts a ball resting
+  in the plate clear of it, and each re-touch is a fresh rigid impact: at 1/60 s a contact
+  with e > 0 never rests but cycles every 3 steps at |ẋ| ≈ 2·g·dt/(1 + e) (status
+  ``max_time``; with ``collision_bias`` 1, no correction, it rests). Out of the box (slop
+  0.1 m) the ball stays embedded, up to v·dt deep, in a persisting contact and rests.
+- ``collision_persistence`` (3 steps): a contact touching again within 3 steps of separating
+  keeps its old accumulated impulse (copied by contact hash in ``cpArbiterUpdate``) but skips
+  its warm start (``cpArbiterApplyCachedImpulse``: a first contact again), so
+  ``total_impulse`` reports that stale impulse plus this step's (hundreds of N that never
+  acted, growing bounce by bounce). The force recorded is the accumulated impulse less the
+  stale one, read in ``pre_solve`` (:meth:`BallModel._stale_impulse`): it equals the momentum
+  change m·(Δẋ + g·dt) to round-off. The stale impulse also loosens the solver's clamp (a
+  pull of up to it), which only a ball re-touching while moving away could meet: none does.
+
 Options (``settings.options``): ``injection`` (ball, injected mode: penalty | restitution),
 ``reference_velocity_m_s`` (native ball), ``iterations`` (pymunk solver iterations, default
 10). Tuned keys (``settings.tuned``): ``elasticity`` (pair restitution, both scenarios).
 
-Default timesteps: ball and oblique 1e-6 s in every mode; rigid–flexible 1e-5 s (injected at
-3.3 m/s: linear/linear and elastoplastic/linear within 2e-7 of the reference on peak, pulse
-width and impulse, mutation within 4e-5).
+Default timesteps: ball and oblique 1e-6 s in every mode; bounce 1/60 s; rigid–flexible
+1e-5 s (injected at 3.3 m/s: linear/linear and elastoplastic/linear within 2e-7 of the
+reference on peak, pulse width and impulse, mutation within 4e-5).
 """
 
 from __future__ import annotations
@@ -152,8 +178,10 @@ from impactbench.engines.base import (
     import_engine,
     scenario_builders,
 )
-from impactbench.engines.common import NATIVE_REFERENCE_VELOCITY_M_S, classify
+from impactbench.engines.bounce import BounceEnd
+from impactbench.engines.common import NATIVE_REFERENCE_VELOCITY_M_S, Recorder, classify
 from impactbench.reference import validation as check
+from impactbench.reference.bounce_scenario import Bounce
 from impactbench.reference.oblique_scenario import Oblique
 from impactbench.reference.record import ImpactRecord
 from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
@@ -241,6 +269,8 @@ class BallModel:
         dt: the timestep (s), for the impulse → force conversion and the initial gap.
         measure: install the ``post_solve`` hook that reads the rigid impulse (the bare
             benchmark loop leaves it out; the penalty force is the model itself).
+        drop_height_m: start the ball at rest with its lowest point this high (m) above the
+            plate (the bounce to rest) instead of :data:`GAP_STEPS` steps away at V0.
 
     ``force_n`` holds the contact force of the last step in which the handler ran; the
     caller zeroes it before each step.
@@ -248,10 +278,12 @@ class BallModel:
 
     def __init__(self, scenario: BallOnPlate, contact: str, dt: float, *,
                  elasticity: float = 1.0, iterations: int = 10, measure: bool = True,
-                 out_of_box: dict[str, Any] | None = None) -> None:
+                 out_of_box: dict[str, Any] | None = None,
+                 drop_height_m: float | None = None) -> None:
         pymunk = _import_pymunk()
         self.scenario, self.contact, self.dt = scenario, contact, dt
-        self.gap_m = GAP_STEPS * scenario.velocity_m_s * dt
+        dropped = drop_height_m is not None
+        self.gap_m = drop_height_m if dropped else GAP_STEPS * scenario.velocity_m_s * dt
         if out_of_box is None:
             self.space = space = _space(pymunk, iterations, scenario.gravity_m_s2)
         else:
@@ -260,7 +292,7 @@ class BallModel:
         radius = scenario.radius_m
         self.body = body = pymunk.Body(scenario.mass_kg, math.inf)
         body.position = (0.0, radius + self.gap_m)
-        body.velocity = (0.0, -scenario.velocity_m_s)
+        body.velocity = (0.0, 0.0 if dropped else -scenario.velocity_m_s)
         ball = pymunk.Circle(body, radius)
         half = 10.0 * radius
         h = THICK_PLATE_RADIUS_M
@@ -273,7 +305,7 @@ class BallModel:
         self.beyond_m = radius + THICK_PLATE_RADIUS_M  # tunnelled: past the plate's core
         space.add(body, ball, plate)
         self._position, self._velocity, self._handle = _readers(body)
-        self.force_n = 0.0
+        self.force_n = self._stale_n_s = 0.0
         if contact == "penalty":
             space.on_collision(pre_solve=self._penalty)
             self._law = scenario.law()
@@ -285,7 +317,7 @@ class BallModel:
                                post_solve=self._impulse if measure else None)
         elif contact == "rigid":
             if measure:
-                space.on_collision(post_solve=self._impulse)
+                space.on_collision(pre_solve=self._stale_impulse, post_solve=self._impulse)
         else:
             raise ValueError(f"contact = {contact!r}: must be rigid, penalty or restitution")
 
@@ -297,13 +329,26 @@ class BallModel:
         self.body.force = (0.0, f)
         self.force_n = f
 
-    def _set_restitution(self, arbiter: Any, _space: Any, _data: Any) -> None:
+    def _set_restitution(self, arbiter: Any, space: Any, data: Any) -> None:
         vy = self._velocity(self._handle).y
         # still overlapping while already separating (low restitution): α = b·max(0, V)
         arbiter.restitution = float(self._restitution(max(0.0, -self._b * vy)))
+        self._stale_impulse(arbiter, space, data)
+
+    def _stale_impulse(self, arbiter: Any, _space: Any, _data: Any) -> None:
+        """Before the solver (``pre_solve``): the impulse (N·s) Chipmunk's accumulator starts
+        from without having applied it. A contact that touches again within
+        ``collision_persistence`` steps (3) of separating is a first contact again
+        (``cpArbiterUpdate``), so ``cpArbiterApplyCachedImpulse`` skips its warm start, yet
+        ``cpArbiterUpdate`` has copied the old accumulated impulse ``jnAcc`` into it (matching
+        contact hash): ``total_impulse`` then reports the old contact's impulse plus this
+        step's (a ball bouncing at a coarse step: hundreds of N that never acted). A
+        persisting contact's warm start is applied, so its ``jnAcc`` is all this step's."""
+        self._stale_n_s = arbiter.total_impulse.length if arbiter.is_first_contact else 0.0
 
     def _impulse(self, arbiter: Any, _space: Any, _data: Any) -> None:
-        self.force_n = arbiter.total_impulse.length / self.dt
+        """After the solver (``post_solve``): the impulse applied this step / dt (N)."""
+        self.force_n = (arbiter.total_impulse.length - self._stale_n_s) / self.dt
 
 
 def _flat_length(scenario: RigidFlexible) -> float:
@@ -480,7 +525,10 @@ class PymunkAdapter(Adapter):
     builders = scenario_builders(
         ball_s=1e-6, pair_s=1e-5, oblique_s=1e-6, oblique_tuned_check=oblique_tuned.refused,
         pair_modes=RIGID_FLEXIBLE_MODES,
-        ball_keys=tuple(k for k in PARAMETER_KEYS if k not in OBLIQUE_KEYS))
+        ball_keys=tuple(k for k in PARAMETER_KEYS if k not in OBLIQUE_KEYS),
+        # 1/60 s: pymunk's examples' step (examples/bouncing_balls.py: self._dt = 1.0 / 60.0) and
+        # the step its collision_bias default is set for (space.py: 10 % per 1/60th of a s)
+        bounce_s=1.0 / 60.0)
     missing_builders: ClassVar[dict[str, str]] = {"cube-toss": CUBE_TOSS_TWO_D.format("pymunk")}
 
     def version(self) -> str:
@@ -488,6 +536,16 @@ class PymunkAdapter(Adapter):
 
     def run_ball(self, scenario: BallOnPlate, mode: str, settings: RunSettings) -> ImpactRecord:
         return self._run_with(ball_model, run_ball, scenario, mode, settings)
+
+    def run_bounce(self, scenario: Bounce, mode: str, settings: RunSettings) -> ImpactRecord:
+        """The bounce to rest: the ball's space and contact for ``mode`` at the first impact
+        (:meth:`Bounce.ball`, :func:`ball_model`), the ball built at rest ``height_m`` above
+        the plate, stepped by :func:`run_bounce`. Chipmunk has no restitution velocity
+        threshold (see the module), so no ``bounce_threshold_m_s`` is recorded."""
+        dt = float(settings.timestep_s)  # Adapter.run fills the default
+        model, meta = ball_model(scenario.ball(), mode, settings, dt, _iterations(settings),
+                                 drop_height_m=scenario.height_m)
+        return run_bounce(model, scenario, settings.max_time_s, meta)
 
     def run_rigid_flexible(self, scenario: RigidFlexible, mode: str, settings: RunSettings
                            ) -> ImpactRecord:
@@ -549,11 +607,15 @@ def custom_parameters(params: dict[str, Any]) -> dict[str, Any]:
 
 
 def ball_model(scenario: BallOnPlate, mode: str, settings: RunSettings, dt: float,
-               iterations: int, measure: bool = True) -> tuple[BallModel, dict[str, Any]]:
-    """Build the ball space for ``mode``; returns it and the meta of its parameters."""
+               iterations: int, measure: bool = True, drop_height_m: float | None = None
+               ) -> tuple[BallModel, dict[str, Any]]:
+    """Build the ball space for ``mode``; returns it and the meta of its parameters.
+    ``drop_height_m``: the ball starts at rest that high (m) above the plate (the bounce to
+    rest, :class:`BallModel`)."""
     if mode in ("default", "custom"):
         params = custom_parameters(settings.params or {}) if mode == "custom" else {}
-        model = BallModel(scenario, "rigid", dt, measure=measure, out_of_box=params)
+        model = BallModel(scenario, "rigid", dt, measure=measure, out_of_box=params,
+                          drop_height_m=drop_height_m)
         return model, {"contact": "rigid", "params": params,
                        "engine_defaults": model.defaults,
                        "not_comparable": RIGID_BALL_ARTEFACTS}
@@ -565,7 +627,8 @@ def ball_model(scenario: BallOnPlate, mode: str, settings: RunSettings, dt: floa
         meta.update(injection=injection, contact=contact)
         if contact == "restitution":
             meta["not_comparable"] = RIGID_BALL_ARTEFACTS
-        return BallModel(scenario, contact, dt, iterations=iterations, measure=measure), meta
+        return BallModel(scenario, contact, dt, iterations=iterations, measure=measure,
+                         drop_height_m=drop_height_m), meta
     if mode == "tuned":
         tuned = settings.tuned or {}
         if tuned.get("restitution_law") == "hunt_crossley":
@@ -574,7 +637,8 @@ def ball_model(scenario: BallOnPlate, mode: str, settings: RunSettings, dt: floa
             meta.update(contact="restitution", restitution_damping_s_per_m=b,
                         tuned=dict(tuned), not_comparable=RIGID_BALL_ARTEFACTS)
             return BallModel(scenario.replace(damping_s_per_m=b), "restitution", dt,
-                             iterations=iterations, measure=measure), meta
+                             iterations=iterations, measure=measure,
+                             drop_height_m=drop_height_m), meta
         e = _tuned_elasticity(settings)
         meta.update(contact="rigid", elasticity=e, tuned=dict(tuned),
                     not_comparable=RIGID_BALL_ARTEFACTS)
@@ -586,7 +650,7 @@ def ball_model(scenario: BallOnPlate, mode: str, settings: RunSettings, dt: floa
         meta.update(contact="rigid", elasticity=e, reference_velocity_m_s=v_ref,
                     not_comparable=RIGID_BALL_ARTEFACTS)
     model = BallModel(scenario, "rigid", dt, elasticity=e, iterations=iterations,
-                      measure=measure)
+                      measure=measure, drop_height_m=drop_height_m)
     return model, meta
 
 
@@ -724,6 +788,48 @@ def run_ball(model: BallModel, settings: RunSettings, meta: dict[str, Any]) -> I
     return classify(out, initial_kinetic_j=0.5 * sc.mass_kg * v0 * v0,
                     final_kinetic_j=0.5 * sc.mass_kg * (vx * vx + vy * vy),
                     tunneled=end.tunneled, timed_out=timed_out)
+
+
+def run_bounce(model: BallModel, scenario: Bounce, max_time_s: float | None,
+               meta: dict[str, Any]) -> ImpactRecord:
+    """Step the dropped ball (built at rest ``height_m`` above the plate) until it rests on
+    the plate, tunnels, diverges or reaches the cap (:class:`~impactbench.engines.bounce.
+    BounceEnd`), recording every step in :func:`run_ball`'s layout: a rigid contact's sample
+    k = (x_k, ẋ_k, J/dt) before ``space.step`` (the velocity jump between samples k and k+1),
+    the penalty's (x after the drift, ẋ entering the kick, F of that kick). x = R − y (m),
+    ẋ = −ẏ (m/s), F (N).
+
+    Tunnelled: the centre past the plate segment's core (R + 0.5 m, where its normal flips)
+    for a rigid contact; past R, the sphere's own size, for the law injected as a force."""
+    dt, radius = model.dt, scenario.radius_m
+    impulsive = model.contact != "penalty"
+    end = BounceEnd(scenario, dt, max_time_s, model.beyond_m if impulsive else radius)
+    ended, n_max = end.ended, end.n_max
+    step = model.space.step
+    position, velocity, handle = _readers(model.body)
+    rec = Recorder()
+    append = rec.append
+    x, v = radius - position(handle).y, -velocity(handle).y
+    if not impulsive:
+        append(0.0, x, v, 0.0, v)
+    k = 0
+    while k < n_max:
+        model.force_n = 0.0
+        step(dt)
+        f = model.force_n
+        if impulsive:
+            append(k * dt, x, v, f, v)
+            x = radius - position(handle).y
+        else:
+            x = radius - position(handle).y
+            append((k + 1) * dt, x, v, f, v)
+        v = -velocity(handle).y
+        k += 1
+        if ended(x, v, f):
+            break
+    if impulsive:
+        append(k * dt, x, v, 0.0, v)
+    return end.finish(rec, scenario, v, **meta, steps=k)
 
 
 def run_rigid_flexible(model: RigidFlexibleModel, settings: RunSettings,

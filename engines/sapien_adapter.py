@@ -75,8 +75,15 @@ m·Δv_t/dt. PhysX damps spin (``angular_damping`` 0.05 /s) and clamps it
   ``static_friction``, ``dynamic_friction`` of both materials); no file: ``unsupported`` with
   the reason.
 
+Bounce to rest (:class:`~impactbench.reference.bounce_scenario.Bounce`): the ball's model for
+the mode at the first impact (``Bounce.ball()``), started at rest with its lowest point
+``height_m`` above the plate, gravity on; the plate (a 2 m box) holds it at rest for seconds.
+A rigid contact with e > 0 records the scene's ``bounce_threshold`` read back from the engine
+(``meta["bounce_threshold_m_s"]``): ``default``'s 2 m/s swallows the first impact from 0.2 m
+(√(2gh) = 1.98 m/s), so the ball stops dead there.
+
 The run loop and stopping rules are :mod:`impactbench.engines.stepping`'s. Default timesteps:
-ball and oblique 1e-6 s, rigid–flexible 1e-5 s.
+ball and oblique 1e-6 s, rigid–flexible 1e-5 s, bounce 0.01 s (SAPIEN's scene default).
 """
 
 from __future__ import annotations
@@ -256,18 +263,21 @@ class _BallAbovePlate:
     def __init__(self, params: dict[str, Any], dt: float, gravity_m_s2: float,
                  radius_m: float, mass_kg: float, inertia_kg_m2: float,
                  velocity_m_s: list[float], spin_rad_s: list[float] | None,
-                 driven: bool) -> None:
+                 driven: bool, height_m: float | None = None) -> None:
         """``velocity_m_s`` (x, y, z; its −z part the approach speed that sets the gap) and
         ``spin_rad_s`` (about x, y, z; None: not set) are the ball's at the start;
-        ``gravity_m_s2`` is along z."""
+        ``gravity_m_s2`` is along z; ``height_m``: the ball's lowest point starts that high
+        above the plate (m; None: at the gap of 2.5 steps of flight)."""
         import numpy as np
 
         self.world = w = PhysxWorld(params, dt, gravity_m_s2, axis=2)
+        # a static box 2 m wide and 2 m thick: one step at the customary 0.01 s cannot carry
+        # the ball through it, and a ball resting on it for seconds stays on its flat top
         self.plate_thickness_m = 2.0
         w.add([0.0, 0.0, -radius_m - 1.0], 0.0, w.box(1.0), static=True)  # top face z = −R
         shape = None if driven else w.sphere(radius_m)
-        self.body = w.add([0.0, 0.0, stepping.gap_m(-velocity_m_s[2], dt)], mass_kg, shape,
-                          inertia=inertia_kg_m2)
+        z0 = stepping.gap_m(-velocity_m_s[2], dt) if height_m is None else height_m
+        self.body = w.add([0.0, 0.0, z0], mass_kg, shape, inertia=inertia_kg_m2)
         self.body.set_linear_velocity(velocity_m_s)
         if spin_rad_s is not None:
             self.body.set_angular_velocity(spin_rad_s)
@@ -282,14 +292,21 @@ class _BallAbovePlate:
 
 
 class BallModel(_BallAbovePlate):
-    """The ball above the plate; ``law`` set: the ball has no shape and the law is applied."""
+    """The ball above the plate; ``law`` set: the ball has no shape and the law is applied.
+
+    ``drop_height_m`` None: the ball starts at its gap, approaching at V0; a value (m): at
+    rest with its lowest point that high above the plate (the bounce to rest), gravity
+    −``scenario.gravity_m_s2`` along z as always."""
 
     def __init__(self, scenario: BallOnPlate, params: dict[str, Any], dt: float,
-                 law: Any = None) -> None:
+                 law: Any = None, drop_height_m: float | None = None) -> None:
         self.law = law
+        v0 = scenario.velocity_m_s if drop_height_m is None else 0.0
         super().__init__(params, dt, -scenario.gravity_m_s2, scenario.radius_m,
-                         scenario.mass_kg, 1.0, [0.0, 0.0, -scenario.velocity_m_s], None,
-                         driven=law is not None)
+                         scenario.mass_kg, 1.0, [0.0, 0.0, -v0], None,
+                         driven=law is not None, height_m=drop_height_m)
+        if drop_height_m is not None and law is not None:
+            self.plate_thickness_m = 0.0  # no shape: past x = R the law's ball went through
 
     def state(self) -> tuple[float, float, float, float]:
         self._last = out = (-float(self.body.entity_pose.p[2]),
@@ -568,7 +585,9 @@ class SapienAdapter(stepping.SteppedAdapter):
     ball_model, pair_model, oblique_model = BallModel, PairModel, ObliqueModel
     parameters = staticmethod(parameters)
     oblique_parameters = staticmethod(oblique_parameters)
-    builders = stepping.builders(oblique_tuned.refused, "sapien")
+    # the bounce at SAPIEN's default step: sapien.Scene().timestep, the PhysxCpuSystem's
+    # 0.01 s (sapien 3.0.3; its example/hello_world.py sets 1/100 s too)
+    builders = stepping.builders(oblique_tuned.refused, "sapien", bounce_s=0.01)
     injection = ("cannot: PhysX's compliant contact is an undamped spring (no damping to "
                  "schedule); the law is an external force (collision off) integrated by PhysX's "
                  "semi-implicit Euler step; oblique: Coulomb friction is a force and torque "
@@ -577,3 +596,15 @@ class SapienAdapter(stepping.SteppedAdapter):
     def version(self) -> str:
         sapien, _ = _import_sapien()
         return f"{sapien.__version__} (PhysX {_physx_version()})"
+
+    def bounce_threshold(self, model: stepping.SteppedModel) -> float | None:
+        """The scene's PhysX ``bounce_threshold`` (m/s), read back from the config of the
+        model's PhysX system: a rigid contact with restitution e > 0 bounces only when it
+        approaches faster than this (slower: e = 0). None for a compliant contact (a
+        spring, no threshold), a rigid e = 0 or an injected law (no shape)."""
+        if not getattr(model, "impulsive", False):
+            return None
+        world = model.world  # type: ignore[attr-defined]
+        if float(world.material.restitution) <= 0.0:
+            return None
+        return float(world.scene.physx_system.config.bounce_threshold)

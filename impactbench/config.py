@@ -6,7 +6,8 @@ Schema (every key optional except where noted; defaults in ``impactbench/data/de
 tuned); one table per scenario (its spec's ``table``, e.g. ``[ball_on_plate]``): each of its
 axes as a list (``velocities_m_s`` in m/s > 0; categorical axes such as ``local`` and
 ``structure`` as lists of names, defaulting to the spec's), any field of its dataclass
-(``mass_kg``, …) and ``[<table>.timestep_s]`` engine → s;
+(``mass_kg``, …), ``modes`` (the modes its runs take, default the report's) and
+``[<table>.timestep_s]`` engine → s (default: each engine's step for the scenario);
 ``[work_precision]`` velocities_m_s (two or more; ``velocity_m_s`` for one), timesteps_s, modes
 (the ball's study), and ``[work_precision.<table>]`` another scenario's at its axes' values
 (e.g. ``[work_precision.oblique] angles_deg = [45.0]``; timesteps_s and modes default to the
@@ -67,6 +68,8 @@ class ScenarioMatrix:
     axes: tuple[tuple[str, tuple[Any, ...]], ...]
     timestep_s: dict[str, float]
     parameters: dict[str, Any]
+    modes: tuple[str, ...] = ()
+    """The modes its runs take (the table's ``modes``); () takes the report's."""
 
     def values(self, axis: str) -> tuple[Any, ...]:
         """The configured values of one axis (() when the scenario has no such axis)."""
@@ -247,8 +250,9 @@ def _scenario(spec: scenarios.ScenarioSpec, table: dict[str, Any],
                                  f"{set_name!r}: none of {', '.join(own)} replays it"))
         return ScenarioMatrix(spec.name, (("velocity_m_s", ()),), {}, params)
     options = set(option_keys(spec))  # the ball's material, plate_material, E, ν
-    allowed = {"timestep_s"} | fields | options | {a.config_key for a in spec.axes}
+    allowed = {"timestep_s", "modes"} | fields | options | {a.config_key for a in spec.axes}
     _check_keys(table, allowed, f"{name}.")
+    modes = _names(f"{name}.modes", table["modes"], MODES) if "modes" in table else ()
     params = {k: table[k] for k in sorted(fields | options) if k in table}
     try:
         # a material is applied as --material is (mass, c, nominal restitution)
@@ -271,6 +275,7 @@ def _scenario(spec: scenarios.ScenarioSpec, table: dict[str, Any],
         axes=tuple(axes),
         timestep_s=_timesteps(f"{name}.timestep_s", table.get("timestep_s", {}), engines),
         parameters=params,
+        modes=modes,
     )
 
 

@@ -189,8 +189,8 @@ def plan(config: ReportConfig, engines: Iterable[str] | None = None) -> list[Job
     for sm in config.scenarios:
         params = tuple(sorted(sm.parameters.items()))
         for engine in engines:
-            modes = [m for m in config.modes
-                     if m != "tuned" or tuned_path(engine, sm.name).is_file()
+            modes = [m for m in sm.modes or config.modes
+                     if m != "tuned" or _has_tuned(engine, sm, tuned_path)
                      or engine in config.tuned_files]
             if engine in config.engine_params and "custom" not in modes:
                 modes.append("custom")  # the user's own settings get their column
@@ -220,6 +220,24 @@ def plan(config: ReportConfig, engines: Iterable[str] | None = None) -> list[Job
                  for engine in engines for mode in more.modes for point in more.points
                  for dt in more.timesteps_s]
     return jobs
+
+
+def _has_tuned(engine: str, sm: Any, tuned_path: Any) -> bool:
+    """Whether ``engine`` has a packaged tuned file for the scenario: its own, or for a
+    scenario whose tuned runs take another's files (its spec's ``tuned_from``: the bounce
+    takes the ball's) one fitted at the run's step."""
+    spec = scenarios.get(sm.name)
+    if not spec.tuned_from:
+        return tuned_path(engine, sm.name).is_file()
+    from impactbench.engines.base import get_adapter
+    from impactbench.tuned import fitted_at
+
+    try:
+        dt = sm.timestep_s.get(engine) or get_adapter(engine).default_timestep_s(
+            spec.build(sm.points()[0] if sm.points() else ()), "tuned")
+    except Exception:  # an engine not installed here: its runs say so
+        return tuned_path(engine, spec.tuned_from).is_file()
+    return fitted_at(engine, spec.tuned_from, dt)
 
 
 def _study_scenario(config: ReportConfig, study: str) -> tuple[str, tuple]:

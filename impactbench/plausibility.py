@@ -31,6 +31,7 @@ from typing import Any
 
 IMPLAUSIBLE = "implausible"
 OK = "ok"
+MAX_TIME = "max_time"
 
 
 @dataclass(frozen=True)
@@ -74,13 +75,26 @@ def problems(measures: dict[str, float], limits: Limits = DEFAULT) -> list[str]:
 def judge(run: dict[str, Any], limits: Limits = DEFAULT) -> dict[str, Any]:
     """``run`` (a comparison object with its ``plausibility`` measures) with its status set
     from the limits: an ``ok`` run beyond them becomes ``implausible`` (the message says
-    why), an ``implausible`` one within them ``ok`` again. Other statuses are kept."""
+    why), an ``implausible`` one within them ``ok`` again. A ``max_time`` run (still moving
+    at the cap: a ball still bouncing) that created energy becomes ``implausible`` too (and
+    ``max_time`` again within the limits: ``judged_from`` keeps what it was). Other statuses
+    are kept."""
     status = run.get("status")
+    if status == MAX_TIME:  # still moving at the cap: created energy is the worse verdict
+        created = [w for w in problems(run.get("plausibility") or {}, limits)
+                   if "energy created" in w]
+        if not created:
+            return run
+        return {**run, "status": IMPLAUSIBLE, "message": "; ".join([*created, run["message"]]),
+                "judged_from": [MAX_TIME, run.get("message", "")]}
     if status not in (OK, IMPLAUSIBLE):
         return run
     why = problems(run.get("plausibility") or {}, limits)
     if why:
         return {**run, "status": IMPLAUSIBLE, "message": "; ".join(why)}
     if status == IMPLAUSIBLE:
-        return {**run, "status": OK, "message": ""}
+        before, message = run.get("judged_from") or (OK, "")
+        out = {k: v for k, v in run.items() if k != "judged_from"}
+        return judge({**out, "status": before, "message": message}, limits) \
+            if before == MAX_TIME else {**out, "status": OK, "message": ""}
     return run

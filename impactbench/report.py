@@ -100,6 +100,24 @@ def timestep_text(runs: list[JobResult]) -> str:
                               for e, ts in sorted(steps.items()))
 
 
+def points_text(spec: Any, runs: list[JobResult]) -> str:
+    """The numeric axis values of ``runs`` for a caption: ``V0 = 0.5, 1 m/s`` (the impact
+    velocity by the spec's symbol, where the scenario has one), else each numeric axis's,
+    ``h = 0.2 m``."""
+    parts = []
+    for a in spec.axes:
+        if a.categorical or ("velocity_m_s" in spec.axis_names and a.name != "velocity_m_s"):
+            continue  # (a scenario with an impact velocity is named by it alone)
+        values = ", ".join(f"{v:g}" for v in sorted({float(r.job.get(a.name)) for r in runs
+                                                     if r.job.get(a.name) is not None}))
+        if a.name == "velocity_m_s":
+            parts.append(f"{spec.velocity_symbol} = {values} m/s")
+        else:
+            symbol, _, unit = a.column.partition(" (")
+            parts.append(f"{symbol} = {values} {unit.rstrip(')')}".rstrip())
+    return "; ".join(parts)
+
+
 def modes_text(runs: list[JobResult]) -> str:
     from impactbench.engines.base import MODES
 
@@ -122,7 +140,7 @@ def _figures(ctx: ReportContext) -> None:
     cfg, df, fig_dir = ctx.cfg, ctx.df, ctx.fig_dir
     matrix_runs = [r for r in ctx.results if r.job.study == "matrix"]
     # a rigid contact's impulse/dt is no force history: leave such runs out of F(t) and F–x
-    drawable = [r for r in matrix_runs if r.history
+    drawable = [r for r in matrix_runs if r.history and scenarios.get(r.job.scenario).has_history
                 and "peak_force_n" not in r.run.get("not_comparable", {})]
     groups: dict[tuple, list[JobResult]] = {}
     for r in drawable:
@@ -147,8 +165,7 @@ def _figures(ctx: ReportContext) -> None:
         spec.report_figures(ctx, runs, loops.get(spec.name, []))
         if not runs:
             continue
-        vs = ", ".join(f"{v:g}" for v in sorted({r.job.velocity_m_s for r in runs}))
-        how = f"{spec.velocity_symbol} = {vs} m/s; {modes_text(runs)}; {timestep_text(runs)}"
+        how = f"{points_text(spec, runs)}; {modes_text(runs)}; {timestep_text(runs)}"
         name = f"report_error_heatmap_{spec.name.replace('-', '_')}.png"
         path = plots.error_heatmap(df, spec, how, fig_dir / name)
         ctx.add_figure(path, f"|relative error| per engine and mode, {spec.title}; {how}",

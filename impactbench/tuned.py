@@ -162,6 +162,12 @@ def find_tuned(engine: str, scenario: str, timestep_s: float | None = None,
     return tuned_path(engine, scenario)
 
 
+def fitted_at(engine: str, scenario: str, timestep_s: float) -> bool:
+    """Whether a packaged tuned file of ``engine`` and ``scenario`` was fitted at this step."""
+    return any(_close((load_tuned_file(p) or {}).get("provenance", {}).get("timestep_s"),
+                      timestep_s) for p in packaged_tuned_files(engine, scenario))
+
+
 def load_tuned_settings(engine: str, scenario: str, timestep_s: float | None = None,
                         path: Path | str | None = None, variant: dict[str, Any] | None = None
                         ) -> tuple[dict[str, Any] | None, dict[str, Any] | None]:
@@ -198,11 +204,16 @@ def tune_command(engine: str, scenario: Any, timestep_s: float) -> str:
     """The ``impactbench tune`` command line that fits ``engine`` to ``scenario`` at this step
     (``--scenario`` unless it is the ball's; the scenario's axes, which a fit sweeps, left
     out)."""
-    default = type(scenario)()
+    from impactbench.scenarios import get
+
     spec = spec_of(scenario)
+    if spec.tuned_from:  # its tuned files are another scenario's (the bounce's: the ball's)
+        spec = get(spec.tuned_from)
+    default = spec.cls()
     axes = {a.name for a in spec.axes}
     flags = [f"--{f.flag} {getattr(scenario, f.field):g}" for f in spec.flags
-             if f.field not in axes and getattr(scenario, f.field) != getattr(default, f.field)]
+             if f.field not in axes and hasattr(scenario, f.field)
+             and getattr(scenario, f.field) != getattr(default, f.field)]
     which = [] if "tuning" in spec.studies else [f"--scenario {spec.name}"]
     return " ".join(["impactbench tune", *which, f"--engine {engine}", *flags,
                      f"--timestep {timestep_s:g}", "--out tuned.toml"])

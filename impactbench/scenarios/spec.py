@@ -117,6 +117,9 @@ class ScenarioSpec:
     descriptions: Mapping[str, str] = field(default_factory=dict)
     studies: tuple[str, ...] = ()
     default_mode: str = "native"
+    tuned_from: str = ""
+    """The scenario whose tuned files this one's ``tuned`` runs take, fitted at the run's
+    step ("": its own; the bounce takes the ball's: the same body and contact)."""
 
     # ------------------------------------------------------------------ the dataclass
     @property
@@ -155,6 +158,11 @@ class ScenarioSpec:
     def history(self, scenario: Any) -> Any:
         """The reference's time history of ``scenario`` (an ImpactRecord, for force plots)."""
         raise ValueError(f"scenario = {self.name!r}: its reference has no force history")
+
+    @property
+    def has_history(self) -> bool:
+        """The reference has a force history (:meth:`history`): the report draws F(t)."""
+        return type(self).history is not ScenarioSpec.history
 
     def problem(self, scenario: Any, reference: Mapping[str, Any]) -> str:
         """Why the reference of ``scenario`` is outside its model ("" when it is not): such a

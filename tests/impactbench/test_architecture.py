@@ -220,7 +220,7 @@ def test_a_circle_would_be_found() -> None:
 
 
 SCENARIO_NAMES = {"ball-on-plate", "rigid-flexible", "ball_on_plate", "rigid_flexible",
-                  "oblique", "cube-toss", "cube_toss"}
+                  "oblique", "cube-toss", "cube_toss", "bounce"}
 """Every built-in scenario's name (registry and table spelling); tested equal to the registry."""
 ALLOWED = {
     # the scenarios' own modules: their specs, their subcommands, their physics and solvers
@@ -234,6 +234,8 @@ ALLOWED = {
     "impactbench.cube_tosses.scenario", "impactbench.cube_tosses.tune",
     "impactbench.cube_tosses.reference_model", "impactbench.commands.tune_tosses",
     "impactbench.cube_tosses.model_modes",
+    "impactbench.scenarios.bounce", "impactbench.commands.bounce",
+    "impactbench.reference.bounce_scenario", "impactbench.reference.bounce",
 }
 
 
