@@ -255,7 +255,7 @@ def apex_figure(runs: list, reference: dict[str, Any], scenario: Any, path: Any,
     marker; a run that failed is left out (its status is in the tables)."""
     import matplotlib.pyplot as plt
 
-    from impactbench.plots import ENGINE_COLORS, MODE_MARKERS, MODE_STYLES, _order, _save
+    from impactbench.plots import ENGINE_COLORS, MODE_MARKERS, MODE_STYLES, _order, _save, _title
 
     fig, ax = plt.subplots(figsize=(8.5, 4.8))
     ref = [a for a in reference["apex_heights_m"] if a > 0.0]
@@ -276,8 +276,7 @@ def apex_figure(runs: list, reference: dict[str, Any], scenario: Any, path: Any,
     ax.set_ylabel("apex height above the plate (m)")
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=6.5, ncol=2, loc="upper right")
-    ax.set_title(f"Bounce to rest from h = {scenario.height_m:g} m: apexes (dotted: 1 mm)\n"
-                 f"{how}", fontsize=9)
+    _title(ax, f"Bounce to rest from h = {scenario.height_m:g} m: apexes (dotted: 1 mm)", how)
     fig.tight_layout()
     return _save(fig, path)
 

@@ -43,13 +43,12 @@ def settings_for(mode: str, mujoco) -> RunSettings:
     return RunSettings()
 
 
-def assert_same_record(ours, theirs, rtol: float) -> None:
-    """Same status, length and samples: each channel within ``rtol`` of its largest
-    magnitude in C MuJoCo's record."""
-    assert (ours.status, ours.message) == (theirs.status, theirs.message)
-    assert len(ours) == len(theirs)
+def assert_same_record(ours, theirs, rtol: float, samples: int | None = None) -> None:
+    """Same status and length, and the first ``samples`` (None: all) equal: each channel
+    within ``rtol`` of its largest magnitude in C MuJoCo's record."""
+    assert ours.status == theirs.status and len(ours) == len(theirs)
     for name in CHANNELS:
-        got, ref = getattr(ours, name), getattr(theirs, name)
+        got, ref = getattr(ours, name)[:samples], getattr(theirs, name)[:samples]
         assert np.max(np.abs(got - ref)) <= rtol * np.max(np.abs(ref)), name
     assert ours.meta["settled"] == theirs.meta["settled"]
     assert ours.meta["steps"] == theirs.meta["steps"]
@@ -60,7 +59,8 @@ def test_mjx_bounce_record_is_c_mujocos(adapters, mode) -> None:
     """Every mode of the ball builder, at the customary 2 ms, MJX against C MuJoCo. Measured
     (largest difference over the channel's largest magnitude): default 6.4e-15, custom
     3.3e-13, native and tuned 1.8e-13, injected 2.8e-13 — the default contact and the
-    custom one settle (ok), the stiff ones gain energy at the first impact (diverged)."""
+    custom one settle (ok); the stiff ones (~0.1 ms contacts) gain energy at the first
+    impact (diverged, stopped by the end rule one step after it)."""
     mjx, mujoco = adapters
     s = Bounce(max_time_s=0.6)
     settings = settings_for(mode, mujoco)
@@ -76,15 +76,19 @@ def test_mjx_bounce_record_is_c_mujocos(adapters, mode) -> None:
 
 
 def test_mjx_bounce_to_the_cap_spans_many_scans(adapters) -> None:
-    """The whole 15 s cap at 2 ms (7500 steps, 15 of the ball's 512-step scans, the steps
-    past the cap cut off) in well under a second once compiled: measured 0.28 s (0.6–0.9 s
-    with the two CPUs shared). Native gains energy at each impact; the record still follows
-    C MuJoCo's (measured 1.9e-13)."""
+    """A ball that bounces to the 15 s cap (a direct solref (−2e4, −1): 2000 N/m, ζ 0.004,
+    44 contacts) takes 7500 steps, 15 of the ball's 512-step scans (the steps past the cap
+    cut off), in well under a second once compiled: measured 0.37 s.
+
+    Round-off grows from bounce to bounce (the step a contact starts at amplifies it):
+    measured against C MuJoCo, the penetration's difference passes 1e-13 of its scale at
+    1.49 s (4th contact), 1e-12 at 2.87 s, 1e-6 at 8.9 s, 1e-2 at 12.7 s. The first second
+    (two contacts) is compared to 1e-12: measured 4.5e-14."""
     mjx, mujoco = adapters
-    s = Bounce()
-    mjx.run(Bounce(max_time_s=0.3), "native")  # compiled (or loaded) before the clock
-    ours = mjx.run(s, "native")
-    assert ours.status is Status.DIVERGED and len(ours) == 7501
+    s, settings = Bounce(), RunSettings(params={"solref": [-2e4, -1.0]})
+    mjx.run(Bounce(max_time_s=0.3), "custom", settings)  # compiled (or loaded) before
+    ours = mjx.run(s, "custom", settings)
+    assert ours.status is Status.MAX_TIME and len(ours) == 7501, ours.message
     assert ours.meta["steps"] == 7500 > 10 * ours.meta["chunk_steps"]
     assert ours.meta["wall_s"] < 5.0
-    assert_same_record(ours, mujoco.run(s, "native"), rtol=1e-12)
+    assert_same_record(ours, mujoco.run(s, "custom", settings), rtol=1e-12, samples=500)
