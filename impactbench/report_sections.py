@@ -263,9 +263,16 @@ def scenario_section(scenario: str, ctx: ReportContext) -> dict[str, Any] | None
     if s.empty:
         return None
     spec = scenarios.get(scenario)
-    v = sorted(set(s.velocity_m_s))
-    points = f"{len(v)} velocit{'y' if len(v) == 1 else 'ies'} " \
-             f"({', '.join(f'{x:g}' for x in v)} m/s)"
+    if "velocity_m_s" in spec.axis_names:
+        v = sorted(set(s.velocity_m_s))
+        points = f"{len(v)} velocit{'y' if len(v) == 1 else 'ies'} " \
+                 f"({', '.join(f'{x:g}' for x in v)} m/s)"
+    else:  # its numeric axes by their columns: h (m) → "h = 0.05, 0.2 m"
+        points = ", ".join(
+            f"{a.column.partition(' (')[0]} = "
+            f"{', '.join(f'{x:g}' for x in sorted(set(s[a.name].astype(float))))} "
+            f"{a.column.partition(' (')[2].rstrip(')')}".rstrip()
+            for a in spec.axes if not a.categorical)
     cats = [a.name for a in spec.axes if a.categorical]
     if cats:
         combos = sorted(set(zip(*(s[c] for c in cats), strict=True)))
@@ -276,6 +283,8 @@ def scenario_section(scenario: str, ctx: ReportContext) -> dict[str, Any] | None
                  "its signed relative error against the reference; a word is the run's status.",
         "heatmaps": ctx.figures_in(f"heatmap:{scenario}"),
         "engines": scenario_tables(ctx, scenario),
+        "more": spec.report_tables(ctx, [r for r in ctx.results if r.job.study == "matrix"
+                                         and r.job.scenario == scenario]),
         "figures": ctx.figures_in(f"history:{scenario}"),
         "extra": ctx.figures_in(f"extra:{scenario}"),
         "papers": (papers := paper_figures_of(ctx, spec)),

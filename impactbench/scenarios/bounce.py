@@ -132,8 +132,8 @@ def stop_reason(rec: Any, b: Bounces) -> str:
     n = len(b.above)
     if not b.impact_speeds_m_s:
         return "no contact"
-    last = b.impact_speeds_m_s[min(len(b.impact_speeds_m_s) - 1, n + 1)] \
-        if len(b.impact_speeds_m_s) > n + 1 else b.impact_speeds_m_s[-1]
+    # apex k follows impact k: the first apex at or below 1 mm, n, followed impact n
+    last = b.impact_speeds_m_s[min(n, len(b.impact_speeds_m_s) - 1)]
     where = f"after {n} bounce{'s' if n != 1 else ''} above 1 mm"
     threshold = rec.meta.get("bounce_threshold_m_s")
     if threshold is not None and math.isfinite(float(threshold)) and last < float(threshold):
@@ -142,6 +142,15 @@ def stop_reason(rec: Any, b: Bounces) -> str:
     if not rec.meta.get("settled", False):
         return f"{where}; still moving at the time cap"
     return f"{where}: its contact's own losses (next impact at {last:.3g} m/s)"
+
+
+def _sink_text(run: dict[str, Any], ref: dict[str, Any]) -> str:
+    """``1.2e-06 m (3.4e-04 m/s); static 1.49e-07`` — or why there is none."""
+    sink, jitter = run.get("rest_sink_m"), run.get("rest_jitter_m_s")
+    static = f"static {float(ref.get('static_sink_m', math.nan)):.3g}"
+    if not (isinstance(sink, float) and math.isfinite(sink)):
+        return f"never at rest; {static}"
+    return f"{sink:.3g} ({float(jitter):.2g} m/s); {static}"
 
 
 @lru_cache(maxsize=64)
@@ -209,6 +218,49 @@ class BounceSpec(ScenarioSpec):
                   for before, after in itertools.pairwise(apexes) if before > APEX_COUNT_M]
         return {"penetration_ratio": pen / scenario.radius_m,
                 "energy_ratio": max(growth, default=math.nan)}
+
+    def report_tables(self, ctx: Any, runs: list) -> list[dict[str, Any]]:
+        """"Where and why each engine stops": per run, its bounces above 1 mm against the
+        reference's, the first apex, where and why it stopped bouncing, the sinking and
+        jitter at rest against the static sink, and energy created."""
+        from impactbench.plots import _order
+        from impactbench.report_render import Cell, Table, band, format_error
+
+        rows = []
+        for r in sorted(runs, key=lambda r: (float(r.job.get("height_m")),
+                                             _order(r.job.engine, r.job.mode))):
+            run, ref = r.run, r.run.get("reference") or {}
+            status = str(run.get("status"))
+            measured = status in ("ok", "max_time", "implausible")
+            err = (run.get("rel_error") or {}).get("first_apex_m")
+            growth = (run.get("plausibility") or {}).get("energy_ratio")
+            rows.append([
+                f"{float(r.job.get('height_m')):g}", r.job.engine, r.job.mode,
+                f"{float(run.get('timestep_s') or math.nan):.4g}",
+                Cell(status, "" if status == "ok" else "fail", str(run.get("message") or "")),
+                f"{run.get('bounces_above_1mm', '—') if measured else '—'} "
+                f"/ {ref.get('bounces_above_1mm', '—')}",
+                Cell(f"{run['first_apex_m']:.3g} ({format_error(err)})", band(err))
+                if measured and err is not None and math.isfinite(err) else Cell("—", "na"),
+                _sink_text(run, ref) if measured else "—",
+                f"×{growth:.3g}" if isinstance(growth, float) and math.isfinite(growth)
+                and growth > 1.0 else "",
+                Cell(str(run.get("stop_reason") or run.get("message") or ""), wrap=True),
+            ])
+        if not rows:
+            return []
+        columns = ["h (m)", "engine", "mode", "dt (s)", "status", "bounces > 1 mm (ref)",
+                   "first apex (m)", "at rest: sink (jitter)", "apex growth", "where and why "
+                   "it stops"]
+        note = ("Each engine at its step, dropped from rest: its bounces above 1 mm beside the "
+                "reference's, the first apex and its error, the mean overlap over the last "
+                "0.1 s at rest beside the reference's static sink (m·g/c)^(1/n) with the "
+                "largest speed there (jitter; — when it never came to rest), the largest "
+                "growth of an apex over the one before (energy created: over ×1.01 the run "
+                "is implausible), and where it stopped bouncing and why: at the restitution "
+                "velocity threshold the engine reports, or by its contact's own losses.")
+        return [{"title": "Where and why each engine stops", "note": note,
+                 "table": Table(columns, rows, text_columns=5, prose_columns=1)}]
 
     def report_figures(self, ctx: Any, runs: list, loops: list) -> None:
         """Per drop height: the apex of each bounce against its number (log scale), the

@@ -244,6 +244,11 @@ class ScenarioSpec:
         raise NotImplementedError(f"scenario {self.name!r}: a measured scenario's spec must "
                                   "define report_part")
 
+    def report_tables(self, ctx: Any, runs: list) -> list[dict[str, Any]]:
+        """Further tables of its report section after the engines' (``runs``: its matrix
+        runs), each ``{"title", "note", "table"}``; none."""
+        return []
+
     def report_figures(self, ctx: Any, runs: list, loops: list) -> None:
         """Draw its extra report figures (``ctx``: the report's context; ``runs``: its
         matrix runs; ``loops``: its force–penetration loops); none."""
