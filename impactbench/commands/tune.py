@@ -161,7 +161,14 @@ def main(args: argparse.Namespace) -> int:
         if getattr(args, flag) is not None:
             raise ValueError(f"{flag} = {getattr(args, flag)!r}: only the cube-toss fit "
                              "takes it (the ball's fit is deterministic, scipy)")
-    if "tuning" not in scenarios.get(args.scenario).studies:
+    spec = scenarios.get(args.scenario)
+    if spec.tuned_from:  # its tuned runs take another scenario's files (the bounce: the ball's)
+        which = "" if "tuning" in scenarios.get(spec.tuned_from).studies \
+            else f" --scenario {spec.tuned_from}"
+        raise ValueError(f"scenario = {args.scenario!r}: its tuned runs take the "
+                         f"{spec.tuned_from} files fitted at the run's step; fit that one "
+                         f"(impactbench tune{which} --engine {args.engine} --timestep S)")
+    if "tuning" not in spec.studies:
         tunable = [s.name for s in scenarios.specs() if "tuning" in s.studies]
         raise ValueError(f"scenario = {args.scenario!r}: tuning is not supported yet for it "
                          f"({', '.join(tunable)} only)")

@@ -166,3 +166,11 @@ def test_the_config_takes_a_bounce_table_with_its_own_modes():
         config.parse({"bounce": {"heights_m": [-1.0]}})
     with pytest.raises(ValueError, match=r"bounce\.max_time_s = 0\.01: must be longer"):
         config.parse({"bounce": {"heights_m": [0.2], "max_time_s": 0.01}})
+
+
+def test_tune_bounce_says_to_fit_the_balls_file(capsys):
+    assert main(["tune", "--scenario", "bounce", "--engine", "pybullet", "--timestep", "0.004",
+                 "--out", "unused.toml"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0
+    assert "impactbench tune --engine pybullet --timestep S" in err
