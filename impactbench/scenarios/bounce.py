@@ -24,8 +24,6 @@ from dataclasses import dataclass
 from functools import lru_cache
 from typing import Any
 
-import numpy as np
-
 from impactbench.scenarios.spec import Axis, Flag, ScenarioSpec
 
 NAME = "bounce"
@@ -66,8 +64,10 @@ class Bounces:
         return [k for k, a in enumerate(self.apex_heights_m) if a > APEX_COUNT_M]
 
 
-def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
-    """[start, stop) index ranges of the True runs of ``mask``."""
+def _runs(mask: Any) -> list[tuple[int, int]]:
+    """[start, stop) index ranges of the True runs of ``mask`` (a boolean array)."""
+    import numpy as np
+
     edges = np.flatnonzero(np.diff(np.concatenate(([0], mask.astype(np.int8), [0]))))
     return list(zip(edges[::2].tolist(), edges[1::2].tolist(), strict=True))
 
@@ -77,6 +77,8 @@ def bounces_of(rec: Any) -> Bounces:
     force, F > 0). Each flight that ends in a contact gives an apex max(−x), the speed the
     ball left with (−ẋ at its first sample) and arrived with (ẋ at its last), and when it
     left (s). The fall before the first contact and a flight cut by the end are not bounces."""
+    import numpy as np
+
     force = rec.normal_force_n
     contacts = _runs(force > 0.0)
     out = Bounces([], [], [], [])
@@ -106,6 +108,8 @@ def _deepest_beyond_step(rec: Any, g: float, dt: float) -> float:
 
 def metrics_of_record(rec: Any) -> dict[str, Any]:
     """The scenario's metrics and sequences of an engine record (see the module)."""
+    import numpy as np
+
     b = bounces_of(rec)
     above = b.above
     settled = bool(rec.meta.get("settled", False)) and len(rec) > 0

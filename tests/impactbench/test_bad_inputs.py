@@ -37,6 +37,7 @@ def blocked(tmp_path: Path) -> Path:
 @pytest.mark.parametrize("text", ['[ball_on_plate]\nvelocities_m_s = []\n'
                                   '[rigid_flexible]\nvelocities_m_s = []\n'
                                   '[oblique]\nvelocities_m_s = []\n'
+                                  '[bounce]\nheights_m = []\n'
                                   '[work_precision]\ntimesteps_s = []\n'
                                   '[practical]\nvelocities_m_s = []\n'
                                   '[cube_toss]\nengines = []\n'])

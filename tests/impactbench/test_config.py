@@ -14,7 +14,8 @@ from impactbench.cli import main
 
 def test_default_config_is_the_issue_matrix() -> None:
     cfg = config.load()
-    ball, rf, oblique, cube = cfg.scenarios
+    ball, rf, oblique, bounce, cube = cfg.scenarios
+    assert bounce.values("height_m") == (0.2,) and bounce.modes == ("default", "native", "tuned")
     assert cube.name == "cube-toss" and cube.points() == []  # the real tosses' section
     assert oblique.values("angle_deg") == (20.0, 45.0, 60.0, 80.0)
     assert oblique.parameters == {"friction": 0.3}

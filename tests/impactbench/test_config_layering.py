@@ -22,6 +22,8 @@ velocities_m_s = []
 velocities_m_s = []
 [oblique]
 velocities_m_s = []
+[bounce]
+heights_m = []
 [work_precision]
 timesteps_s = []
 [practical]
@@ -54,7 +56,7 @@ def test_tables_merge_key_by_key_and_lists_replace(tmp_path: Path) -> None:
     cfg = config.load(write(tmp_path, "[ball_on_plate]\nvelocities_m_s = [2.0]\n"
                                       "[ball_on_plate.timestep_s]\nmujoco = 1e-5\n"
                                       "[practical.timesteps_s]\nmujoco = [1e-3]\n"))
-    ball, rf, _oblique, _cube = cfg.scenarios
+    ball, rf, _oblique, _bounce, _cube = cfg.scenarios
     assert ball.velocities_m_s == (2.0,)  # replaced, not appended
     assert ball.timestep_s["mujoco"] == 1e-5 and ball.timestep_s["drake"] == 1e-6  # merged
     assert rf.velocities_m_s == (2.0, 10.0)  # the default's

@@ -137,7 +137,7 @@ def test_report_has_the_plugin_engine(plugin, tmp_path: Path) -> None:
                       "[ball_on_plate]\nvelocities_m_s = [1.0, 2.0]\n"
                       # layered over the default report: drop its other sections
                       "[rigid_flexible]\nvelocities_m_s = []\n"
-                      "[oblique]\nvelocities_m_s = []\n"
+                      "[oblique]\nvelocities_m_s = []\n[bounce]\nheights_m = []\n"
                       "[work_precision]\ntimesteps_s = []\n[practical]\nvelocities_m_s = []\n"
                       "[cube_toss]\nengines = []\n")
     out = tmp_path / "report"

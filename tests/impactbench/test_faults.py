@@ -37,8 +37,10 @@ def only_ball(engine: str, velocities: list[float]) -> str:
              f"[ball_on_plate]\nvelocities_m_s = {velocities}"]
     default = config.load(None).raw
     for spec in scenarios.specs():
-        if spec.table != "ball_on_plate" and "velocities_m_s" in default.get(spec.table, {}):
-            lines.append(f"[{spec.table}]\nvelocities_m_s = []")
+        keys = [a.config_key for a in spec.axes if not a.categorical
+                and a.config_key in default.get(spec.table, {})]
+        if spec.table != "ball_on_plate" and keys:  # an empty axis drops the section
+            lines.append(f"[{spec.table}]\n{keys[0]} = []")
     lines += ["[practical]\nvelocities_m_s = []", "[work_precision]\ntimesteps_s = []",
               "[cube_toss]\nengines = []"]
     return "\n".join(lines) + "\n"

@@ -19,9 +19,9 @@ V1 = (("velocity_m_s", 1.0),)
 """The point of a ball run at 1 m/s."""
 
 COLUMNS = ["study", "scenario", "local", "structure", "engine", "mode", "velocity_m_s",
-           "angle_deg", "timestep_s", "metric", "value", "reference", "rel_error", "resolved",
-           "params", "status", "message", "wall_s", "engine_version", "penetration_ratio",
-           "energy_ratio"]
+           "angle_deg", "height_m", "timestep_s", "metric", "value", "reference", "rel_error",
+           "resolved", "params", "status", "message", "wall_s", "engine_version",
+           "penetration_ratio", "energy_ratio"]
 
 
 def test_report_writes_every_file(small_report: report.Report) -> None:

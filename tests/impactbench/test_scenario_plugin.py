@@ -139,7 +139,7 @@ def test_report_has_the_plugin_section(plugin, tmp_path: Path) -> None:
                       # layered over the default report: drop its own sections
                       "[ball_on_plate]\nvelocities_m_s = []\n"
                       "[rigid_flexible]\nvelocities_m_s = []\n"
-                      "[oblique]\nvelocities_m_s = []\n"
+                      "[oblique]\nvelocities_m_s = []\n[bounce]\nheights_m = []\n"
                       "[work_precision]\ntimesteps_s = []\n[practical]\nvelocities_m_s = []\n"
                       "[cube_toss]\nengines = []\n")
     out = tmp_path / "report"
