@@ -140,7 +140,7 @@ def stop_reason(rec: Any, b: Bounces) -> str:
     last = b.impact_speeds_m_s[min(n, len(b.impact_speeds_m_s) - 1)]
     where = f"after {n} bounce{'s' if n != 1 else ''} above 1 mm"
     threshold = rec.meta.get("bounce_threshold_m_s")
-    if threshold is not None and math.isfinite(float(threshold)) and last < float(threshold):
+    if threshold is not None and 0.0 < last < float(threshold):  # (approaching, below it)
         return (f"{where}: the next impact, at {last:.3g} m/s, is below the engine's "
                 f"restitution threshold {float(threshold):g} m/s (no bounce below it)")
     if not rec.meta.get("settled", False):
