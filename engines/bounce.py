@@ -103,28 +103,3 @@ class BounceEnd:
             out.message = (f"still moving at the time cap, {scenario.max_time_s:g} s "
                            f"(|ẋ| ≥ {SETTLE_SPEED_M_S:g} m/s within the last {SETTLE_S:g} s)")
         return out
-
-
-def run_stepped(model: Any, scenario: Bounce, dt: float, max_time_s: float | None,
-                meta: dict[str, Any]) -> ImpactRecord:
-    """A bounce run of a :class:`~impactbench.engines.stepping.SteppedModel` (``state()`` →
-    (x, ẋ, _, _), ``step()`` → F; ``impulsive`` and ``plate_thickness_m`` as for the ball)
-    built with the ball at rest, ``height_m`` above the plate."""
-    end = BounceEnd(scenario, dt, max_time_s,
-                    scenario.radius_m + getattr(model, "plate_thickness_m", 0.0))
-    impulsive = getattr(model, "impulsive", False)
-    rec = Recorder()
-    x, v, _, _ = model.state()
-    k = 0
-    while k < end.n_max:
-        f = model.step()
-        rec.append(k * dt, x, v, f, v)
-        x_k = x
-        x, v, _, _ = model.state()
-        if impulsive and f > 0.0:
-            rec.append(k * dt, x_k, v, f, v)
-        k += 1
-        if end.ended(x, v, f):
-            break
-    rec.append(k * dt, x, v, 0.0, v)
-    return end.finish(rec, scenario, v, **meta, steps=k)

@@ -944,8 +944,7 @@ def _run_bounce(p: Any, scenario: Bounce, mode: str, settings: RunSettings, dt: 
     setup = _ball_setup(p, scenario.ball(), mode, settings, dt, injection,
                         drop_height_m=scenario.height_m)
     world, meta, inject = setup.world, setup.meta, setup.inject
-    # BounceEnd.finish takes the scenario itself as ``scenario``: no meta key of that name
-    meta.pop("scenario", None)
+    meta.pop("scenario", None)  # the head-on ball's name: this record is the bounce's
     end = BounceEnd(scenario, dt, settings.max_time_s, setup.beyond)
     rec = Recorder()
     append, ended, n_max, radius = rec.append, end.ended, end.n_max, scenario.radius_m

@@ -219,6 +219,58 @@ def gap_m(velocity_m_s: float, dt: float) -> float:
     return GAP_STEPS * velocity_m_s * dt
 
 
+def record_steps(model: SteppedModel, dt: float, n_max: int, rec: Recorder,
+                 ended: Callable[[float, float, float], bool]) -> tuple[int, float, float]:
+    """Step ``model`` up to ``n_max`` times at ``dt``, recording each step in ``rec`` (the
+    module's layout: the state at the step's start with its force, a rigid contact's second
+    sample at the same instant), until ``ended(x, ẋ, F)`` says so after a step; then one
+    last sample, the final state with force 0. Returns (steps taken, final x, final ẋ)."""
+    impulsive = getattr(model, "impulsive", False)
+    x, v, _, _ = model.state()
+    k = 0
+    while k < n_max:
+        f = model.step()
+        rec.append(k * dt, x, v, f, v)
+        x_k = x
+        x, v, _, _ = model.state()
+        if impulsive and f > 0.0:
+            rec.append(k * dt, x_k, v, f, v)
+        k += 1
+        if ended(x, v, f):
+            break
+    rec.append(k * dt, x, v, 0.0, v)
+    return k, x, v
+
+
+class _BallEnd:
+    """:func:`run_ball`'s end rule, after each step: non-finite, tunnelled past ``deep_m``,
+    or the contact over (no force after a step with force, the ball not approaching faster
+    than ``rest_m_s``) and :data:`TAIL_STEPS` more steps recorded."""
+
+    def __init__(self, deep_m: float, rest_m_s: float) -> None:
+        self.deep_m, self.rest_m_s = deep_m, rest_m_s
+        self.touched = self.tunneled = self.nonfinite = False
+        self.tail = -1
+
+    def __call__(self, x: float, v: float, f: float) -> bool:
+        if not (math.isfinite(x) and math.isfinite(v) and math.isfinite(f)):
+            self.nonfinite = True
+            return True
+        if x > self.deep_m:
+            self.tunneled = True
+            return True
+        if f > 0.0:
+            self.touched, self.tail = True, -1
+        elif self.touched:
+            if self.tail < 0 and v <= self.rest_m_s:
+                self.tail = TAIL_STEPS
+            elif self.tail > 0:
+                self.tail -= 1
+                if self.tail == 0:
+                    return True
+        return False
+
+
 def run_ball(model: SteppedModel, scenario: BallOnPlate, dt: float, max_time_s: float | None,
              meta: dict) -> ImpactRecord:
     """Step the ball from its gap until the contact has ended (moving away or at rest).
@@ -231,43 +283,31 @@ def run_ball(model: SteppedModel, scenario: BallOnPlate, dt: float, max_time_s: 
     ``max_time_s``, or gap + :data:`BALL_TIME_CAP_S` but at least :data:`MIN_STEPS` steps.
     """
     v0, radius = scenario.velocity_m_s, scenario.radius_m
-    deep = radius + getattr(model, "plate_thickness_m", 0.0)
+    end = _BallEnd(radius + getattr(model, "plate_thickness_m", 0.0), REST_FRACTION * v0)
     cap_s = max_time_s or max(gap_m(v0, dt) / v0 + BALL_TIME_CAP_S, MIN_STEPS * dt)
     n_max = max(1, math.ceil(cap_s / dt))
     rec = Recorder()
-    x, v, _, _ = model.state()
-    impulsive = getattr(model, "impulsive", False)
-    touched = tunneled = nonfinite = False
-    tail = -1
-    k = 0
-    while k < n_max:
-        f = model.step()
-        rec.append(k * dt, x, v, f, v)
-        x_k = x
-        x, v, _, _ = model.state()
-        if impulsive and f > 0.0:
-            rec.append(k * dt, x_k, v, f, v)
-        k += 1
-        if not (math.isfinite(x) and math.isfinite(v) and math.isfinite(f)):
-            nonfinite = True
-            break
-        if x > deep:
-            tunneled = True
-            break
-        if f > 0.0:
-            touched, tail = True, -1
-        elif touched:
-            if tail < 0 and v <= REST_FRACTION * v0:
-                tail = TAIL_STEPS
-            elif tail > 0:
-                tail -= 1
-                if tail == 0:
-                    break
-    rec.append(k * dt, x, v, 0.0, v)
+    k, _, v = record_steps(model, dt, n_max, rec, end)
     out = rec.record(scenario.mass_kg, **meta, steps=k)
     half_m = 0.5 * scenario.mass_kg
     return classify(out, initial_kinetic_j=half_m * v0 * v0, final_kinetic_j=half_m * v * v,
-                    tunneled=tunneled, timed_out=k == n_max and tail != 0 and not nonfinite)
+                    tunneled=end.tunneled,
+                    timed_out=k == n_max and end.tail != 0 and not end.nonfinite)
+
+
+def run_bounce(model: SteppedModel, scenario: Bounce, dt: float, max_time_s: float | None,
+               meta: dict[str, Any]) -> ImpactRecord:
+    """The bounce to rest of a model built with the ball at rest ``height_m`` above the
+    plate: every step recorded (:func:`record_steps`) until
+    :class:`~impactbench.engines.bounce.BounceEnd` ends it (tunnelled: past the plate's far
+    side, R + ``model.plate_thickness_m``)."""
+    from impactbench.engines.bounce import BounceEnd
+
+    end = BounceEnd(scenario, dt, max_time_s,
+                    scenario.radius_m + getattr(model, "plate_thickness_m", 0.0))
+    rec = Recorder()
+    k, _, v = record_steps(model, dt, end.n_max, rec, end.ended)
+    return end.finish(rec, scenario, v, **meta, steps=k)
 
 
 class PairEnd:
@@ -525,9 +565,7 @@ class SteppedAdapter(Adapter):
     def run_bounce(self, scenario: Bounce, mode: str, settings: RunSettings) -> ImpactRecord:
         """The bounce to rest: the ball's model for ``mode`` at its first impact
         (:meth:`Bounce.ball`), built with the ball at rest ``height_m`` above the plate
-        (``drop_height_m``), stepped by :func:`impactbench.engines.bounce.run_stepped`."""
-        from impactbench.engines import bounce
-
+        (``drop_height_m``), stepped by :func:`run_bounce`."""
         dt = float(settings.timestep_s)
         ball = scenario.ball()
         params, meta = self.parameters(ball, mode, settings, ball=True)
@@ -536,7 +574,7 @@ class SteppedAdapter(Adapter):
         threshold = self.bounce_threshold(model)
         if threshold is not None:
             meta["bounce_threshold_m_s"] = threshold
-        return bounce.run_stepped(model, scenario, dt, settings.max_time_s, meta)
+        return run_bounce(model, scenario, dt, settings.max_time_s, meta)
 
     def bounce_threshold(self, model: SteppedModel) -> float | None:
         """The restitution velocity threshold (m/s) the engine applies to ``model``'s ball,

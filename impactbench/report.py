@@ -108,13 +108,8 @@ def points_text(spec: Any, runs: list[JobResult]) -> str:
     for a in spec.axes:
         if a.categorical or ("velocity_m_s" in spec.axis_names and a.name != "velocity_m_s"):
             continue  # (a scenario with an impact velocity is named by it alone)
-        values = ", ".join(f"{v:g}" for v in sorted({float(r.job.get(a.name)) for r in runs
-                                                     if r.job.get(a.name) is not None}))
-        if a.name == "velocity_m_s":
-            parts.append(f"{spec.velocity_symbol} = {values} m/s")
-        else:
-            symbol, _, unit = a.column.partition(" (")
-            parts.append(f"{symbol} = {values} {unit.rstrip(')')}".rstrip())
+        parts.append(spec.values_text(a, sorted({float(r.job.get(a.name)) for r in runs
+                                                 if r.job.get(a.name) is not None})))
     return "; ".join(parts)
 
 

@@ -268,11 +268,8 @@ def scenario_section(scenario: str, ctx: ReportContext) -> dict[str, Any] | None
         points = f"{len(v)} velocit{'y' if len(v) == 1 else 'ies'} " \
                  f"({', '.join(f'{x:g}' for x in v)} m/s)"
     else:  # its numeric axes by their columns: h (m) → "h = 0.05, 0.2 m"
-        points = ", ".join(
-            f"{a.column.partition(' (')[0]} = "
-            f"{', '.join(f'{x:g}' for x in sorted(set(s[a.name].astype(float))))} "
-            f"{a.column.partition(' (')[2].rstrip(')')}".rstrip()
-            for a in spec.axes if not a.categorical)
+        points = ", ".join(spec.values_text(a, sorted(set(s[a.name].astype(float))))
+                           for a in spec.axes if not a.categorical)
     cats = [a.name for a in spec.axes if a.categorical]
     if cats:
         combos = sorted(set(zip(*(s[c] for c in cats), strict=True)))

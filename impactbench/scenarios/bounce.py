@@ -106,11 +106,12 @@ def _deepest_beyond_step(rec: Any, g: float, dt: float) -> float:
     return deepest
 
 
-def metrics_of_record(rec: Any) -> dict[str, Any]:
-    """The scenario's metrics and sequences of an engine record (see the module)."""
+def metrics_of_record(rec: Any, b: Bounces | None = None) -> dict[str, Any]:
+    """The scenario's metrics and sequences of an engine record (see the module; ``b``: its
+    bounces, when already read)."""
     import numpy as np
 
-    b = bounces_of(rec)
+    b = bounces_of(rec) if b is None else b
     above = b.above
     settled = bool(rec.meta.get("settled", False)) and len(rec) > 0
     if settled:
@@ -185,11 +186,12 @@ class BounceSpec(ScenarioSpec):
     def run_details(self, record: Any, scenario: Any, mode: str) -> dict[str, Any]:
         """The sequences (``apex_heights_m``, ``impact_speeds_m_s``, ``rebound_speeds_m_s``),
         ``static_sink_m``, ``stop_reason`` and the engine's ``bounce_threshold_m_s``."""
-        got = metrics_of_record(record)
+        b = bounces_of(record)
+        got = metrics_of_record(record, b)
         out = {k: got[k] for k in ("apex_heights_m", "impact_speeds_m_s",
                                    "rebound_speeds_m_s")}
         out["static_sink_m"] = scenario.static_sink_m
-        out["stop_reason"] = stop_reason(record, bounces_of(record))
+        out["stop_reason"] = stop_reason(record, b)
         out["bounce_threshold_m_s"] = record.meta.get("bounce_threshold_m_s")
         return out
 

@@ -280,14 +280,18 @@ class ScenarioSpec:
         return f"{cats}, {nums}" if cats else nums
 
     def _number_text(self, axis: Axis, value: Any) -> str:
-        """``V0 = 2 m/s`` (the impact velocity, by the spec's symbol) or, for another axis,
-        from its column ``θ (°)``: ``θ = 45°``."""
+        return self.values_text(axis, (value,))
+
+    def values_text(self, axis: Axis, values: Iterable[Any]) -> str:
+        """``V0 = 0.5, 2 m/s`` (the impact velocity, by the spec's symbol) or, for another
+        numeric axis, from its column ``θ (°)``: ``θ = 45°``, ``h (m)``: ``h = 0.05, 0.2 m``."""
+        numbers = ", ".join(f"{float(v):g}" for v in values)
         if axis.name == "velocity_m_s":
-            return f"{self.velocity_symbol} = {float(value):g} m/s"
+            return f"{self.velocity_symbol} = {numbers} m/s"
         symbol, _, unit = axis.column.partition(" (")
         unit = unit.rstrip(")")
         gap = "" if unit in ("°", "%") else " "
-        return f"{symbol} = {float(value):g}{gap + unit if unit else ''}"
+        return f"{symbol} = {numbers}{gap + unit if unit else ''}"
 
     def figure_name(self, point: Point) -> str:
         """The file-name part of a per-point figure: ``ball_v2`` or ``rf_linear_linear_v2``."""

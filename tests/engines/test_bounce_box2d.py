@@ -3,8 +3,8 @@
 
 from __future__ import annotations
 
-import numpy as np
 import pytest
+from bounce_records import PHYSICAL, apexes, first_contact
 from conftest import require_engine
 from impactbench.engines.base import RunSettings, get_adapter
 from impactbench.reference.bounce_scenario import Bounce
@@ -12,34 +12,9 @@ from impactbench.reference.record import Status
 
 require_engine("box2d")
 
-PHYSICAL = {Status.OK, Status.NO_CONTACT, Status.TUNNELED, Status.DIVERGED, Status.MAX_TIME}
-"""The statuses of a run that ran (a physical outcome)."""
 
 E = {"restitution": 0.9}
 """A custom rigid restitution (the plate's is 0: the pair's maximum is 0.9)."""
-
-
-def first_contact(rec) -> int:
-    """The first sample with a reported contact force."""
-    on = rec.normal_force_n > 0.0
-    assert on.any()
-    return int(np.argmax(on))
-
-
-def apexes(rec) -> list[float]:
-    """max(−x) (m) over each flight after the first contact (samples between contacts)."""
-    on = rec.normal_force_n > 0.0
-    out, i, n = [], first_contact(rec), on.size
-    while i < n:
-        while i < n and on[i]:
-            i += 1
-        j = i
-        while j < n and not on[j]:
-            j += 1
-        if j > i:
-            out.append(float(np.max(-rec.penetration_m[i:j])))
-        i = j
-    return out
 
 
 def run(mode: str, scenario: Bounce, **settings) -> object:
