@@ -486,7 +486,8 @@ def run_jobs(jobs: list[Job], workers: int | None = None,
 
 def tidy(results: list[JobResult]) -> list[dict[str, Any]]:
     """One row per run and metric (DESIGN.md's columns, plus study, the run's plausibility
-    measures ``penetration_ratio`` and ``energy_ratio`` (:mod:`impactbench.plausibility`) and
+    measures ``penetration_ratio``, ``energy_ratio`` and ``step_overlap_ratio``
+    (:mod:`impactbench.plausibility`) and
     the point's axes:
     every registered scenario's, each once — categorical ones after ``scenario``, numeric
     ones after ``mode``; a scenario without an axis leaves it "" or NaN)."""
@@ -517,5 +518,6 @@ def tidy(results: list[JobResult]) -> list[dict[str, Any]]:
                 "engine_version": run.get("engine_version", ""),
                 "penetration_ratio": measures.get("penetration_ratio", math.nan),
                 "energy_ratio": measures.get("energy_ratio", math.nan),
+                "step_overlap_ratio": measures.get("step_overlap_ratio", math.nan),
             })
     return rows

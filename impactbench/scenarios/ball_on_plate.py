@@ -52,14 +52,16 @@ class BallOnPlateSpec(ScenarioSpec):
         return hunt_crossley.history(scenario)
 
     def measure(self, scenario: Any, rec: Any, metrics: dict[str, Any]) -> dict[str, float]:
-        """The largest overlap over the ball's radius (from the record itself: a rigid contact's
-        one-step overlap is not compared with the reference, but a ball that deep sinks visibly),
+        """The contact's sinking beyond the step's own overlap and that overlap, over the
+        ball's radius (from the record itself, :func:`impactbench.plausibility.overlaps`),
         and the kinetic energy after over before, e² (ball on a fixed plate)."""
         import math
 
-        pen = float(rec.penetration_m.max()) if len(rec) else math.nan
+        from impactbench.plausibility import overlap_measures
+
         e = float(metrics.get("restitution", math.nan))
-        return {"penetration_ratio": pen / scenario.radius_m, "energy_ratio": e * e}
+        return {**overlap_measures(rec, scenario.radius_m, scenario.gravity_m_s2),
+                "energy_ratio": e * e}
 
     def problem(self, scenario: Any, ref: dict[str, Any]) -> str:
         """An indentation beyond the ball's radius: no contact law holds there."""

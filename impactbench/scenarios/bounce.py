@@ -95,17 +95,6 @@ def bounces_of(rec: Any) -> Bounces:
     return out
 
 
-def _deepest_beyond_step(rec: Any, g: float, dt: float) -> float:
-    """The largest overlap in any contact beyond the step's own, v·dt + g·dt² at the speed
-    it arrived with (m; ≥ 0)."""
-    x, v = rec.penetration_m, rec.penetration_rate_m_s
-    deepest = 0.0
-    for start, stop in _runs(rec.normal_force_n > 0.0):
-        arrived = max(float(v[start - 1]) if start else float(v[0]), 0.0)
-        deepest = max(deepest, float(x[start:stop + 1].max()) - arrived * dt - g * dt * dt)
-    return deepest
-
-
 def metrics_of_record(rec: Any, b: Bounces | None = None) -> dict[str, Any]:
     """The scenario's metrics and sequences of an engine record (see the module; ``b``: its
     bounces, when already read)."""
@@ -212,9 +201,11 @@ class BounceSpec(ScenarioSpec):
         1 mm (the first over the drop height), each apex given the sampling error of a
         parabola sampled at the step dt, g·dt²/8, in its favour: over 1, energy was created
         (by the contact, or by a position correction that lifts the ball)."""
+        from impactbench.plausibility import overlaps
+
         b = bounces_of(rec)
         dt = float(rec.meta.get("timestep_s") or 0.0)
-        pen = _deepest_beyond_step(rec, scenario.gravity_m_s2, dt) if len(rec) else math.nan
+        step, pen = overlaps(rec, dt, scenario.gravity_m_s2)
         sink = float(metrics.get("rest_sink_m", math.nan))
         if math.isfinite(sink):
             pen = max(pen, sink)
@@ -223,6 +214,7 @@ class BounceSpec(ScenarioSpec):
         growth = [max(0.0, after - slack) / (before + slack)
                   for before, after in itertools.pairwise(apexes) if before > APEX_COUNT_M]
         return {"penetration_ratio": pen / scenario.radius_m,
+                "step_overlap_ratio": step / scenario.radius_m,
                 "energy_ratio": max(growth, default=math.nan)}
 
     def report_tables(self, ctx: Any, runs: list) -> list[dict[str, Any]]:

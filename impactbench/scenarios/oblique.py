@@ -83,11 +83,14 @@ class ObliqueSpec(ScenarioSpec):
         return oblique_integrate.history(scenario)
 
     def measure(self, scenario: Any, rec: Any, metrics: dict[str, Any]) -> dict[str, float]:
-        """The largest overlap over the ball's radius (from the record), and the kinetic energy
+        """The contact's sinking beyond the step's own overlap and that overlap, over the
+        ball's radius (from the record, :func:`impactbench.plausibility.overlaps` along the
+        normal), and the kinetic energy
         after over before, translation and spin: (m·(v_n'² + v_t'²) + I·ω'²)/(m·V² + I·ω0²),
         I = m·k² of the shape ((2/5)·m·R² sphere, (1/2)·m·R² disc), with v_n' = e·v_n and
         v_t' = e_t·V·sin θ (the tangential restitution; at θ = 0, v_t' = 0)."""
-        pen = float(rec.penetration_m.max()) if len(rec) else math.nan
+        from impactbench.plausibility import overlap_measures
+
         e = float(metrics.get("restitution", math.nan))
         w = float(metrics.get("spin_out_rad_s", math.nan))
         m = scenario.mass_kg
@@ -97,7 +100,7 @@ class ObliqueSpec(ScenarioSpec):
         vt = float(metrics.get("tangential_restitution", math.nan)) * v_t_in if v_t_in else 0.0
         before = m * scenario.velocity_m_s**2 + inertia * scenario.spin_rad_s**2
         after = m * (vn * vn + vt * vt) + inertia * w * w
-        return {"penetration_ratio": pen / scenario.radius_m, "energy_ratio": after / before}
+        return {**overlap_measures(rec, scenario.radius_m), "energy_ratio": after / before}
 
     def problem(self, scenario: Any, ref: dict[str, Any]) -> str:
         """An indentation beyond the ball's radius (the normal closed form's): no contact law

@@ -54,28 +54,34 @@ def test_bad_limits_are_one_line_errors(kwargs, field) -> None:
 
 def test_a_soft_default_contact_at_a_practical_step_is_implausible() -> None:
     """MuJoCo out of the box (solref 0.02 s, critically damped) at its 2 ms step lets the
-    paper's 14.5 mm ball sink about a radius at 2 m/s; the measure is the record's own largest
-    overlap over the radius (read back against the metric)."""
+    paper's 14.5 mm ball sink about a radius at 2 m/s; the measures split the record's own
+    largest overlap over the radius (read back against the record) into the step's own
+    overlap (at most one step's travel, v·dt) and the contact's sinking beyond it, judged."""
     require_engine("mujoco")
     ball = BallOnPlate(velocity_m_s=2.0)
     out, rec = compare("mujoco", ball, "default", RunSettings(timestep_s=2e-3))
     assert out["status"] == "implausible", out
     ratio = out["plausibility"]["penetration_ratio"]
-    assert ratio == pytest.approx(rec.penetration_m.max() / ball.radius_m, rel=1e-12)
-    assert ratio > 0.1
+    step = out["plausibility"]["step_overlap_ratio"]
+    assert ratio + step == pytest.approx(rec.penetration_m.max() / ball.radius_m, rel=1e-12)
+    assert 0.0 < step <= 2.0 * 2e-3 / ball.radius_m
+    assert ratio > 0.1  # 0.653 measured (0.929 overlap, 0.275 of it the step's)
     assert "penetration" in out["message"]
     assert math.isfinite(out["rel_error"]["restitution"])  # measured, kept for the tables
 
 
 def test_the_paper_case_at_a_fine_step_is_plausible() -> None:
     """Injected Hunt–Crossley at 1e-6 s: the paper's ball indents 114 µm at 5 m/s, 0.8 % of
-    its radius (MODELS.md's table: x_max = 1.137259e-04 m, R = 1.452 cm)."""
+    its radius (MODELS.md's table: x_max = 1.137259e-04 m, R = 1.452 cm); of it, one step's
+    travel, 5 µm, is the step's own (an ideal rigid contact's overlap at 1 µs)."""
     require_engine("mujoco")
     out, _ = compare("mujoco", BallOnPlate(velocity_m_s=5.0), "injected",
                      RunSettings(timestep_s=1e-6))
     assert out["status"] == "ok"
-    assert out["plausibility"]["penetration_ratio"] == pytest.approx(1.137259e-04 / 0.01452,
-                                                                    rel=1e-2)
+    measures = out["plausibility"]
+    assert measures["penetration_ratio"] + measures["step_overlap_ratio"] == pytest.approx(
+        1.137259e-04 / 0.01452, rel=1e-2)
+    assert measures["step_overlap_ratio"] == pytest.approx(5.0 * 1e-6 / 0.01452, rel=1e-2)
     assert out["plausibility"]["energy_ratio"] < 1.0
 
 
@@ -155,3 +161,57 @@ def test_the_user_sets_the_limits_in_a_config_and_on_the_command_line(capsys, tm
         config.parse({"plausibility": {"max_penetratio": 1.0}})
     with pytest.raises(ValueError, match=r"plausibility\.max_energy_ratio = 0\.5"):
         config.parse({"plausibility": {"max_energy_ratio": 0.5}})
+
+
+def _one_contact(v: float, dt: float, deepest: float):
+    """A record of one contact met at speed ``v`` (m/s) at step ``dt`` whose deepest overlap
+    is ``deepest`` (m): the sample before (a gap), the contact's, the one after."""
+    from impactbench.engines.common import Recorder
+
+    rec = Recorder()
+    rec.append(0.0, -0.2 * v * dt, v, 0.0, v)
+    rec.append(dt, deepest, v, 10.0, v)
+    rec.append(2 * dt, -0.001, -v, 0.0, -v)
+    return rec.record(0.1, timestep_s=dt)
+
+
+def test_the_steps_own_overlap_is_reported_and_only_what_lies_beyond_it_is_judged() -> None:
+    """The rule both ways (module doc): a ball met by an ideal rigid contact after one step's
+    travel, v·dt = 8.3 mm at 2 m/s and 1/240 s (0.57 of the paper's 14.5 mm ball), sinks by
+    nothing of the contact's own; the same contact 2 R deeper sinks 2 R."""
+    dt, v, r = 1.0 / 240.0, 2.0, BallOnPlate().radius_m
+    rigid = plausibility.overlap_measures(_one_contact(v, dt, v * dt), r)
+    assert rigid["step_overlap_ratio"] == pytest.approx(v * dt / r) == pytest.approx(0.574, 1e-3)
+    assert rigid["penetration_ratio"] == 0.0
+    assert plausibility.judge(run_object(penetration=rigid["penetration_ratio"]))["status"] == "ok"
+    deep = plausibility.overlap_measures(_one_contact(v, dt, v * dt + 2 * r), r)
+    assert deep["penetration_ratio"] == pytest.approx(2.0)
+    judged = plausibility.judge({"status": "ok", "message": "", "plausibility":
+                                 {**deep, "energy_ratio": 0.5}})
+    assert judged["status"] == "implausible"
+    assert "penetration 2 of its radius beyond the step's own overlap (0.574)" \
+        in judged["message"]
+    # gravity adds g·dt² to one step's travel (semi-implicit Euler: x += (v + g·dt)·dt)
+    g = 9.81
+    fall = plausibility.overlaps(_one_contact(v, dt, v * dt + g * dt * dt), dt, g)
+    assert fall == pytest.approx((v * dt + g * dt * dt, 0.0))
+
+
+def test_a_rigid_restitution_at_1_240_s_is_plausible_a_soft_contact_that_sinks_is_not() -> None:
+    """Through the engines: PyBullet's rigid contact with restitution 0.9 at its 1/240 s step
+    is plausible at every speed of the paper (its overlap is the step's: up to 0.71 R at
+    5 m/s, measured); MuJoCo at 2 ms with a 0.5 s soft contact sinks 25 R beyond it."""
+    require_engine("pybullet")
+    require_engine("mujoco")
+    dt = 1.0 / 240.0
+    for v in (0.5, 2.0, 5.0):
+        out, _ = compare("pybullet", BallOnPlate(velocity_m_s=v), "custom",
+                         RunSettings(timestep_s=dt, params={"restitution": 0.9}))
+        assert out["status"] == "ok", out["message"]
+        assert out["plausibility"]["penetration_ratio"] < 0.1
+    assert out["plausibility"]["step_overlap_ratio"] > 0.1  # 0.71 measured at 5 m/s
+    out, _ = compare("mujoco", BallOnPlate(velocity_m_s=2.0), "custom",
+                     RunSettings(timestep_s=2e-3, params={"solref": [0.5, 1.0]}))
+    assert out["status"] == "implausible"
+    assert out["plausibility"]["penetration_ratio"] > 2.0  # 25 measured
+    assert "beyond the step's own overlap" in out["message"]
