@@ -246,6 +246,11 @@ class RunSettings:
             scenario or timestep as ``unsupported`` before it reaches the adapter
             (:func:`impactbench.evaluate.compare`); None: not checked.
         options: engine-specific extras (e.g. an integrator name), recorded in the metadata.
+        phase: where the head-on ball's first touch falls inside a step, as a fraction of the
+            step in [0, 1): the ball starts (2 + phase)·V0·dt above the plate, so it reaches
+            the surface that fraction of the way through its third step. At a step longer
+            than the contact the outcome depends on it (:mod:`impactbench.phases` runs
+            several); ``None``: the adapters' fixed :data:`DEFAULT_PHASE` (half a step).
     """
 
     timestep_s: float | None = None
@@ -254,6 +259,7 @@ class RunSettings:
     params: dict[str, Any] | None = None
     tuned_for: dict[str, Any] | None = None
     options: dict[str, Any] = field(default_factory=dict)
+    phase: float | None = None
 
     def __post_init__(self) -> None:
         from impactbench.reference import validation as check
@@ -262,6 +268,21 @@ class RunSettings:
             check.positive("timestep_s", self.timestep_s)
         if self.max_time_s is not None:
             check.positive("max_time_s", self.max_time_s)
+        if self.phase is not None and not 0.0 <= self.phase < 1.0:
+            raise SettingsError(f"phase = {self.phase!r}: must be a fraction of a step in "
+                                f"[0, 1)")
+
+
+DEFAULT_PHASE = 0.5
+"""The head-on ball's first touch falls half-way through a step unless a run asks for another
+:attr:`RunSettings.phase` (the ball starts 2.5 steps of flight above the plate)."""
+
+
+def ball_gap_m(velocity_m_s: float, dt: float, phase: float | None = None) -> float:
+    """The head-on ball's initial free-flight distance (m): (2 + phase) steps at the impact
+    velocity, so the first touch falls ``phase`` of the way through a step (``None``:
+    :data:`DEFAULT_PHASE`, 2.5 steps, as every adapter had before phases)."""
+    return (2.0 + (DEFAULT_PHASE if phase is None else phase)) * velocity_m_s * dt
 
 
 class Adapter(ABC):

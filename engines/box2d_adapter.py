@@ -81,7 +81,13 @@ import math
 from typing import Any, ClassVar
 
 from impactbench.engines import oblique_common, oblique_tuned, stepping
-from impactbench.engines.base import CUBE_TOSS_TWO_D, RunSettings, Scenario, import_engine
+from impactbench.engines.base import (
+    CUBE_TOSS_TWO_D,
+    RunSettings,
+    Scenario,
+    ball_gap_m,
+    import_engine,
+)
 from impactbench.engines.common import native_ball_restitution, reference_velocity
 from impactbench.reference import validation as check
 from impactbench.reference.oblique_scenario import Oblique
@@ -230,21 +236,23 @@ class Box2dWorld:
 class BallModel(stepping.WorldModel):
     """The ball above the plate circle; ``law`` set: no fixture and the law acts.
 
-    ``drop_height_m`` None: the ball starts at its gap, approaching at V0; a value (m): at
-    rest with its lowest point that high above the plate (the bounce to rest), gravity
+    ``drop_height_m`` None: the ball starts at its gap (2 + ``phase`` steps of flight,
+    :func:`~impactbench.engines.base.ball_gap_m`), approaching at V0; a value (m): at rest
+    with its lowest point that high above the plate (the bounce to rest), gravity
     −``scenario.gravity_m_s2`` along y as always. The ball moves along the plate circle's
     vertical axis only (no force has an x part), so it rests on its top for seconds; the
     world never sleeps (:class:`Box2dWorld`)."""
 
     def __init__(self, scenario: BallOnPlate, params: dict[str, Any], dt: float,
-                 law: Any = None, drop_height_m: float | None = None) -> None:
+                 law: Any = None, drop_height_m: float | None = None,
+                 phase: float | None = None) -> None:
         self.w = w = Box2dWorld(params, dt, -scenario.gravity_m_s2)
         radius = scenario.radius_m
         self.plate_thickness_m = 2.0 * PLATE_RADIUS_M
         w.circle((0.0, -radius - PLATE_RADIUS_M), PLATE_RADIUS_M, 0.0,
                  PLATE_RESTITUTION, static=True)  # top at y = −R
         dropped = drop_height_m is not None
-        y0 = drop_height_m if dropped else stepping.gap_m(scenario.velocity_m_s, dt)
+        y0 = drop_height_m if dropped else ball_gap_m(scenario.velocity_m_s, dt, phase)
         self.body = w.circle((0.0, y0), radius, scenario.mass_kg,
                              None if law is not None else params["restitution"])
         self.body.linearVelocity = (0.0, 0.0 if dropped else -scenario.velocity_m_s)

@@ -19,7 +19,8 @@ DART facts this adapter relies on (checked with dartpy 6.20.0, Python 3.11, head
 
 Ball on plate: a sphere (radius R, mass m) on a prismatic joint along z above a welded box
 whose top face z = −R is the plate, so the joint coordinate is q = −x (penetration x, approach
-rate ẋ = −q̇); gravity (0, 0, −g); the ball starts 2.5 steps of flight away. Rigid contacts are
+rate ẋ = −q̇); gravity (0, 0, −g); the ball starts 2 + phase steps of flight away
+(:func:`~impactbench.engines.base.ball_gap_m`: 2.5 at the default phase). Rigid contacts are
 one-step impulses: their duration, peak force, penetration and loss are marked not comparable.
 
 - ``native``: ball restitution e = the reference's at the reference velocity (1 m/s, or
@@ -76,6 +77,7 @@ from impactbench.engines import oblique_tuned, stepping
 from impactbench.engines.base import (
     RunSettings,
     Scenario,
+    ball_gap_m,
     import_engine,
 )
 from impactbench.engines.common import native_ball_restitution, reference_velocity
@@ -206,12 +208,14 @@ class DartWorld:
 class BallModel(stepping.WorldModel):
     """The ball above the plate; ``law`` set: the ball has no collision and the law acts.
 
-    ``drop_height_m`` None: the ball starts at its gap, approaching at V0; a value (m): at
-    rest with its lowest point that high above the plate (the bounce to rest), gravity
+    ``drop_height_m`` None: the ball starts at its gap (2 + ``phase`` steps of flight,
+    :func:`~impactbench.engines.base.ball_gap_m`), approaching at V0; a value (m): at rest
+    with its lowest point that high above the plate (the bounce to rest), gravity
     −``scenario.gravity_m_s2`` along z as always."""
 
     def __init__(self, scenario: BallOnPlate, params: dict[str, Any], dt: float,
-                 law: Any = None, drop_height_m: float | None = None) -> None:
+                 law: Any = None, drop_height_m: float | None = None,
+                 phase: float | None = None) -> None:
         self.w = w = DartWorld(params, dt, -scenario.gravity_m_s2, axis=2)
         radius = scenario.radius_m
         # a welded box 2 m wide and 2 m thick: one step cannot carry the ball through it,
@@ -223,7 +227,7 @@ class BallModel(stepping.WorldModel):
         self.skeleton, self.joint = w.slider("ball", [0.0, 0.0, 0.0], scenario.mass_kg, shape,
                                              restitution)
         if drop_height_m is None:
-            self.skeleton.setPosition(0, stepping.gap_m(scenario.velocity_m_s, dt))
+            self.skeleton.setPosition(0, ball_gap_m(scenario.velocity_m_s, dt, phase))
             self.skeleton.setVelocity(0, -scenario.velocity_m_s)
         else:
             self.skeleton.setPosition(0, drop_height_m)  # q = −x: at rest, h above

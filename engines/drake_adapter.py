@@ -18,7 +18,9 @@ Ball on plate (MODELS.md §1)
     A sphere (mass m, radius R) on a prismatic joint along world z hits the plate, the top face
     z = 0 of a 1 m box welded to the world; penetration x = R − z, velocity_1 = −ż; gravity
     is (0, 0, −g) with g = ``scenario.gravity_m_s2`` (0 by default); friction 0. The ball starts
-    ``FREE_FLIGHT_STEPS`` (2.5) steps of flight away from the plate.
+    2 + ``RunSettings.phase`` steps of flight away from the plate
+    (:func:`~impactbench.engines.base.ball_gap_m`; ``FREE_FLIGHT_STEPS``, 2.5, at the default
+    phase).
 
     * native: Drake's point contact, f = k·x·(1 + d·ẋ)₊ — linear Hunt–Crossley. Its
       restitution depends on α = d·V0 alone, so d = b gives the reference's restitution at
@@ -160,11 +162,17 @@ from impactbench.engines.base import (
     EngineUnavailable,
     RunSettings,
     Scenario,
+    ball_gap_m,
     checked_params,
     scenario_builders,
 )
 from impactbench.engines.bounce import BounceEnd
-from impactbench.engines.common import NATIVE_REFERENCE_VELOCITY_M_S, Recorder, classify
+from impactbench.engines.common import (
+    NATIVE_REFERENCE_VELOCITY_M_S,
+    Recorder,
+    ball_phase,
+    classify,
+)
 from impactbench.engines.oblique_common import (
     REGULARISATION_STEPS,
     coulomb_force,
@@ -182,7 +190,9 @@ from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
 
 FREE_FLIGHT_STEPS = 2.5
 """Steps of free flight before first touch. Not an integer, so first touch falls mid-step
-and no sample sits on the contact edge (where the metrics' edge location degenerates)."""
+and no sample sits on the contact edge (where the metrics' edge location degenerates). The
+rigid–flexible pair's and the oblique ball's; the head-on ball's is 2 + ``RunSettings.phase``
+(this at the default phase)."""
 DEFAULT_INTEGRATOR = "runge_kutta3"
 BALL_TIMESTEP_S = 1e-6
 RIGID_FLEXIBLE_TIMESTEP_S = 1e-5
@@ -386,9 +396,11 @@ def _discrete_parameters(mode: str, settings: RunSettings) -> dict[str, Any] | N
 
 
 def build_discrete_ball(scenario: BallOnPlate, params: dict[str, Any], dt: float,
-                        drop_height_m: float | None = None) -> DrakeModel:
+                        drop_height_m: float | None = None, phase: float | None = None
+                        ) -> DrakeModel:
     """The ball on a discrete plant with Drake's defaults plus ``params`` (see module doc),
-    starting as :func:`_ball_start` says (``drop_height_m``: at rest that high, m)."""
+    starting as :func:`_ball_start` says (``drop_height_m``: at rest that high, m; else at
+    the gap for ``phase``, recorded in ``meta["phase"]``)."""
     d = _drake()
     m, r = scenario.mass_kg, scenario.radius_m
     config_keys = ("discrete_contact_approximation", "contact_model", "penetration_allowance",
@@ -424,33 +436,39 @@ def build_discrete_ball(scenario: BallOnPlate, params: dict[str, Any], dt: float
         "plant": f"discrete (time_step = {dt!r} s), {config.discrete_contact_approximation}",
         "force_source": "contact results output port (sampled: the force of the last step)",
         "params": dict(params), "engine_defaults": defaults}
+    if drop_height_m is None:
+        meta["phase"] = ball_phase(phase)
     sim, context = _simulator(d, builder, plant, dt, DEFAULT_INTEGRATOR)
-    model = DrakeModel(sim, plant, context, dt, *_ball_start(scenario, dt, drop_height_m),
-                       lambda: 0.0, meta=meta)
+    model = DrakeModel(sim, plant, context, dt,
+                       *_ball_start(scenario, dt, drop_height_m, phase), lambda: 0.0,
+                       meta=meta)
     model.force = _force_reader(model, axis=2)
     return model
 
 
-def _ball_start(scenario: BallOnPlate, dt: float, drop_height_m: float | None
-                ) -> tuple[np.ndarray, np.ndarray]:
+def _ball_start(scenario: BallOnPlate, dt: float, drop_height_m: float | None,
+                phase: float | None = None) -> tuple[np.ndarray, np.ndarray]:
     """The ball's initial (q0, v0) = ([z], [ż]) (m, m/s; z its centre above the plate's top
-    face z = 0): the head-on ball ``FREE_FLIGHT_STEPS`` steps of flight (``dt``, s) above the
-    plate at −V0; with ``drop_height_m`` (the bounce) at rest, its lowest point that high."""
+    face z = 0): the head-on ball 2 + ``phase`` steps of flight (``dt``, s) above the plate
+    at −V0 (:func:`~impactbench.engines.base.ball_gap_m`; ``phase`` None:
+    ``FREE_FLIGHT_STEPS``); with ``drop_height_m`` (the bounce) at rest, its lowest point
+    that high."""
     r = scenario.radius_m
     if drop_height_m is not None:
         return np.array([r + drop_height_m]), np.array([0.0])
-    gap = FREE_FLIGHT_STEPS * scenario.velocity_m_s * dt
+    gap = ball_gap_m(scenario.velocity_m_s, dt, phase)
     return np.array([r + gap]), np.array([-scenario.velocity_m_s])
 
 
 def build_ball(scenario: BallOnPlate, mode: str, settings: RunSettings,
                drop_height_m: float | None = None) -> DrakeModel:
     """The ball-on-plate diagram for ``mode`` (every mode; see the module docstring); the
-    ball starts as :func:`_ball_start` says (``drop_height_m``: at rest that high, m)."""
+    ball starts as :func:`_ball_start` says (``drop_height_m``: at rest that high, m; else
+    at the gap for ``settings.phase``, recorded in ``meta["phase"]``)."""
     dt = float(settings.timestep_s or BALL_TIMESTEP_S)
     discrete = _discrete_parameters(mode, settings)
     if discrete is not None:
-        return build_discrete_ball(scenario, discrete, dt, drop_height_m)
+        return build_discrete_ball(scenario, discrete, dt, drop_height_m, settings.phase)
     d = _drake()
     m, r = scenario.mass_kg, scenario.radius_m
     builder = d.DiagramBuilder()
@@ -491,8 +509,11 @@ def build_ball(scenario: BallOnPlate, mode: str, settings: RunSettings,
     integrator = _integrator(settings)
     sim, context = _simulator(d, builder, plant, dt, integrator)
     meta["integrator"] = f"{integrator}, fixed step"
-    model = DrakeModel(sim, plant, context, dt, *_ball_start(scenario, dt, drop_height_m),
-                       lambda: 0.0, meta=meta)
+    if drop_height_m is None:
+        meta["phase"] = ball_phase(settings.phase)
+    model = DrakeModel(sim, plant, context, dt,
+                       *_ball_start(scenario, dt, drop_height_m, settings.phase), lambda: 0.0,
+                       meta=meta)
     model.force = _force_reader(model, axis=2, applied=applied, sign=1.0)
     return model
 
@@ -987,7 +1008,8 @@ def _ball_time_cap(scenario: BallOnPlate, settings: RunSettings, dt: float) -> f
     x_max = ((n + 1) * s.mass_kg * s.velocity_m_s**2 / (2 * s.stiffness)) ** (1 / (n + 1))
     elastic = (2 * x_max / s.velocity_m_s) * math.sqrt(math.pi) * math.gamma(
         1 + 1 / (n + 1)) / math.gamma(0.5 + 1 / (n + 1))
-    return (FREE_FLIGHT_STEPS + 1) * dt + max(BALL_TIME_CAP_DURATIONS * elastic, 1000 * dt)
+    flight_steps = 2.0 + ball_phase(settings.phase)  # FREE_FLIGHT_STEPS at the default
+    return (flight_steps + 1) * dt + max(BALL_TIME_CAP_DURATIONS * elastic, 1000 * dt)
 
 
 def _tunnel_depth_m(model: DrakeModel, radius_m: float) -> float:

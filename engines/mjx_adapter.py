@@ -71,6 +71,7 @@ from impactbench.engines.base import (
     RunSettings,
     cube_toss_builder,
 )
+from impactbench.engines.common import ball_phase
 from impactbench.engines.mujoco_adapter import (
     BALL_TIMESTEP_S,
     BOUNCE_TIMESTEP_S,
@@ -301,6 +302,7 @@ def _ball_setup(s: BallOnPlate, mode: str, settings: RunSettings) -> _BallSetup 
         return built
     gap, n_max, first, chunk = ball_start(s, mode, settings, built.data, dt, built.t_est_s,
                                           BALL_CHUNK)
+    built.meta["phase"] = ball_phase(settings.phase)
     return _BallSetup(built.model, built.data, built.control, built.params, built.meta, dt,
                       gap, n_max, first, chunk, built.mjcf)
 

@@ -71,8 +71,9 @@ computes from ``mj_contactForce`` during ``mj_step`` at the step's start state, 
 (state at the start of step k, the contact force acting over step k). Steps run in chunks:
 through :func:`mujoco.rollout.rollout` (C++ loop, no Python per step) when nothing must change
 between steps (native/tuned with a linear structure), otherwise a lean Python loop. The record
-runs from 2.5 steps of free flight before first touch (time 0 = the instant of first touch in
-free flight) until separation: ball apart from the plate, moving away, with zero force;
+runs from 2.5 steps of free flight before first touch (the head-on ball: 2 + phase,
+:func:`~impactbench.engines.base.ball_gap_m`; time 0 = the instant of first touch in free
+flight) until separation: ball apart from the plate, moving away, with zero force;
 rigid–flexible when
 :func:`impactbench.reference.laws.no_further_contact` holds (after a collapse — body 2's energy
 above the softening law's collapse energy, status ``structure_collapsed`` — once body 2 has
@@ -145,6 +146,7 @@ from impactbench.engines.base import (
     Adapter,
     EngineUnavailable,
     RunSettings,
+    ball_gap_m,
     scenario_builders,
 )
 from impactbench.engines.bounce import BounceEnd
@@ -152,6 +154,7 @@ from impactbench.engines.common import (
     NATIVE_REFERENCE_VELOCITY_M_S,
     Recorder,
     SpringDamper,
+    ball_phase,
     classify,
     native_ball_spring_damper,
     reference_velocity,
@@ -177,7 +180,9 @@ IMPEDANCE = 1e-4
 """solimp dmin = dmax: MuJoCo's smallest impedance (mjMINIMP), a pure spring–damper."""
 SOLIMP: tuple[float, ...] = (IMPEDANCE, IMPEDANCE, 1e-3, 0.5, 2.0)
 GAP_STEPS = 2.5
-"""Free flight before first touch, in steps (so first touch falls between two samples)."""
+"""Free flight before first touch, in steps (so first touch falls between two samples): the
+rigid–flexible pair's, the oblique ball's, and the head-on ball's at the default phase (its
+gap is :func:`~impactbench.engines.base.ball_gap_m`, 2 + ``RunSettings.phase`` steps)."""
 BALL_TIMESTEP_S = 1e-6
 RIGID_FLEXIBLE_TIMESTEP_S = 1e-5
 INTEGRATOR = "Euler"
@@ -697,7 +702,8 @@ def run_ball(s: BallOnPlate, mode: str, settings: RunSettings) -> ImpactRecord:
     gap, n_max, first, chunk = ball_start(s, mode, settings, built.data, dt, built.t_est_s, 8)
     sim = _Sim(built.model, built.data, built.hook)
     out = drive(sim, n_max, first, chunk, ball_end_finder())
-    meta.update(steps=sim.steps, stepping="python loop" if built.hook else "rollout")
+    meta.update(phase=ball_phase(settings.phase), steps=sim.steps,
+                stepping="python loop" if built.hook else "rollout")
     return ball_outcome_record(s, out, dt, gap, meta)
 
 
@@ -731,23 +737,32 @@ def ball_contact(s: BallOnPlate, mode: str, settings: RunSettings, model: Any, d
 def drive_plan(settings: RunSettings, dt: float, flight_s: float, t_est: float,
                min_chunk: int, min_cap_s: float = 0.0) -> tuple[int, int, int]:
     """How a ball's impact is driven (MuJoCo's, MJX's and Newton's), from the free flight to
-    first touch and the contact duration ``t_est`` (s): (the step cap: ``max_time_s``, else
-    the flight and 20 contact durations but at least ``min_cap_s``; the first step the end is
-    looked for at; the chunk)."""
+    first touch ``flight_s`` (s: the gap over the approach speed, at most 3 steps) and the
+    contact duration ``t_est`` (s): (the step cap: ``max_time_s``, else the flight and 20
+    contact durations but at least ``min_cap_s``; the first step the end is looked for at;
+    the chunk)."""
     max_time = settings.max_time_s or flight_s + max(20.0 * t_est, min_cap_s)
-    n_max = max(math.ceil(max_time / dt), math.ceil(GAP_STEPS) + 16)
-    first = math.ceil(GAP_STEPS) + math.ceil(t_est / dt) + 2
+    flight = flight_steps(flight_s, dt)
+    n_max = max(math.ceil(max_time / dt), flight + 16)
+    first = flight + math.ceil(t_est / dt) + 2
     return n_max, first, max(min_chunk, math.ceil(0.05 * t_est / dt))
+
+
+def flight_steps(flight_s: float, dt: float) -> int:
+    """The whole steps a free flight of ``flight_s`` (s) takes to first touch, rounded up
+    (round-off in the gap's last digits ignored: 2.5 steps → 3, 2 steps → 2)."""
+    return math.ceil(round(flight_s / dt, 9))
 
 
 def ball_start(s: BallOnPlate, mode: str, settings: RunSettings, data: Any, dt: float,
                t_est: float, min_chunk: int) -> tuple[float, int, int, int]:
-    """Put the ball :data:`GAP_STEPS` steps above the plate at −V0 into ``data`` and plan the
-    drive (:func:`drive_plan`; ``default``/``custom``: at least
+    """Put the ball its gap above the plate at −V0 into ``data``
+    (:func:`~impactbench.engines.base.ball_gap_m` at ``settings.phase``: 2 + phase steps of
+    flight) and plan the drive (:func:`drive_plan`; ``default``/``custom``: at least
     :data:`DEFAULT_TIME_CAP_S`) (MuJoCo's and MJX's): (the gap (m), the step cap, the first
     step the end is looked for at, the chunk)."""
     v0 = s.velocity_m_s
-    gap = GAP_STEPS * v0 * dt
+    gap = ball_gap_m(v0, dt, settings.phase)
     data.qpos[0], data.qvel[0] = gap, -v0
     min_cap = DEFAULT_TIME_CAP_S if mode in ("default", "custom") else 0.0
     return gap, *drive_plan(settings, dt, gap / v0, t_est, min_chunk, min_cap)

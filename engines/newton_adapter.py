@@ -100,12 +100,19 @@ from typing import Any
 
 import numpy as np
 from impactbench.engines import oblique_common, oblique_tuned
-from impactbench.engines.base import Adapter, EngineUnavailable, RunSettings, scenario_builders
+from impactbench.engines.base import (
+    Adapter,
+    EngineUnavailable,
+    RunSettings,
+    ball_gap_m,
+    scenario_builders,
+)
 from impactbench.engines.bounce import BounceEnd
 from impactbench.engines.common import (
     NATIVE_REFERENCE_VELOCITY_M_S,
     Recorder,
     SpringDamper,
+    ball_phase,
     stderr_without,
 )
 from impactbench.engines.mujoco_adapter import (
@@ -584,12 +591,13 @@ class _BallSetup:
 
 
 def _ball_setup(s: BallOnPlate, mode: str, settings: RunSettings) -> _BallSetup:
-    """The contact values, meta, start gap (m), drive plan and force recorder of a ball
-    run."""
+    """The contact values, meta, start gap (m: :func:`~impactbench.engines.base.ball_gap_m`
+    at ``settings.phase``), drive plan and force recorder of a ball run."""
     dt = float(settings.timestep_s or BALL_TIMESTEP_S)
     v0 = s.velocity_m_s
     contact = _ball_contact(s, mode, settings)
-    gap = GAP_STEPS * v0 * dt
+    gap = ball_gap_m(v0, dt, settings.phase)
+    contact.meta["phase"] = ball_phase(settings.phase)
     return _BallSetup(contact.values, contact.meta, dt, gap,
                       drive_plan(settings, dt, gap / v0, contact.t_est, 8),
                       _ball_force(s, dt), contact.secant)

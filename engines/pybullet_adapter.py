@@ -9,7 +9,8 @@ friction 0, ``linearDamping = angularDamping = 0`` and sleeping disabled.
 * Ball on plate: a free sphere (radius R, mass m) moving along −z onto a static box whose top
   face is z = 0; gravity −``gravity_m_s2`` along z. Penetration x = R − z_ball (the same number
   as ``getContactPoints()[8]``, negated), approach speed ẋ = −v_z. The ball starts
-  ``FLIGHT_STEPS`` steps of free flight above the plate.
+  2 + ``RunSettings.phase`` steps of free flight above the plate
+  (:func:`~impactbench.engines.base.ball_gap_m`; ``FLIGHT_STEPS`` at the default phase).
 * Rigid–flexible: one fixed-base multibody with two sibling prismatic links along x (body 1 and
   body 2, self-collision on), each link a sphere collider. Reduced coordinates keep both bodies
   exactly on the axis without constraint rows competing with the contact row in the solver,
@@ -157,12 +158,14 @@ from impactbench.engines.base import (
     EngineUnavailable,
     RunSettings,
     Scenario,
+    ball_gap_m,
     scenario_builders,
 )
 from impactbench.engines.bounce import BounceEnd
 from impactbench.engines.common import (
     NATIVE_REFERENCE_VELOCITY_M_S,
     Recorder,
+    ball_phase,
     classify,
     reference_velocity,
     silenced_fds,
@@ -308,14 +311,16 @@ class BallWorld:
     ``out_of_box`` (``default``/``custom`` modes): Bullet's defaults plus these user
     parameters instead of impactbench's contact set-up (K and D are then ignored).
     ``drop_height_m`` (the bounce to rest): the ball starts at rest with its lowest point this
-    far above the plate (m) instead of ``FLIGHT_STEPS`` steps away at −V0."""
+    far above the plate (m) instead of its gap at −V0: 2 + ``phase`` steps of flight
+    (:func:`~impactbench.engines.base.ball_gap_m`; ``phase`` None: ``FLIGHT_STEPS``)."""
 
     def __init__(self, p: Any, scenario: BallOnPlate, dt: float, k: float, d: float,
                  out_of_box: dict[str, Any] | None = None,
-                 drop_height_m: float | None = None) -> None:
+                 drop_height_m: float | None = None, phase: float | None = None) -> None:
         self.p, self.dt, self.radius = p, dt, scenario.radius_m
         self.out_of_box = out_of_box
         self.drop_height_m = drop_height_m
+        self.phase = phase
         # the restitutionVelocityThreshold this world sets (m/s): _connect's 0, else the
         # user's key or Bullet's default (btContactSolverInfo.h, 0.2)
         self.threshold_set_m_s = 0.0 if out_of_box is None else float(out_of_box.get(
@@ -373,7 +378,8 @@ class BallWorld:
         sphere = p.createCollisionShape(p.GEOM_SPHERE, radius=scenario.radius_m,
                                         physicsClientId=cid)
         drop = self.drop_height_m
-        self.gap_m = FLIGHT_STEPS * scenario.velocity_m_s * dt if drop is None else drop
+        self.gap_m = (ball_gap_m(scenario.velocity_m_s, dt, self.phase) if drop is None
+                      else drop)
         self.ball = p.createMultiBody(scenario.mass_kg, sphere,
                                       basePosition=[0.0, 0.0, scenario.radius_m + self.gap_m],
                                       physicsClientId=cid)
@@ -707,11 +713,13 @@ def _contact_start(s: Any, mode: str, settings: RunSettings, injection: str,
 
 
 def _step_cap(s: Any, settings: RunSettings, dt: float, contact_s: float, injected: bool,
-              out_of_box: dict[str, Any] | None, k0: float) -> int:
-    """The largest number of steps: free flight, five contacts and (unless injected) five
-    periods of the contact spring, or the out-of-box cap when Bullet's rigid contact runs."""
+              out_of_box: dict[str, Any] | None, k0: float,
+              flight_steps: float = FLIGHT_STEPS) -> int:
+    """The largest number of steps: free flight (``flight_steps`` steps: the head-on ball's
+    2 + phase), five contacts and (unless injected) five periods of the contact spring, or
+    the out-of-box cap when Bullet's rigid contact runs."""
     t_cap = settings.max_time_s or (
-        FLIGHT_STEPS * dt + 5.0 * contact_s
+        flight_steps * dt + 5.0 * contact_s
         + (0.0 if injected else OUT_OF_BOX_TIME_CAP_S if out_of_box is not None and k0 == 0.0
            else 5.0 * math.pi * math.sqrt(s.mass_kg / k0)))
     return max(MIN_STEPS, math.ceil(t_cap / dt))
@@ -885,7 +893,7 @@ def _ball_setup(p: Any, s: BallOnPlate, mode: str, settings: RunSettings, dt: fl
     # tunnelled: the centre past the plate's mid-plane, where the normal would flip; injected,
     # whose explicit force overshoots at a coarse step, already once past the surface
     beyond = s.radius_m if injected else s.radius_m + plate_half_thickness_m(s, dt)
-    world = BallWorld(p, s, dt, k0, d0, out_of_box, drop_height_m)
+    world = BallWorld(p, s, dt, k0, d0, out_of_box, drop_height_m, settings.phase)
     if out_of_box is not None:
         meta["engine_defaults"] = world.defaults
     inject = (_Injection(world, s.law(), injection, dt, s.mass_kg, s.gravity_m_s2 * dt)
@@ -898,8 +906,9 @@ def _run_ball(p: Any, s: BallOnPlate, mode: str, settings: RunSettings, dt: floa
     """Record the ball's impact; see the module docstring for the physics."""
     setup = _ball_setup(p, s, mode, settings, dt, injection)
     world, meta, inject, beyond = setup.world, setup.meta, setup.inject, setup.beyond
+    phase = meta["phase"] = ball_phase(settings.phase)
     n_max = _step_cap(s, settings, dt, _hertz_duration_s(s), inject is not None,
-                      setup.out_of_box, setup.k0)
+                      setup.out_of_box, setup.k0, 2.0 + phase)
     m, radius = s.mass_kg, s.radius_m
     rec = Recorder()
     end = _BallEnd(beyond)

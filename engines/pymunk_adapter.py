@@ -38,8 +38,9 @@ a third of a bare pymunk step):
 
 Ball-on-plate: a circle (radius R, mass m, infinite moment: friction is 0 and it must not spin)
 moving along −y onto a static thick segment (radius 0.5 m, core at y = −0.5 m, so its top face
-is y = 0: a step as long as 1/60 s cannot carry the ball past it), starting 2.5 steps of free
-flight away; penetration x = R − y. Gravity ``scenario.gravity_m_s2`` acts along −y.
+is y = 0: a step as long as 1/60 s cannot carry the ball past it), starting 2 + phase steps of
+free flight away (:func:`~impactbench.engines.base.ball_gap_m`: 2.5 at the default phase);
+penetration x = R − y. Gravity ``scenario.gravity_m_s2`` acts along −y.
 
 - ``native``: rigid contact with circle elasticity e and plate elasticity 1, so the pair
   restitution is e = k_ref, the reference's restitution at the reference velocity v_ref
@@ -174,12 +175,18 @@ from impactbench.engines.base import (
     Adapter,
     RunSettings,
     Scenario,
+    ball_gap_m,
     checked_params,
     import_engine,
     scenario_builders,
 )
 from impactbench.engines.bounce import BounceEnd
-from impactbench.engines.common import NATIVE_REFERENCE_VELOCITY_M_S, Recorder, classify
+from impactbench.engines.common import (
+    NATIVE_REFERENCE_VELOCITY_M_S,
+    Recorder,
+    ball_phase,
+    classify,
+)
 from impactbench.reference import validation as check
 from impactbench.reference.bounce_scenario import Bounce
 from impactbench.reference.oblique_scenario import Oblique
@@ -191,7 +198,9 @@ INJECTIONS: tuple[str, ...] = ("penalty", "restitution")
 """``settings.options["injection"]`` values for the ball in injected mode."""
 
 GAP_STEPS = 2.5
-"""Free flight before first touch, in steps (non-integer: touch falls inside a step)."""
+"""Free flight before first touch, in steps (non-integer: touch falls inside a step): the
+rigid–flexible pair's and the oblique ball's; the head-on ball's is 2 + ``RunSettings.phase``
+(:func:`~impactbench.engines.base.ball_gap_m`), this at the default phase."""
 
 TAIL_STEPS = 2
 """Samples recorded after the ball has let go (the metrics locate the end between samples)."""
@@ -270,7 +279,10 @@ class BallModel:
         measure: install the ``post_solve`` hook that reads the rigid impulse (the bare
             benchmark loop leaves it out; the penalty force is the model itself).
         drop_height_m: start the ball at rest with its lowest point this high (m) above the
-            plate (the bounce to rest) instead of :data:`GAP_STEPS` steps away at V0.
+            plate (the bounce to rest) instead of its gap at V0.
+        phase: where first touch falls inside a step: the gap is
+            :func:`~impactbench.engines.base.ball_gap_m`, 2 + phase steps of flight (None:
+            the default phase, :data:`GAP_STEPS` steps); kept as ``phase``.
 
     ``force_n`` holds the contact force of the last step in which the handler ran; the
     caller zeroes it before each step.
@@ -279,11 +291,13 @@ class BallModel:
     def __init__(self, scenario: BallOnPlate, contact: str, dt: float, *,
                  elasticity: float = 1.0, iterations: int = 10, measure: bool = True,
                  out_of_box: dict[str, Any] | None = None,
-                 drop_height_m: float | None = None) -> None:
+                 drop_height_m: float | None = None, phase: float | None = None) -> None:
         pymunk = _import_pymunk()
         self.scenario, self.contact, self.dt = scenario, contact, dt
         dropped = drop_height_m is not None
-        self.gap_m = drop_height_m if dropped else GAP_STEPS * scenario.velocity_m_s * dt
+        self.phase = ball_phase(phase)
+        self.gap_m = (drop_height_m if dropped
+                      else ball_gap_m(scenario.velocity_m_s, dt, phase))
         if out_of_box is None:
             self.space = space = _space(pymunk, iterations, scenario.gravity_m_s2)
         else:
@@ -611,11 +625,12 @@ def ball_model(scenario: BallOnPlate, mode: str, settings: RunSettings, dt: floa
                ) -> tuple[BallModel, dict[str, Any]]:
     """Build the ball space for ``mode``; returns it and the meta of its parameters.
     ``drop_height_m``: the ball starts at rest that high (m) above the plate (the bounce to
-    rest, :class:`BallModel`)."""
+    rest, :class:`BallModel`); else at its gap for ``settings.phase``."""
+    phase = settings.phase if drop_height_m is None else None
     if mode in ("default", "custom"):
         params = custom_parameters(settings.params or {}) if mode == "custom" else {}
         model = BallModel(scenario, "rigid", dt, measure=measure, out_of_box=params,
-                          drop_height_m=drop_height_m)
+                          drop_height_m=drop_height_m, phase=phase)
         return model, {"contact": "rigid", "params": params,
                        "engine_defaults": model.defaults,
                        "not_comparable": RIGID_BALL_ARTEFACTS}
@@ -628,7 +643,7 @@ def ball_model(scenario: BallOnPlate, mode: str, settings: RunSettings, dt: floa
         if contact == "restitution":
             meta["not_comparable"] = RIGID_BALL_ARTEFACTS
         return BallModel(scenario, contact, dt, iterations=iterations, measure=measure,
-                         drop_height_m=drop_height_m), meta
+                         drop_height_m=drop_height_m, phase=phase), meta
     if mode == "tuned":
         tuned = settings.tuned or {}
         if tuned.get("restitution_law") == "hunt_crossley":
@@ -638,7 +653,7 @@ def ball_model(scenario: BallOnPlate, mode: str, settings: RunSettings, dt: floa
                         tuned=dict(tuned), not_comparable=RIGID_BALL_ARTEFACTS)
             return BallModel(scenario.replace(damping_s_per_m=b), "restitution", dt,
                              iterations=iterations, measure=measure,
-                             drop_height_m=drop_height_m), meta
+                             drop_height_m=drop_height_m, phase=phase), meta
         e = _tuned_elasticity(settings)
         meta.update(contact="rigid", elasticity=e, tuned=dict(tuned),
                     not_comparable=RIGID_BALL_ARTEFACTS)
@@ -650,7 +665,7 @@ def ball_model(scenario: BallOnPlate, mode: str, settings: RunSettings, dt: floa
         meta.update(contact="rigid", elasticity=e, reference_velocity_m_s=v_ref,
                     not_comparable=RIGID_BALL_ARTEFACTS)
     model = BallModel(scenario, "rigid", dt, elasticity=e, iterations=iterations,
-                      measure=measure, drop_height_m=drop_height_m)
+                      measure=measure, drop_height_m=drop_height_m, phase=phase)
     return model, meta
 
 
@@ -783,7 +798,7 @@ def run_ball(model: BallModel, settings: RunSettings, meta: dict[str, Any]) -> I
     steps = xs.size - 1
     timed_out = steps == n_max and end.tail != 0 and not (end.tunneled or nonfinite)
     out = ImpactRecord(np.arange(xs.size) * dt, xs, vs, fs, vs, np.zeros_like(vs),
-                       mass_1_kg=sc.mass_kg, meta=dict(meta, steps=steps))
+                       mass_1_kg=sc.mass_kg, meta=dict(meta, phase=model.phase, steps=steps))
     vx, vy = model.body.velocity
     return classify(out, initial_kinetic_j=0.5 * sc.mass_kg * v0 * v0,
                     final_kinetic_j=0.5 * sc.mass_kg * (vx * vx + vy * vy),

@@ -25,8 +25,9 @@ PhysX facts this adapter relies on (checked with SAPIEN 3.0.3 / PhysX 5.3.1, CPU
   origin (plate top at z = −R, the ball's centre at z = −x), where float32 resolves ~1e-11 m.
 
 Ball on plate: a sphere (radius R, mass m, friction 0) above a static box whose top face is the
-plate; gravity −g along z with g = ``scenario.gravity_m_s2``; the ball starts 2.5 steps of
-flight away. Penetration x = −z_centre, approach rate ẋ = −ż.
+plate; gravity −g along z with g = ``scenario.gravity_m_s2``; the ball starts 2 + phase steps
+of flight away (:func:`~impactbench.engines.base.ball_gap_m`: 2.5 at the default phase).
+Penetration x = −z_centre, approach rate ẋ = −ż.
 
 - ``native``: the compliant contact K = m·(π/T_ref)² (both materials −K), the undamped spring
   whose duration π·√(m/K) equals the reference's at the reference velocity (1 m/s, or
@@ -97,6 +98,7 @@ from impactbench.engines.base import (
     EngineUnavailable,
     RunSettings,
     Scenario,
+    ball_gap_m,
 )
 from impactbench.engines.common import (
     native_ball_restitution,
@@ -263,11 +265,13 @@ class _BallAbovePlate:
     def __init__(self, params: dict[str, Any], dt: float, gravity_m_s2: float,
                  radius_m: float, mass_kg: float, inertia_kg_m2: float,
                  velocity_m_s: list[float], spin_rad_s: list[float] | None,
-                 driven: bool, height_m: float | None = None) -> None:
+                 driven: bool, height_m: float | None = None,
+                 phase: float | None = None) -> None:
         """``velocity_m_s`` (x, y, z; its −z part the approach speed that sets the gap) and
         ``spin_rad_s`` (about x, y, z; None: not set) are the ball's at the start;
         ``gravity_m_s2`` is along z; ``height_m``: the ball's lowest point starts that high
-        above the plate (m; None: at the gap of 2.5 steps of flight)."""
+        above the plate (m; None: at the gap of 2 + ``phase`` steps of flight,
+        :func:`~impactbench.engines.base.ball_gap_m`; ``phase`` None: 2.5 steps)."""
         import numpy as np
 
         self.world = w = PhysxWorld(params, dt, gravity_m_s2, axis=2)
@@ -276,7 +280,7 @@ class _BallAbovePlate:
         self.plate_thickness_m = 2.0
         w.add([0.0, 0.0, -radius_m - 1.0], 0.0, w.box(1.0), static=True)  # top face z = −R
         shape = None if driven else w.sphere(radius_m)
-        z0 = stepping.gap_m(-velocity_m_s[2], dt) if height_m is None else height_m
+        z0 = ball_gap_m(-velocity_m_s[2], dt, phase) if height_m is None else height_m
         self.body = w.add([0.0, 0.0, z0], mass_kg, shape, inertia=inertia_kg_m2)
         self.body.set_linear_velocity(velocity_m_s)
         if spin_rad_s is not None:
@@ -294,17 +298,19 @@ class _BallAbovePlate:
 class BallModel(_BallAbovePlate):
     """The ball above the plate; ``law`` set: the ball has no shape and the law is applied.
 
-    ``drop_height_m`` None: the ball starts at its gap, approaching at V0; a value (m): at
-    rest with its lowest point that high above the plate (the bounce to rest), gravity
+    ``drop_height_m`` None: the ball starts at its gap (2 + ``phase`` steps of flight,
+    :func:`~impactbench.engines.base.ball_gap_m`), approaching at V0; a value (m): at rest
+    with its lowest point that high above the plate (the bounce to rest), gravity
     −``scenario.gravity_m_s2`` along z as always."""
 
     def __init__(self, scenario: BallOnPlate, params: dict[str, Any], dt: float,
-                 law: Any = None, drop_height_m: float | None = None) -> None:
+                 law: Any = None, drop_height_m: float | None = None,
+                 phase: float | None = None) -> None:
         self.law = law
         v0 = scenario.velocity_m_s if drop_height_m is None else 0.0
         super().__init__(params, dt, -scenario.gravity_m_s2, scenario.radius_m,
                          scenario.mass_kg, 1.0, [0.0, 0.0, -v0], None,
-                         driven=law is not None, height_m=drop_height_m)
+                         driven=law is not None, height_m=drop_height_m, phase=phase)
         if drop_height_m is not None and law is not None:
             self.plate_thickness_m = 0.0  # no shape: past x = R the law's ball went through
 

@@ -39,9 +39,17 @@ from typing import Any, ClassVar, Protocol
 
 import numpy as np
 from impactbench.engines import oblique_common
-from impactbench.engines.base import Adapter, Builder, RunSettings, Scenario, scenario_builders
+from impactbench.engines.base import (
+    Adapter,
+    Builder,
+    RunSettings,
+    Scenario,
+    ball_gap_m,
+    scenario_builders,
+)
 from impactbench.engines.common import (
     Recorder,
+    ball_phase,
     classify,
     native_ball_restitution,
     reference_velocity,
@@ -53,7 +61,9 @@ from impactbench.reference.record import ImpactRecord, Status
 from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
 
 GAP_STEPS = 2.5
-"""Free flight before first touch, in steps (non-integer: touch falls inside a step)."""
+"""Free flight before first touch, in steps (non-integer: touch falls inside a step): the
+2-DOF pair's and the oblique ball's (:func:`gap_m`); the head-on ball's is 2 + phase
+(:func:`~impactbench.engines.base.ball_gap_m`), this at the default phase."""
 
 TAIL_STEPS = 2
 """Steps recorded after the contact has ended (the metrics locate the end between samples)."""
@@ -272,8 +282,9 @@ class _BallEnd:
 
 
 def run_ball(model: SteppedModel, scenario: BallOnPlate, dt: float, max_time_s: float | None,
-             meta: dict) -> ImpactRecord:
-    """Step the ball from its gap until the contact has ended (moving away or at rest).
+             meta: dict, phase: float | None = None) -> ImpactRecord:
+    """Step the ball from its gap (the model's: built at ``phase``, recorded in
+    ``meta["phase"]``) until the contact has ended (moving away or at rest).
 
     The contact has ended once a step reports no force after a step that did and the ball is
     not approaching (ẋ ≤ 1e-6·V0: a ball stopped dead by a restitution threshold ends at rest);
@@ -284,11 +295,11 @@ def run_ball(model: SteppedModel, scenario: BallOnPlate, dt: float, max_time_s: 
     """
     v0, radius = scenario.velocity_m_s, scenario.radius_m
     end = _BallEnd(radius + getattr(model, "plate_thickness_m", 0.0), REST_FRACTION * v0)
-    cap_s = max_time_s or max(gap_m(v0, dt) / v0 + BALL_TIME_CAP_S, MIN_STEPS * dt)
+    cap_s = max_time_s or max(ball_gap_m(v0, dt, phase) / v0 + BALL_TIME_CAP_S, MIN_STEPS * dt)
     n_max = max(1, math.ceil(cap_s / dt))
     rec = Recorder()
     k, _, v = record_steps(model, dt, n_max, rec, end)
-    out = rec.record(scenario.mass_kg, **meta, steps=k)
+    out = rec.record(scenario.mass_kg, **meta, phase=ball_phase(phase), steps=k)
     half_m = 0.5 * scenario.mass_kg
     return classify(out, initial_kinetic_j=half_m * v0 * v0, final_kinetic_j=half_m * v * v,
                     tunneled=end.tunneled,
@@ -524,7 +535,9 @@ class SteppedAdapter(Adapter):
 
     Subclasses set ``builders`` (:func:`builders`), ``ball_model``, ``pair_model`` (model
     classes taking ``(scenario, params, dt, law)``, ``law`` None for the engine's own
-    contact) and ``oblique_model``, and implement :meth:`parameters` and
+    contact; ``ball_model`` also the keywords ``phase``, its gap's
+    :attr:`~impactbench.engines.base.RunSettings.phase`, and ``drop_height_m``, the bounce's
+    start) and ``oblique_model``, and implement :meth:`parameters` and
     :meth:`oblique_parameters` (an engine module's functions can serve as they are:
     ``parameters = staticmethod(parameters)``). Injected mode hands the models the
     scenario's law (the ball's contact model, or the 2-DOF local law) to apply as a force.
@@ -547,11 +560,14 @@ class SteppedAdapter(Adapter):
         ball-on-plate scenario, else the rigid–flexible pair)."""
 
     def run_ball(self, scenario: BallOnPlate, mode: str, settings: RunSettings) -> ImpactRecord:
+        """The head-on ball: ``ball_model`` built with its gap at ``settings.phase``
+        (keyword ``phase``, :func:`~impactbench.engines.base.ball_gap_m`), stepped by
+        :func:`run_ball`."""
         dt = float(settings.timestep_s)
         params, meta = self.parameters(scenario, mode, settings, ball=True)
         law = scenario.law() if mode == "injected" else None
-        model = self.ball_model(scenario, params, dt, law)
-        return run_ball(model, scenario, dt, settings.max_time_s, meta)
+        model = self.ball_model(scenario, params, dt, law, phase=settings.phase)
+        return run_ball(model, scenario, dt, settings.max_time_s, meta, settings.phase)
 
     def run_pair(self, scenario: RigidFlexible, mode: str, settings: RunSettings
                  ) -> ImpactRecord:

@@ -28,6 +28,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     # one line per subcommand module; keep this list sorted. The packaged scenarios' own
     # subcommands (reference NAME, sweep NAME) are here too; a plug-in's come from its spec
     # (``register_commands``).
+    "impactbench.commands.advise",
     "impactbench.commands.ball_on_plate",
     "impactbench.commands.bounce",
     "impactbench.commands.calibrate",

@@ -357,3 +357,37 @@ def reference_history_for(scenario) -> dict[str, np.ndarray]:
     rec = spec_of(scenario).history(scenario)
     return {"time_s": rec.time_s, "normal_force_n": rec.normal_force_n,
             "penetration_m": rec.penetration_m}
+
+
+def advice_figure(advice: Any, path: str | Path) -> Path:
+    """The advisor's trade-off: every candidate's worst restitution error (over speeds and
+    phases, whatever its plausibility) against the contact's deepest sinking beyond the
+    step's own overlap (over the radius), one colour per contact model; hollow: implausible;
+    the star: the advice. The dotted line is the plausibility limit (0.1 R)."""
+    from impactbench.plausibility import DEFAULT
+
+    fig, ax = plt.subplots(figsize=(6.4, 4.4))
+    names = list(dict.fromkeys(t.model for t in advice.tried))
+    cmap = plt.get_cmap("tab10")
+    for i, name in enumerate(names):
+        for ok in (True, False):
+            pts = [(max(t.max_sinking, 1e-6), t.worst_error) for t in advice.tried
+                   if t.model == name and t.plausible == ok and math.isfinite(t.worst_error)
+                   and math.isfinite(t.max_sinking)]
+            if pts:
+                x, y = zip(*pts, strict=True)
+                ax.scatter(x, y, s=14, label=name if ok else None,
+                           facecolors=cmap(i % 10) if ok else "none", edgecolors=cmap(i % 10))
+    sink = max((r["sinking_ratio"] for r in advice.per_speed
+                if math.isfinite(r["sinking_ratio"])), default=0.0)
+    ax.scatter([max(sink, 1e-6)], [advice.worst_error], marker="*", s=160, c="black",
+               label="advice", zorder=5)
+    ax.axvline(DEFAULT.max_penetration_ratio, ls=":", c="grey")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("contact sinking beyond the step's overlap / R (worst phase; 1e-6: none)")
+    ax.set_ylabel("worst |restitution error| over speeds and phases")
+    ax.set_title(f"{advice.engine} at {advice.timestep_s:.4g} s: {len(advice.tried)} "
+                 "candidates (hollow: implausible)", fontsize=10)
+    ax.legend(fontsize=8)
+    return _save(fig, Path(path))

@@ -19,11 +19,20 @@ engine runs need not be: :meth:`Objective.prefetch` runs every run of the batch 
 :class:`impactbench.cluster.Runner` (Dask), and the evaluations that follow read them back; in
 this process they run one by one. The search hands over each slice of its Sobol scan and each
 finite-difference Jacobian as one batch, so a result on Dask equals the in-process one.
+
+Phases (``phases``, :mod:`impactbench.phases`): at a step not much shorter than the contact the
+outcome depends on where the first touch falls inside a step, so each velocity is run at every
+phase given and judged at its worst: a phase that fails fails the velocity, else the phase with
+the largest weighted squared error is the velocity's (its metrics, errors and status), and
+:attr:`Evaluation.spreads` keeps each velocity's restitution over the phases (min, median,
+max), its deepest step overlap and contact sinking. The advice is thus chosen on the worst
+phase's error, never on a lucky phase.
 """
 
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import math
 import time
 from collections.abc import Iterator, Mapping, Sequence
@@ -96,6 +105,10 @@ class Evaluation:
     statuses: list[str]
     penetration_ratios: list[float] = field(default_factory=list)
     """Per velocity: the largest overlap over the ball's radius (NaN where not measured)."""
+    spreads: list[dict[str, float]] = field(default_factory=list)
+    """Per velocity, over its phases: ``restitution_min``/``_median``/``_max`` (NaN where no
+    phase measured one), the largest ``step_overlap_ratio`` and ``penetration_ratio``, and
+    ``phases`` (how many were run)."""
 
     @property
     def max_penetration_ratio(self) -> float:
@@ -132,6 +145,9 @@ class Objective:
     stored: int = 0
     runner: Any = None
     """An :class:`impactbench.cluster.Runner` for :meth:`prefetch`; None runs here."""
+    phases: tuple[float | None, ...] = (None,)
+    """Where in a step the first touch falls (:attr:`RunSettings.phase`), each velocity run at
+    every one and judged at its worst (module doc); ``(None,)``: the adapters' one phase."""
     _true_refs: list[dict[str, Any]] = field(default_factory=list, repr=False)
     _ready: dict[tuple[bytes, int], dict[str, Any]] = field(default_factory=dict, repr=False)
     _walls: list[float] = field(default_factory=list, repr=False)
@@ -147,6 +163,8 @@ class Objective:
         for key, w in self.weights.items():
             check.one_of("target metric", key, BALL_METRICS)
             check.non_negative(f"weights[{key}]", w)
+        if not self.phases:
+            raise ValueError("phases = []: must list at least one phase of the step")
         if not any(w > 0 for w in self.weights.values()):
             raise ValueError(f"weights = {self.weights!r}: at least one target the engine can "
                              f"express must have weight > 0")
@@ -175,7 +193,12 @@ class Objective:
         values = np.asarray(values, dtype=float)
         mets, errs, stats, pens = [], [], [], []
         raw: list[dict[str, float]] = []  # errors whatever the plausibility
-        for run, ref in zip(self._runs(values), self.references, strict=True):
+        runs = self._runs(values)
+        n = len(self.phases)
+        spreads = [spread(runs[i * n:(i + 1) * n]) for i in range(len(self.velocities_m_s))]
+        worst = [self._worst(runs[i * n:(i + 1) * n], ref)
+                 for i, ref in enumerate(self.references)]
+        for run, ref in zip(worst, self.references, strict=True):
             ok = run["status"] == str(Status.OK)
             measured = ok or run["status"] == str(Status.IMPLAUSIBLE)
             mets.append({k: float(run[k]) for k in BALL_METRICS})
@@ -187,14 +210,14 @@ class Objective:
             pens.append(float((run.get("plausibility") or {}).get("penetration_ratio",
                                                                    math.nan)))
         self.run_wall_s += time.perf_counter() - t0
-        ev = Evaluation(values.copy(), 0.0, mets, errs, stats, pens)
+        ev = Evaluation(values.copy(), 0.0, mets, errs, stats, pens, spreads)
         ev.objective = float(np.sum(self.residuals_of(ev) ** 2))
         self.evaluations += 1
         if self.best is None or ev.objective < self.best.objective:
             self.best = ev
         if any(st.startswith(str(Status.IMPLAUSIBLE)) for st in stats):
             # what the search would have taken without the plausibility limits
-            free = Evaluation(values.copy(), 0.0, mets, raw, stats, pens)
+            free = Evaluation(values.copy(), 0.0, mets, raw, stats, pens, spreads)
             free.objective = float(np.sum(self.residuals_of(free) ** 2))
             if self.best_implausible is None or free.objective < self.best_implausible.objective:
                 self.best_implausible = free
@@ -247,12 +270,15 @@ class Objective:
         wanted: dict[tuple[bytes, int], tuple] = {}
         for values in points:
             values = np.asarray(values, dtype=float)
-            for i, v in enumerate(self.velocities_m_s):
+            for i, (v, phase) in enumerate(self._points()):
                 key = (values.tobytes(), i)
                 if key not in self._ready and key not in wanted:
-                    job = self.space.run(values, self.scenario.replace(velocity_m_s=v),
-                                         self.timestep_s)
-                    wanted[key] = (self.space.engine, *job, self._true_reference(i))
+                    sc, mode, settings = self.space.run(
+                        values, self.scenario.replace(velocity_m_s=v), self.timestep_s)
+                    if phase is not None:
+                        settings = dataclasses.replace(settings, phase=phase)
+                    wanted[key] = (self.space.engine, sc, mode, settings,
+                                   self._true_reference(i // len(self.phases)))
         if not wanted:
             return
         keys: dict[tuple[bytes, int], str] = {}
@@ -291,7 +317,7 @@ class Objective:
             self._unstored += [
                 (keys[k], inputs[k], {"engine": self.space.engine, "mode": wanted[k][2],
                                       "scenario": self.scenario.name, "study": CANDIDATE,
-                                      "point": (("velocity_m_s", self.velocities_m_s[k[1]]),)},
+                                      "point": self._point_of(k[1])},
                  run, {})
                 for k, run in zip(todo, runs, strict=True)]
             if time.monotonic() - self._last_flush > FLUSH_EVERY_S:
@@ -313,7 +339,37 @@ class Objective:
         """The engine's run objects at every velocity for ``values`` (prefetched or run)."""
         self.prefetch([values])
         blob = values.tobytes()
-        return [self._ready.pop((blob, i)) for i in range(len(self.velocities_m_s))]
+        return [self._ready.pop((blob, i)) for i in range(len(self._points()))]
+
+    def _points(self) -> list[tuple[float, float | None]]:
+        """The runs of one evaluation: (velocity, phase), velocity-major."""
+        return [(v, ph) for v in self.velocities_m_s for ph in self.phases]
+
+    def _point_of(self, i: int) -> tuple[tuple[str, Any], ...]:
+        """Run ``i``'s point as the store records it (its phase only where one was asked)."""
+        v, phase = self._points()[i]
+        return (("velocity_m_s", v),) + ((("phase", phase),) if phase is not None else ())
+
+    def _worst(self, runs: list[dict[str, Any]], ref: dict[str, Any]) -> dict[str, Any]:
+        """A velocity's run at its worst phase (module doc): the first that did not measure
+        (crashed, diverged, …), else the first implausible, else the largest weighted
+        squared error against ``ref``."""
+        if len(runs) == 1:
+            return runs[0]
+        for bad in (lambda r: r["status"] not in (str(Status.OK), str(Status.IMPLAUSIBLE)),
+                    lambda r: r["status"] == str(Status.IMPLAUSIBLE)):
+            for run in runs:
+                if bad(run):
+                    return run
+
+        def cost(run: dict[str, Any]) -> float:
+            total = 0.0
+            for key, w in self.weights.items():
+                e = relative_error(float(run[key]), float(ref[key]))
+                total += w * (e * e if math.isfinite(e) else FAILED_RESIDUAL ** 2)
+            return total
+
+        return max(runs, key=cost)
 
     def _true_reference(self, i: int) -> dict[str, Any]:
         """The Hunt–Crossley reference at velocity i (what a stored run is compared with)."""
@@ -333,6 +389,24 @@ class Objective:
 
     def residuals(self, values: np.ndarray) -> np.ndarray:
         return self.residuals_of(self.evaluate(values))
+
+
+def spread(runs: Sequence[Mapping[str, Any]]) -> dict[str, float]:
+    """One velocity's runs over the phases of a step: its restitution's min, median and max
+    over the runs that measured one (ok or implausible), the largest step overlap and contact
+    sinking over the radius, and how many phases ran (:attr:`Evaluation.spreads`)."""
+    measured = (str(Status.OK), str(Status.IMPLAUSIBLE))
+    es = [float(r["restitution"]) for r in runs
+          if r["status"] in measured and math.isfinite(float(r["restitution"]))]
+    out = {"phases": float(len(runs)),
+           "restitution_min": min(es) if es else math.nan,
+           "restitution_median": float(np.median(es)) if es else math.nan,
+           "restitution_max": max(es) if es else math.nan}
+    for key in ("step_overlap_ratio", "penetration_ratio"):
+        vals = [float((r.get("plausibility") or {}).get(key, math.nan)) for r in runs]
+        vals = [v for v in vals if math.isfinite(v)]
+        out[key] = max(vals) if vals else math.nan
+    return out
 
 
 def parse_weights(targets: list[str] | tuple[str, ...] | None,

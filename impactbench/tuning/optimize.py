@@ -157,7 +157,8 @@ def tune(engine: str, scenario: BallOnPlate | None = None,
          max_evals: int | None = None, scan_points: int | None = None,
          start: tuple[float, ...] | None = None, references: list[dict] | None = None,
          fixed: dict[str, Any] | None = None, store: Any = None,
-         fresh: bool = False, runner: Any = None) -> TuneResult:
+         fresh: bool = False, runner: Any = None,
+         phases: tuple[float | None, ...] = (None,)) -> TuneResult:
     """Fit ``engine``'s native contact parameters to the Hunt–Crossley reference.
 
     Args:
@@ -182,6 +183,9 @@ def tune(engine: str, scenario: BallOnPlate | None = None,
         runner: an :class:`impactbench.cluster.Runner` that executes the engine runs of each
             Sobol-scan slice and each finite-difference Jacobian at once (Dask workers); None
             runs them in this process. The result does not depend on it.
+        phases: where the first touch falls in a step (:mod:`impactbench.phases`): each
+            velocity is run at every one and scored at its worst; ``(None,)``: the adapters'
+            one phase, as before.
 
     At a step too long to resolve the reference contact (fewer than
     ``impactbench.reference.metrics.MIN_CONTACT_SAMPLES`` steps in its shortest duration)
@@ -233,7 +237,7 @@ def tune(engine: str, scenario: BallOnPlate | None = None,
                          f"(only {', '.join(sorted(space.expressible))})")
     obj = Objective(space, scenario, velocities, effective, timestep_s,
                     references=list(references or []), store=store, fresh=fresh,
-                    runner=runner)
+                    runner=runner, phases=tuple(phases))
     try:
         first = obj.evaluate(np.asarray(space.start), count_budget=False)
         obj.deadline = t0 + budget_s
