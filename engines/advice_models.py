@@ -24,13 +24,22 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-ENGINE_STEPS_S: dict[str, tuple[float, ...]] = {
-    "mujoco": (2e-3, 1e-3), "mjx": (2e-3, 1e-3), "pybullet": (1 / 240,), "drake": (1e-3,),
-    "pymunk": (1 / 60, 1e-3), "sapien": (1e-2,), "dart": (1e-3,), "box2d": (1 / 60,),
-    "newton": (1 / 1200,)}
-"""Each engine's customary steps (s): its users' defaults (MuJoCo/MJX 2 ms and a finer 1 ms,
-PyBullet 1/240 s, Drake's discrete plant 1 ms, pymunk a frame and 1 ms, SAPIEN's 10 ms, DART
-1 ms, Box2D a frame, Newton's 1/1200 s examples): the advice the report shows."""
+from impactbench.engines.registry import spec
+
+ENGINES = ("mujoco", "mjx", "pybullet", "drake", "pymunk", "sapien", "dart", "box2d", "newton")
+"""The engines the advisor knows the contact models of (:func:`models`)."""
+
+
+def advice_steps_s(engine: str) -> tuple[float, ...]:
+    """The steps (s) the advice for ``engine`` covers, its spec's ``advice_timesteps_s``:
+    its users' defaults (MuJoCo/MJX 2 ms and a finer 1 ms, PyBullet 1/240 s, Drake's discrete
+    plant 1 ms, pymunk a frame and 1 ms, SAPIEN's 10 ms, DART 1 ms, Box2D a frame, Newton's
+    1/1200 s examples)."""
+    return spec(engine).advice_timesteps_s
+
+
+ENGINE_STEPS_S: dict[str, tuple[float, ...]] = {e: advice_steps_s(e) for e in ENGINES}
+"""engine → :func:`advice_steps_s` (read from the specs)."""
 
 
 @dataclass(frozen=True)
@@ -141,7 +150,7 @@ def models(engine: str, timestep_s: float, mass_kg: float) -> tuple[ContactModel
                                                        "N/m"),
                                                Setting("kd", 1e-4, 1e6, 10.0, "N·s/m"))),)
     raise ValueError(f"engine = {engine!r}: the advisor knows no contact models for it "
-                     f"(one of {', '.join(ENGINE_STEPS_S)})")
+                     f"(one of {', '.join(ENGINES)})")
 
 
 def _g(x: float) -> str:
@@ -161,7 +170,9 @@ def snippet(engine: str, params: Mapping[str, Any], timestep_s: float) -> str:
             text += "\nmjx_model = mjx.put_model(mujoco.MjModel.from_xml_string(xml))"
         return text
     if engine == "pybullet":
-        lines = [f"p.setTimeStep({_g(dt)})"]
+        rate = round(1.0 / dt)  # a step 1/n s that 6 digits round (1/240: 0.00416667) exactly
+        step = f"1 / {rate}" if rate >= 1 and 1.0 / rate == dt != float(_g(dt)) else _g(dt)
+        lines = [f"p.setTimeStep({step})"]
         engine_keys = [k for k in p if k not in ("restitution", "contactStiffness",
                                                  "contactDamping")]
         if engine_keys:
@@ -171,9 +182,11 @@ def snippet(engine: str, params: Mapping[str, Any], timestep_s: float) -> str:
             lines += [f"p.changeDynamics(ball, -1, restitution={_g(p['restitution'])})",
                       "p.changeDynamics(plate, -1, restitution=1.0)  # Bullet multiplies"]
         if "contactStiffness" in p:
-            lines.append(f"p.changeDynamics(ball, -1, contactStiffness="
-                         f"{_g(p['contactStiffness'])}, contactDamping="
-                         f"{_g(p['contactDamping'])})  # the pair's")
+            lines += [f"p.changeDynamics(ball, -1, contactStiffness="
+                      f"{_g(p['contactStiffness'])}, contactDamping="
+                      f"{_g(p['contactDamping'])})  # the pair's",
+                      "p.changeDynamics(plate, -1, contactStiffness=float(\"inf\"), "
+                      "contactDamping=0.0)  # else Bullet adds the plate's 0.1 N·s/m"]
         return "\n".join(lines)
     if engine == "pymunk":
         lines = [f"space.step({_g(dt)})  # every step"]

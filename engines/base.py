@@ -278,6 +278,12 @@ DEFAULT_PHASE = 0.5
 :attr:`RunSettings.phase` (the ball starts 2.5 steps of flight above the plate)."""
 
 
+def ball_phase(phase: float | None) -> float:
+    """The phase a head-on ball run starts at, its ``meta["phase"]``: ``phase``
+    (:attr:`RunSettings.phase`), else :data:`DEFAULT_PHASE`."""
+    return DEFAULT_PHASE if phase is None else float(phase)
+
+
 def ball_gap_m(velocity_m_s: float, dt: float, phase: float | None = None) -> float:
     """The head-on ball's initial free-flight distance (m): (2 + phase) steps at the impact
     velocity, so the first touch falls ``phase`` of the way through a step (``None``:

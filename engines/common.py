@@ -31,7 +31,6 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
-from impactbench.engines.base import DEFAULT_PHASE
 from impactbench.engines.registry import fds_redirected
 from impactbench.reference.kelvin_voigt import clipped_phase, clipped_restitution
 from impactbench.reference.record import ImpactRecord, Status
@@ -44,13 +43,6 @@ reference velocity; ``RunSettings.options["reference_velocity_m_s"]`` overrides 
 
 ENERGY_GAIN_LIMIT = 0.01
 """A run that ends with more than 1 % more kinetic energy than it started with diverged."""
-
-
-def ball_phase(phase: float | None) -> float:
-    """The phase a head-on ball run starts at, its ``meta["phase"]``: ``phase``
-    (:attr:`~impactbench.engines.base.RunSettings.phase`), else
-    :data:`~impactbench.engines.base.DEFAULT_PHASE`."""
-    return DEFAULT_PHASE if phase is None else float(phase)
 
 
 @dataclass(frozen=True)

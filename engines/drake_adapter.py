@@ -163,6 +163,7 @@ from impactbench.engines.base import (
     RunSettings,
     Scenario,
     ball_gap_m,
+    ball_phase,
     checked_params,
     scenario_builders,
 )
@@ -170,7 +171,6 @@ from impactbench.engines.bounce import BounceEnd
 from impactbench.engines.common import (
     NATIVE_REFERENCE_VELOCITY_M_S,
     Recorder,
-    ball_phase,
     classify,
 )
 from impactbench.engines.oblique_common import (

@@ -69,9 +69,9 @@ from impactbench.engines.base import (
     Builder,
     EngineUnavailable,
     RunSettings,
+    ball_phase,
     cube_toss_builder,
 )
-from impactbench.engines.common import ball_phase
 from impactbench.engines.mujoco_adapter import (
     BALL_TIMESTEP_S,
     BOUNCE_TIMESTEP_S,

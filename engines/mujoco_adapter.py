@@ -147,6 +147,7 @@ from impactbench.engines.base import (
     EngineUnavailable,
     RunSettings,
     ball_gap_m,
+    ball_phase,
     scenario_builders,
 )
 from impactbench.engines.bounce import BounceEnd
@@ -154,7 +155,6 @@ from impactbench.engines.common import (
     NATIVE_REFERENCE_VELOCITY_M_S,
     Recorder,
     SpringDamper,
-    ball_phase,
     classify,
     native_ball_spring_damper,
     reference_velocity,

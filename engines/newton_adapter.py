@@ -105,6 +105,7 @@ from impactbench.engines.base import (
     EngineUnavailable,
     RunSettings,
     ball_gap_m,
+    ball_phase,
     scenario_builders,
 )
 from impactbench.engines.bounce import BounceEnd
@@ -112,7 +113,6 @@ from impactbench.engines.common import (
     NATIVE_REFERENCE_VELOCITY_M_S,
     Recorder,
     SpringDamper,
-    ball_phase,
     stderr_without,
 )
 from impactbench.engines.mujoco_adapter import (

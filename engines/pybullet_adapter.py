@@ -159,13 +159,13 @@ from impactbench.engines.base import (
     RunSettings,
     Scenario,
     ball_gap_m,
+    ball_phase,
     scenario_builders,
 )
 from impactbench.engines.bounce import BounceEnd
 from impactbench.engines.common import (
     NATIVE_REFERENCE_VELOCITY_M_S,
     Recorder,
-    ball_phase,
     classify,
     reference_velocity,
     silenced_fds,

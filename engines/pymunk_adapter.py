@@ -176,6 +176,7 @@ from impactbench.engines.base import (
     RunSettings,
     Scenario,
     ball_gap_m,
+    ball_phase,
     checked_params,
     import_engine,
     scenario_builders,
@@ -184,7 +185,6 @@ from impactbench.engines.bounce import BounceEnd
 from impactbench.engines.common import (
     NATIVE_REFERENCE_VELOCITY_M_S,
     Recorder,
-    ball_phase,
     classify,
 )
 from impactbench.reference import validation as check

@@ -85,6 +85,10 @@ class EngineSpec:
             function builds the contact fit's space (the ball's, ``impactbench tune``),
             ``f(scenario, variant, timestep_s, **options)``.
         customary_timesteps_s: the steps its users run it at (s), for "at your timestep".
+        advice_timesteps_s: the steps the advice covers (s; ``impactbench advise``'s default
+            is the first): the customary steps, or for an engine without a default step of
+            its own the one its examples use (SAPIEN's 10 ms, DART's 1 ms, Box2D's frame,
+            Newton's 1/1200 s).
         color: its colour in every figure (a matplotlib colour); "" for
             :func:`fallback_color` (see :attr:`plot_color`).
         spaces: ``{fit: "module:attr"}``: the knobs of its other fits, by the fit's name
@@ -105,6 +109,7 @@ class EngineSpec:
     module: str = ""
     tuning: tuple[tuple[str, str], ...] = ()
     customary_timesteps_s: tuple[float, ...] = ()
+    advice_timesteps_s: tuple[float, ...] = ()
     color: str = ""
     spaces: tuple[tuple[str, str], ...] = ()
     first_use_s: float = 0.0
@@ -135,52 +140,52 @@ BUILTIN: tuple[EngineSpec, ...] = (
                "pip install mujoco", "mujoco", "mujoco", "mujoco",
                (("solref+solimp", "impactbench.engines.tuning_spaces:mujoco_space"),
                 ("solref", "impactbench.engines.tuning_spaces:mujoco_space")),
-               (2e-3, 1e-3), color="tab:blue",
+               (2e-3, 1e-3), color="tab:blue", advice_timesteps_s=(2e-3, 1e-3),
                spaces=(("friction", "impactbench.engines.oblique_tuned:MUJOCO"),
                        ("tosses", "impactbench.engines.cube_toss_spaces:MUJOCO"))),
     EngineSpec("pybullet", "impactbench.engines.pybullet_adapter:PybulletAdapter",
                "pip install pybullet", "pybullet", "pybullet", "pybullet",
                (("stiffness+damping", "impactbench.engines.tuning_spaces:pybullet_space"),),
-               (1 / 240,), color="tab:orange",
+               (1 / 240,), color="tab:orange", advice_timesteps_s=(1 / 240,),
                spaces=(("friction", "impactbench.engines.oblique_tuned:PYBULLET"),
                        ("tosses", "impactbench.engines.cube_toss_spaces:PYBULLET"))),
     EngineSpec("pymunk", "impactbench.engines.pymunk_adapter:PymunkAdapter",
                "pip install pymunk", "pymunk", "pymunk", "pymunk",
                (("elasticity", "impactbench.engines.tuning_spaces:pymunk_space"),
                 ("restitution-law", "impactbench.engines.tuning_spaces:pymunk_space")),
-               (1 / 60, 1e-3), color="tab:green",
+               (1 / 60, 1e-3), color="tab:green", advice_timesteps_s=(1 / 60, 1e-3),
                spaces=(("friction", "impactbench.engines.oblique_tuned:PYMUNK"),)),
     EngineSpec("drake", "impactbench.engines.drake_adapter:DrakeAdapter",
                "pip install drake", "drake", "drake", "pydrake",
                (("stiffness+dissipation", "impactbench.engines.tuning_spaces:drake_space"),
                 ("stiffness+relaxation",
                  "impactbench.engines.tuning_spaces:drake_relaxation_space")),
-               (1e-3,), color="tab:red",
+               (1e-3,), color="tab:red", advice_timesteps_s=(1e-3,),
                spaces=(("friction", "impactbench.engines.oblique_tuned:DRAKE"),
                        ("tosses", "impactbench.engines.cube_toss_spaces:DRAKE"))),
     EngineSpec("sapien", "impactbench.engines.sapien_adapter:SapienAdapter",
                "pip install sapien", "sapien", "sapien", "sapien",
                (("compliant-stiffness", "impactbench.engines.tuning_spaces_extras:sapien_space"),
                 ("restitution", "impactbench.engines.tuning_spaces_extras:sapien_space")),
-               color="tab:purple",
+               color="tab:purple", advice_timesteps_s=(1e-2,),
                spaces=(("friction", "impactbench.engines.oblique_tuned:SAPIEN"),
                        ("tosses", "impactbench.engines.cube_toss_spaces:SAPIEN"))),
     EngineSpec("dart", "impactbench.engines.dart_adapter:DartAdapter",
                "pip install dartpy", "dart", "dartpy", "dartpy",
                (("restitution", "impactbench.engines.tuning_spaces_extras:dart_space"),),
-               color="tab:brown",
+               color="tab:brown", advice_timesteps_s=(1e-3,),
                spaces=(("friction", "impactbench.engines.oblique_tuned:DART"),
                        ("tosses", "impactbench.engines.cube_toss_spaces:DART"))),
     EngineSpec("box2d", "impactbench.engines.box2d_adapter:Box2dAdapter",
                "pip install box2d", "box2d", "box2d", "Box2D",
                (("restitution", "impactbench.engines.tuning_spaces_extras:box2d_space"),),
-               color="tab:pink",
+               color="tab:pink", advice_timesteps_s=(1 / 60,),
                spaces=(("friction", "impactbench.engines.oblique_tuned:BOX2D"),)),
     EngineSpec("mjx", "impactbench.engines.mjx_adapter:MjxAdapter",
                "pip install mujoco-mjx jax", "mjx", "mujoco-mjx", "mujoco.mjx",
                (("solref+solimp", "impactbench.engines.tuning_spaces:mujoco_space"),
                 ("solref", "impactbench.engines.tuning_spaces:mujoco_space")),
-               color="tab:cyan",
+               color="tab:cyan", advice_timesteps_s=(2e-3, 1e-3),
                spaces=(("friction", "impactbench.engines.oblique_tuned:MUJOCO"),
                        ("tosses", "impactbench.engines.cube_toss_spaces:MUJOCO")),
                # jax compiles each scan kind on first use (2–5 s each on a quiet machine,
@@ -189,7 +194,7 @@ BUILTIN: tuple[EngineSpec, ...] = (
     EngineSpec("newton", "impactbench.engines.newton_adapter:NewtonAdapter",
                "pip install newton", "newton", "newton", "newton",
                (("ke+kd", "impactbench.engines.tuning_spaces_extras:newton_space"),),
-               color="tab:olive",
+               color="tab:olive", advice_timesteps_s=(1 / 1200,),
                spaces=(("friction", "impactbench.engines.oblique_tuned:NEWTON"),
                        ("tosses", "impactbench.engines.cube_toss_spaces:NEWTON")),
                # warp compiles its kernels on first use: 20–40 s on a quiet machine, ~3×

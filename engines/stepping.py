@@ -45,11 +45,11 @@ from impactbench.engines.base import (
     RunSettings,
     Scenario,
     ball_gap_m,
+    ball_phase,
     scenario_builders,
 )
 from impactbench.engines.common import (
     Recorder,
-    ball_phase,
     classify,
     native_ball_restitution,
     reference_velocity,

@@ -57,6 +57,8 @@ POLISH_PER_SETTING = 20
 """Nelder–Mead evaluations per searched setting after the scan."""
 TWIN = {"mjx": "mujoco"}
 """Engines searched through a twin whose records equal theirs (the answer is run in both)."""
+TIE_BREAK = 1e-3
+"""Weight of the mean error over speeds in :func:`score` (it only orders equal worst errors)."""
 SMALLEST_STEP_S = 1e-5
 """The fallback halves the step no further than this."""
 
@@ -85,7 +87,8 @@ class Advice:
             step's own overlap).
         worst_error: the largest |relative restitution error| over speeds and phases.
         per_speed: one row per speed (``velocity_m_s``, ``reference_restitution``,
-            ``restitution`` (median over phases), ``restitution_min``/``_max``,
+            ``restitution`` (median over phases), ``restitution_min``/``_max`` (over the
+            ``phases_measured`` phases that measured one: a diverged phase has none),
             ``worst_error``, ``step_overlap_ratio``, ``sinking_ratio``, ``status``).
         tried: every candidate evaluated (the trade-off figure's points).
         fallback: where nothing is plausible, ``{"timestep_s": X, "worst_error": …}`` — the
@@ -156,14 +159,19 @@ def _space(model: ContactModel, engine: str, timestep_s: float) -> Space:
 
 
 def score(ev: Evaluation) -> float:
-    """The worst |restitution error| over speeds (each at its worst phase) when every speed
-    is ok; else 2 + the share of speeds that are not (a failed candidate ranks below any
-    plausible one, and fewer failures rank higher)."""
+    """The worst |restitution error| over speeds (each at its worst phase), plus
+    :data:`TIE_BREAK` × their mean, when every speed is ok; else 2 + the share of speeds
+    that are not (a failed candidate ranks below any plausible one, and fewer failures rank
+    higher)."""
     bad = sum(st != "ok" for st in ev.statuses)
     if bad:
         return 2.0 + bad / len(ev.statuses)
     errs = [abs(e["restitution"]) for e in ev.rel_errors]
-    return max(errs) if all(math.isfinite(e) for e in errs) else 2.0
+    if not all(math.isfinite(e) for e in errs):
+        return 2.0
+    # ties on the worst speed (Box2D: no restitution below its 1 m/s threshold, whatever
+    # is set) are broken by the mean over the speeds
+    return max(errs) + TIE_BREAK * sum(errs) / len(errs)
 
 
 def _raw_worst(ev: Evaluation, refs: Sequence[Mapping[str, Any]]) -> float:
@@ -363,6 +371,7 @@ def _rows(ev: Evaluation, speeds: Sequence[float], refs: Sequence[Mapping[str, A
                      "restitution": sp["restitution_median"],
                      "restitution_min": sp["restitution_min"],
                      "restitution_max": sp["restitution_max"], "worst_error": worst,
+                     "phases_measured": int(sp["measured"]),
                      "step_overlap_ratio": sp["step_overlap_ratio"],
                      "sinking_ratio": sp["penetration_ratio"],
                      "status": ev.statuses[i].partition(":")[0]})

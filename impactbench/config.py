@@ -122,6 +122,8 @@ class Practical:
     modes: tuple[str, ...]
     timesteps_s: dict[str, tuple[float, ...]]
     variants: dict[str, tuple[Params, ...]]
+    advice: bool = True
+    """Run the packaged advice for each engine and step (:mod:`impactbench.advice_files`)."""
 
 
 @dataclass(frozen=True)
@@ -327,7 +329,11 @@ def check_values(key: str, engine: str, table: dict[str, Any]) -> None:
 
 
 def _practical(t: dict[str, Any]) -> Practical | None:
-    _check_keys(t, {"velocities_m_s", "modes", "timesteps_s", "variants"}, "practical.")
+    _check_keys(t, {"velocities_m_s", "modes", "timesteps_s", "variants", "advice"},
+                "practical.")
+    advice = t.get("advice", True)
+    if not isinstance(advice, bool):
+        raise _fail("practical.advice", advice, "must be true or false")
     velocities = _positive_list("practical.velocities_m_s", t.get("velocities_m_s", []))
     steps = t.get("timesteps_s", {})
     if not isinstance(steps, dict):
@@ -349,7 +355,7 @@ def _practical(t: dict[str, Any]) -> Practical | None:
         return None
     modes = _names("practical.modes", t.get("modes", ["default", "native", "tuned"]),
                    ("default", "native", "tuned", "custom", "injected"))
-    return Practical(velocities, modes, timesteps, variants)
+    return Practical(velocities, modes, timesteps, variants, advice)
 
 
 def parse(data: dict[str, Any], source: str = "") -> ReportConfig:

@@ -15,7 +15,7 @@ import contextlib
 import math
 import time
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -42,6 +42,10 @@ class RunKey:
         params: ``custom``: the user's engine parameters; ``tuned``: the fixed settings
             (variant) that select the packaged tuned file (e.g. Drake's discrete approximation).
         tuned_file: ``tuned``: a user's tuned file instead of the packaged one.
+        phases: how many phases of the step the head-on ball's run is measured at
+            (:mod:`impactbench.phases`: at a step not much shorter than the contact, the
+            run is repeated with the first touch at k/phases of a step and merged, judged at
+            the worst); 1: the adapters' one phase.
     """
 
     engine: str
@@ -52,6 +56,7 @@ class RunKey:
     parameters: tuple[tuple[str, Any], ...] = ()
     params: tuple[tuple[str, Any], ...] = ()
     tuned_file: str = ""
+    phases: int = 1
 
     @property
     def spec(self) -> scenarios.ScenarioSpec:
@@ -80,8 +85,9 @@ class RunKey:
         params = "".join(f"-{k}{v:g}" if isinstance(v, int | float) and not isinstance(v, bool)
                          else f"-{k}{v}" for k, v in self.parameters)
         dt = "default" if self.timestep_s is None else f"{self.timestep_s:g}"
+        ph = f"-ph{self.phases}" if self.phases > 1 else ""
         return (f"{self.engine}-{self.mode}-{self.scenario}{spec.point_label(self.point)}"
-                f"{params}{spec.numeric_label(self.point)}-dt{dt}")
+                f"{params}{spec.numeric_label(self.point)}-dt{dt}{ph}")
 
     def build_scenario(self) -> Any:
         """The scenario object (its defaults, these fields, this point)."""
@@ -99,21 +105,24 @@ class Job(RunKey):
 
     study: str = "matrix"
     keep_history: bool = False
+    advice: str = ""
+    """The packaged advice file a practical run takes its ``custom`` params from ('' none)."""
 
     @property
     def id(self) -> str:
         dt = f"{self.timestep_s:.3e}" if self.timestep_s else "default"
         params = "".join(f"/{k}={v!r}" for k, v in self.parameters)  # ids must be unique
         point = self.spec.point_id(self.point)
+        ph = f"/ph{self.phases}" if self.phases > 1 else ""
         return (f"{self.study}/{self.scenario}{point}/"
                 f"{self.engine}/{self.mode}{self.variant and '[' + self.variant + ']'}/dt{dt}"
-                f"{params}")
+                f"{params}{ph}")
 
     @property
     def key(self) -> RunKey:
         """The run without the report's bookkeeping."""
         return RunKey(self.engine, self.scenario, self.point, self.mode, self.timestep_s,
-                      self.parameters, self.params, self.tuned_file)
+                      self.parameters, self.params, self.tuned_file, self.phases)
 
 
 @dataclass
@@ -153,15 +162,42 @@ def job_settings(job: Job):
     return settings
 
 
+def job_inputs(job: RunKey, settings: Any) -> dict[str, Any]:
+    """What determines a job's stored run (:func:`impactbench.store.run_inputs`, hashed into
+    its key), its phases included when more than one."""
+    from impactbench import store as store_mod
+
+    inputs = store_mod.run_inputs(job.engine, job.scenario, job.build_scenario(), job.mode,
+                                  settings)
+    if job.phases > 1:
+        inputs["phases"] = job.phases
+    return inputs
+
+
 def execute(job: Job, reference: dict[str, Any] | None = None,
             settings: Any = None) -> JobResult:
-    """Run one job (in a worker process). Never raises for engine trouble."""
+    """Run one job (in a worker process). Never raises for engine trouble. A job of several
+    phases runs once per phase (:func:`impactbench.phases.offsets`) and is merged
+    (:func:`impactbench.phases.merge`: the median and range, judged at the worst phase; its
+    history is the worst phase's)."""
+    from impactbench import phases
+
     settings = settings if settings is not None else job_settings(job)
+    offsets = phases.offsets(job.phases) if job.phases > 1 else (None,)
+    runs, recs = [], []
     try:
-        run, rec = compare(job.engine, job.build_scenario(), job.mode, settings, reference)
+        for ph in offsets:
+            run, rec = compare(job.engine, job.build_scenario(), job.mode,
+                               settings if ph is None else replace(settings, phase=ph),
+                               reference)
+            runs.append(run)
+            recs.append(rec)
     except ValueError as exc:  # settings the engine refused (bad input for a lone run):
         # in a matrix, one row that says why, never the loss of the other runs
         return _crashed(job, f"bad settings: {exc}", reference or {})
+    if job.phases > 1:
+        worst = phases.worst(runs)
+        run, rec = phases.merge(runs, offsets), recs[worst]
     return JobResult(job, run, _thin(rec) if job.keep_history else {})
 
 
@@ -249,13 +285,19 @@ def _study_scenario(config: ReportConfig, study: str) -> tuple[str, tuple]:
 
 def _practical_jobs(config: ReportConfig, engines: tuple[str, ...]) -> list[Job]:
     """The "at practical timesteps" study: per engine and customary step, the configured
-    modes (default, native, tuned, custom with the user's [engines] table) and, per variant,
-    custom (default plus the variant) and tuned (the file fitted with it)."""
+    modes (default, native, tuned, custom with the user's [engines] table), per variant,
+    custom (default plus the variant) and tuned (the file fitted with it), and (``advice``)
+    the packaged advice for that step (:mod:`impactbench.advice_files`) as custom; each run
+    at every phase of the step where the step is not much shorter than the contact."""
     pr = config.practical
     if pr is None:
         return []
+    from impactbench.advice_files import packaged
+    from impactbench.config import frozen_params
+
     scenario, params = _study_scenario(config, "practical")
     jobs = []
+    durations: dict[tuple, float] = {}
     for engine in engines:
         variants = pr.variants.get(engine, ())
         runs: list[tuple[str, tuple]] = []
@@ -270,11 +312,30 @@ def _practical_jobs(config: ReportConfig, engines: tuple[str, ...]) -> list[Job]
             if "tuned" in pr.modes:
                 runs.append(("tuned", variant))
         for dt in pr.timesteps_s.get(engine, ()):
-            for mode, variant_params in runs:
+            advice = packaged(engine, dt) if pr.advice else None
+            extra = [("custom", frozen_params(advice["params"]))] if advice else []
+            for mode, variant_params in runs + extra:
                 for v in pr.velocities_m_s:
-                    jobs.append(Job(engine, scenario, (("velocity_m_s", v),), mode, dt, params,
-                                    variant_params, study="practical"))
+                    point = (("velocity_m_s", v),)
+                    job = Job(engine, scenario, point, mode, dt, params, variant_params,
+                              study="practical")
+                    n = _phases_at(job, durations)
+                    jobs.append(replace(job, phases=n, advice=advice["file"] if advice and
+                                        (mode, variant_params) == extra[0] else ""))
     return jobs
+
+
+def _phases_at(job: Job, durations: dict[tuple, float]) -> int:
+    """How many phases of its step a practical job is measured at: :data:`impactbench.phases.
+    PHASES` where the step is not much shorter than the reference contact
+    (:func:`impactbench.phases.needs_phases`), else 1."""
+    from impactbench import phases
+
+    if job.reference_key not in durations:
+        durations[job.reference_key] = float(reference_metrics(job.build_scenario())
+                                             .get("duration_s", math.nan))
+    return phases.PHASES if phases.needs_phases(job.timestep_s,
+                                                durations[job.reference_key]) else 1
 
 
 def _crashed(job: Job, why: str, reference: dict[str, Any],
@@ -330,8 +391,8 @@ def estimated_steps_of(reference: dict[str, Any], timestep_s: float | None) -> f
 
 
 def estimated_steps(job: Job, reference: dict[str, Any]) -> float:
-    """:func:`estimated_steps_of` for a job."""
-    return estimated_steps_of(reference, job.timestep_s)
+    """:func:`estimated_steps_of` for a job (each of its phases a run)."""
+    return job.phases * estimated_steps_of(reference, job.timestep_s)
 
 
 DISPATCH_MIN_S = 1.0
@@ -378,9 +439,7 @@ def run_jobs(jobs: list[Job], workers: int | None = None,
             references[job.reference_key] = reference_metrics(job.build_scenario())
         settings[job.id] = job_settings(job)
         if store is not None:
-            inputs[job.id] = store_mod.run_inputs(job.engine, job.scenario,
-                                                  job.build_scenario(), job.mode,
-                                                  settings[job.id])
+            inputs[job.id] = job_inputs(job, settings[job.id])
             keys[job.id] = store_mod.run_key(inputs[job.id])
     results: dict[str, JobResult] = {}
     if store is not None and not fresh:
@@ -487,7 +546,10 @@ def run_jobs(jobs: list[Job], workers: int | None = None,
 def tidy(results: list[JobResult]) -> list[dict[str, Any]]:
     """One row per run and metric (DESIGN.md's columns, plus study, the run's plausibility
     measures ``penetration_ratio``, ``energy_ratio`` and ``step_overlap_ratio``
-    (:mod:`impactbench.plausibility`) and
+    (:mod:`impactbench.plausibility`), ``phases`` (how many phases of the step the run was
+    measured at: ``value`` is then their median, ``value_min``/``value_max`` their range,
+    NaN for a run of one phase; :mod:`impactbench.phases`), ``advice`` (the packaged advice
+    file a practical run's params come from, '' for none) and
     the point's axes:
     every registered scenario's, each once — categorical ones after ``scenario``, numeric
     ones after ``mode``; a scenario without an axis leaves it "" or NaN)."""
@@ -497,6 +559,7 @@ def tidy(results: list[JobResult]) -> list[dict[str, Any]]:
         j, run = r.job, r.run
         point = dict(j.point)
         measures = run.get("plausibility") or {}
+        spread = (run.get("phases") or {}).get("spread") or {}
         for metric in j.spec.metrics:
             rows.append({
                 "study": j.study,
@@ -519,5 +582,9 @@ def tidy(results: list[JobResult]) -> list[dict[str, Any]]:
                 "penetration_ratio": measures.get("penetration_ratio", math.nan),
                 "energy_ratio": measures.get("energy_ratio", math.nan),
                 "step_overlap_ratio": measures.get("step_overlap_ratio", math.nan),
+                "phases": j.phases,
+                "advice": j.advice,
+                "value_min": spread.get(metric, (math.nan,) * 3)[0],
+                "value_max": spread.get(metric, (math.nan,) * 3)[2],
             })
     return rows

@@ -34,7 +34,10 @@ def _step(dt: float) -> str:
 
 
 def column(row: pd.Series) -> str:
-    """A column label: mode, its parameters (variant) and the step."""
+    """A column label: mode, its parameters (variant) and the step; ``advised`` for the
+    packaged advice (its params are in the first section)."""
+    if isinstance(row.get("advice"), str) and row.get("advice"):
+        return f"advised @ {_step(float(row.timestep_s))}"
     params = f" [{row.params}]" if isinstance(row.params, str) and row.params else ""
     return f"{row['mode']}{params} @ {_step(float(row.timestep_s))}"
 
@@ -49,6 +52,9 @@ def _cell(row: pd.Series):
     if not (isinstance(value, float | int) and math.isfinite(value)):
         return Cell("n/a", "na", str(row.message or "not comparable"))
     text = f"{value:.3g}"
+    lo, hi = row.get("value_min", math.nan), row.get("value_max", math.nan)
+    if isinstance(lo, float) and math.isfinite(lo) and math.isfinite(hi):
+        text += f" [{lo:.3g}–{hi:.3g}]"  # median [range] over the phases of the step
     if isinstance(err, float) and math.isfinite(err):
         text += f" ({format_error(err)})"
     return Cell(text, band(err))
@@ -229,10 +235,20 @@ def _groups(results: list) -> dict[tuple, list]:
     return out
 
 
+def worst_error(run: dict) -> float:
+    """A run's |restitution error| at its worst phase: over the range of a run measured at
+    several phases of its step (:func:`impactbench.phases.merge`), else its own."""
+    spread = ((run.get("phases") or {}).get("spread") or {}).get("restitution")
+    ref = float((run.get("reference") or {}).get("restitution", math.nan))
+    if spread and math.isfinite(ref) and ref:
+        return max(abs(spread[0] - ref), abs(spread[2] - ref)) / abs(ref)
+    return abs(float(run["rel_error"].get("restitution", math.nan)))
+
+
 def _score(runs: list) -> tuple[int, float]:
-    """(plausible ok runs, worst |restitution error| over them): more ok runs first."""
-    errs = [abs(float(r.run["rel_error"].get("restitution", math.nan))) for r in runs
-            if r.run["status"] == "ok"]
+    """(plausible ok runs, worst |restitution error| over them, each at its worst phase):
+    more ok runs first."""
+    errs = [worst_error(r.run) for r in runs if r.run["status"] == "ok"]
     errs = [e for e in errs if math.isfinite(e)]
     return len(errs), (max(errs) if errs else math.inf)
 
@@ -243,6 +259,12 @@ def settings_snippet(runs: list) -> tuple[str, str]:
 
     job = runs[0].job
     params = thawed(job.params)
+    if getattr(job, "advice", ""):
+        from impactbench.advice_files import ADVICE_DIR, load
+
+        advice = load(ADVICE_DIR / job.advice)
+        return (f"the packaged advice ({advice['model']}; {job.advice}, written by "
+                f"`impactbench advise`)", str(advice["snippet"]))
     if job.mode == "default":
         return "nothing to set: the engine out of the box", "# the engine's defaults"
     if job.mode == "custom":
@@ -289,8 +311,8 @@ def your_timestep(ctx) -> dict[str, object] | None:
         n_ok, worst = score
         from impactbench.config import thawed
 
-        label = mode + (f" [{', '.join(f'{k}={v}' for k, v in thawed(params).items())}]"
-                        if params else "")
+        label = "advised" if runs[0].job.advice else mode + (
+            f" [{', '.join(f'{k}={v}' for k, v in thawed(params).items())}]" if params else "")
         pens = [float((r.run.get("plausibility") or {}).get("penetration_ratio", math.nan))
                 for r in runs]
         pens = [p for p in pens if math.isfinite(p)]
@@ -319,13 +341,19 @@ def your_timestep(ctx) -> dict[str, object] | None:
         "Which engine comes closest at the step you run it at, and what to set. Per engine "
         "and step (the config's `[practical]` steps), the mode with the most plausible runs "
         "and then the smallest worst restitution error over V0 = "
-        f"{', '.join(f'{x:g}' for x in v)} m/s against the reference. A run is plausible "
-        f"when the ball sinks at most {limits.max_penetration_ratio:g} of its radius and "
-        "no energy is created (`impactbench.plausibility`); an implausible run's error is "
-        "not counted, however small. At a step longer than the contact, duration and peak "
-        "force are not resolved: restitution is the answer here.")
-    columns = ["engine", "step", "best mode", "max |restitution error|", "plausible runs",
-               "max penetration"]
+        f"{', '.join(f'{x:g}' for x in v)} m/s against the reference. **advised** is the "
+        "packaged advice for that step (`impactbench advise`: every contact model the engine "
+        "offers, searched on its worst phase). At these steps, longer than the contact, the "
+        "outcome depends on where the first touch falls inside a step, so every run here is "
+        "measured at 8 evenly spaced phases of the step: the error is the worst phase's, and "
+        "a run is plausible only when, at every phase, the contact lets the ball sink at "
+        f"most {limits.max_penetration_ratio:g} of its radius beyond the step's own overlap "
+        "(v·dt + g·dt², which no contact can avoid) and creates no energy "
+        "(`impactbench.plausibility`); an implausible run's error is not counted, however "
+        "small. Duration and peak force are not resolved at such steps: restitution is the "
+        "answer here.")
+    columns = ["engine", "step", "best mode", "max |restitution error| (worst phase)",
+               "plausible runs", "max sinking beyond the step"]
     return {"intro": intro, "table": Table(columns, rows, text_columns=3),
             "after": "The settings behind each row, in the engine's own words:",
             "settings": settings}

@@ -80,11 +80,9 @@ class KeepWhatFits:
         store: those whose store key, as :func:`impactbench.matrix.run_jobs` computes it, is
         in the file (read back: a full disk still reads) or was found or written here."""
         from impactbench import store as store_mod
-        from impactbench.matrix import job_settings
+        from impactbench.matrix import job_inputs, job_settings
 
-        keys = [store_mod.run_key(store_mod.run_inputs(
-            job.engine, job.scenario, job.build_scenario(), job.mode, job_settings(job)))
-            for job in jobs]
+        keys = [store_mod.run_key(job_inputs(job, job_settings(job))) for job in jobs]
         there = set(self.kept)
         try:
             there.update(self.store.get(keys))

@@ -26,12 +26,13 @@ HELP = "the best contact settings for an engine at your step, for your body"
 
 def register(top: argparse._SubParsersAction, groups: dict) -> None:
     from impactbench.flags import add_parameter_flags
+    from impactbench.scenarios.ball_on_plate import NAME as BALL
 
     p = top.add_parser("advise", help=HELP, description=HELP + ".")
     p.add_argument("--engine", required=True, help="the engine (mujoco, pybullet, …)")
     p.add_argument("--timestep", type=float, dest="advise_timestep_s", metavar="S",
                    help="your step (s; default: the engine's customary one)")
-    add_parameter_flags(p, "ball-on-plate")
+    add_parameter_flags(p, BALL)
     p.add_argument("--velocities", type=number_list, dest="advise_velocities",
                    metavar="V", help="impact speeds (m/s), comma list (default 0.5–5)")
     p.add_argument("--target", metavar="CSV", dest="advise_target",
@@ -40,6 +41,10 @@ def register(top: argparse._SubParsersAction, groups: dict) -> None:
                    help="wall time the search may take (s; default 60)")
     p.add_argument("--figure", metavar="PNG", dest="advise_figure",
                    help="write the trade-off figure (error against sinking) here")
+    p.add_argument("--write", nargs="?", const="", default=None, metavar="TOML",
+                   dest="advise_write",
+                   help="write the answer as an advice file (default: the packaged one, "
+                        "impactbench/data/advice/<engine>_dt<step>.toml)")
     p.add_argument("--json", action="store_true", help="print the answer as JSON")
     p.set_defaults(func=main)
 
@@ -59,6 +64,8 @@ def text(a: Any) -> str:
     for r in a.per_speed:
         rng = (f"{r['restitution_min']:.3f}–{r['restitution_max']:.3f}"
                if math.isfinite(r["restitution_min"]) else "—")
+        if 0 < r["phases_measured"] < len(a.phases):
+            rng += f" ({r['phases_measured']}/{len(a.phases)})"
         lines.append(f"{r['velocity_m_s']:>8g} {r['reference_restitution']:>7.3f} "
                      f"{r['restitution']:>9.3f} {rng:>15} {_pct(r['worst_error']):>10} "
                      f"{r['step_overlap_ratio']:>11.3g} {r['sinking_ratio']:>8.3g}  "
@@ -87,8 +94,9 @@ def text(a: Any) -> str:
 def main(args: argparse.Namespace) -> int:
     from impactbench.advise import DEFAULT_BUDGET_S, DEFAULT_VELOCITIES_M_S, advise
     from impactbench.flags import scenario_from_args
+    from impactbench.scenarios.ball_on_plate import NAME as BALL
 
-    scenario = scenario_from_args("ball-on-plate", args)
+    scenario = scenario_from_args(BALL, args)
     a = advise(args.engine, args.advise_timestep_s, scenario,
                DEFAULT_VELOCITIES_M_S if args.advise_velocities is None
                else args.advise_velocities,
@@ -99,6 +107,10 @@ def main(args: argparse.Namespace) -> int:
         from impactbench.plots import advice_figure
 
         advice_figure(a, args.advise_figure)
+    if args.advise_write is not None:
+        from impactbench.advice_files import advice_path, write
+
+        write(a, args.advise_write or advice_path(a.engine, a.timestep_s))
     if args.json:
         print_json(a.to_json())
     else:

@@ -394,11 +394,12 @@ class Objective:
 def spread(runs: Sequence[Mapping[str, Any]]) -> dict[str, float]:
     """One velocity's runs over the phases of a step: its restitution's min, median and max
     over the runs that measured one (ok or implausible), the largest step overlap and contact
-    sinking over the radius, and how many phases ran (:attr:`Evaluation.spreads`)."""
+    sinking over the radius, how many phases ran and how many measured a restitution
+    (:attr:`Evaluation.spreads`)."""
     measured = (str(Status.OK), str(Status.IMPLAUSIBLE))
     es = [float(r["restitution"]) for r in runs
           if r["status"] in measured and math.isfinite(float(r["restitution"]))]
-    out = {"phases": float(len(runs)),
+    out = {"phases": float(len(runs)), "measured": float(len(es)),
            "restitution_min": min(es) if es else math.nan,
            "restitution_median": float(np.median(es)) if es else math.nan,
            "restitution_max": max(es) if es else math.nan}

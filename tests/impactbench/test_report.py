@@ -21,7 +21,8 @@ V1 = (("velocity_m_s", 1.0),)
 COLUMNS = ["study", "scenario", "local", "structure", "engine", "mode", "velocity_m_s",
            "angle_deg", "height_m", "timestep_s", "metric", "value", "reference", "rel_error",
            "resolved", "params", "status", "message", "wall_s", "engine_version",
-           "penetration_ratio", "energy_ratio", "step_overlap_ratio"]
+           "penetration_ratio", "energy_ratio", "step_overlap_ratio", "phases", "advice",
+           "value_min", "value_max"]
 
 
 def test_report_writes_every_file(small_report: report.Report) -> None:
