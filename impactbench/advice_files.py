@@ -54,6 +54,7 @@ def write(advice: Any, path: str | Path) -> Path:
 
     data = {
         "engine": advice.engine, "timestep_s": advice.timestep_s, "model": advice.model,
+        "note": advice.note,
         "plausible": advice.plausible, "worst_error": clean(advice.worst_error),
         "snippet": advice.snippet, "params": clean(advice.params),
         "provenance": clean({
@@ -99,3 +100,38 @@ def packaged(engine: str, timestep_s: float) -> dict[str, Any] | None:
     if not math.isclose(float(data["timestep_s"]), timestep_s, rel_tol=1e-9):
         return None
     return {**data, "file": path.name}
+
+
+def as_advice(data: dict[str, Any], speeds: tuple[float, ...] | None = None) -> Any:
+    """An advice file's tables as an :class:`impactbench.advise.Advice` (what it claimed;
+    ``speeds``: only those rows), for code that reads either."""
+    from impactbench.advise import Advice
+
+    prov = data.get("provenance", {})
+
+    def num(v: Any) -> Any:
+        return math.nan if v == "nan" else v
+
+    rows = [{k: num(v) for k, v in r.items()} for r in data.get("per_speed", [])
+            if speeds is None or any(math.isclose(r["velocity_m_s"], v) for v in speeds)]
+    return Advice(data["engine"], float(data["timestep_s"]), data["model"],
+                  dict(data["params"]), data["snippet"], bool(data.get("plausible")),
+                  float(num(data.get("worst_error", math.nan))), rows,
+                  phases=tuple(prov.get("phases", ())),
+                  engine_version=prov.get("engine_version", ""),
+                  target=prov.get("target", ""), searched_on=prov.get("searched_on", ""),
+                  scenario=dict(prov.get("scenario", {})), stop=prov.get("stop", ""),
+                  note=data.get("note", ""))
+
+
+def packaged_advice(engine: str, timestep_s: float,
+                    speeds: tuple[float, ...] | None = None) -> Any:
+    """The packaged advice for ``engine`` at ``timestep_s`` as an
+    :class:`impactbench.advise.Advice` (:func:`as_advice`); ValueError when there is none."""
+    data = packaged(engine, timestep_s)
+    if data is None:
+        raise ValueError(f"timestep_s = {timestep_s!r}: no packaged advice for {engine} at it "
+                         f"({advice_path(engine, timestep_s).name}; write it with "
+                         f"`impactbench advise --engine {engine} --timestep {timestep_s!r} "
+                         "--write`)")
+    return as_advice(data, speeds)

@@ -10,12 +10,11 @@ settings, ``custom`` mode) for the one whose restitution follows the target over
   creates energy or sinks beyond the step's own overlap makes the speed implausible
   (:mod:`impactbench.plausibility`), and its error is the worst phase's;
 - the answer is the plausible candidate with the smallest worst error over speeds and phases;
-  each model's search is a seeded scrambled Sobol scan of its box (in ln of each setting,
-  :data:`SCAN_PER_SETTING` points per setting) followed by a Nelder–Mead polish of the worst
-  error from the best scan point (:data:`POLISH_PER_SETTING` evaluations per setting): a fixed
-  number of evaluations, so the answer does not depend on the machine; the time budget is a
-  cap (shared out over the models in turn) that only a slow machine reaches, and the answer
-  then says so (``stop``);
+  each model's search is a seeded scrambled Sobol scan of its box (in ln of each setting)
+  followed by Nelder–Mead polishes of the worst error from the best scan points, in an equal
+  share of :data:`EVALUATIONS` candidates per engine: a fixed number of evaluations, so the
+  answer does not depend on the machine; the time budget is a cap (shared out over the
+  models in turn) that only a slow machine reaches, and the answer then says so (``stop``);
 - where no candidate is plausible at every speed it says so and looks for the longest step at
   which the engine's best candidate is plausible within :data:`WITHIN` of the target, halving
   the step: "run at ≤ X or accept Y".
@@ -50,11 +49,16 @@ DEFAULT_BUDGET_S = 60.0
 """Wall time the advice may take per engine (s)."""
 WITHIN = 0.05
 """The fallback's target: the longest step at which the reference is met within 5 %."""
+EVALUATIONS = 200
+"""Candidates evaluated per engine, shared out equally over its contact models: each model's
+Sobol scan takes a power of two of them, at most :data:`SCAN_PER_SETTING` per setting and
+at most half its share, and the Nelder–Mead polishes the rest."""
 SCAN_PER_SETTING = 16
-"""Sobol points per searched setting (16 for a constant restitution, 32 for a spring: a
-power of two each, Sobol's balance)."""
-POLISH_PER_SETTING = 20
-"""Nelder–Mead evaluations per searched setting after the scan."""
+"""Sobol points per searched setting at most (16 for a constant restitution, 32 for a
+spring: a power of two each, Sobol's balance)."""
+POLISH_STARTS = 2
+"""Nelder–Mead starts: the best scan points, each polished with an equal part of what the
+scan left."""
 TWIN = {"mjx": "mujoco"}
 """Engines searched through a twin whose records equal theirs (the answer is run in both)."""
 TIE_BREAK = 1e-3
@@ -114,6 +118,8 @@ class Advice:
     scenario: dict[str, Any] = field(default_factory=dict)
     stop: str = "searched"
     """``searched``: every model's scan and polish ran; else the time budget cut them."""
+    note: str = ""
+    """What the chosen model is and where it cannot follow (e.g. Box2D's 1 m/s threshold)."""
 
     def to_json(self) -> dict[str, Any]:
         """The JSON object ``impactbench advise --json`` prints."""
@@ -123,7 +129,7 @@ class Advice:
                 "phases": list(self.phases), "wall_s": self.wall_s,
                 "engine_version": self.engine_version, "target": self.target,
                 "searched_on": self.searched_on, "fallback": self.fallback,
-                "scenario": self.scenario, "stop": self.stop,
+                "scenario": self.scenario, "stop": self.stop, "note": self.note,
                 "candidates": len(self.tried)}
 
 
@@ -160,10 +166,14 @@ def _space(model: ContactModel, engine: str, timestep_s: float) -> Space:
 
 def score(ev: Evaluation) -> float:
     """The worst |restitution error| over speeds (each at its worst phase), plus
-    :data:`TIE_BREAK` × their mean, when every speed is ok; else 2 + the share of speeds
+    :data:`TIE_BREAK` × their mean, when every speed is ok and no phase rebounds faster
+    than it arrived (energy created); else 2 + the share of speeds
     that are not (a failed candidate ranks below any plausible one, and fewer failures rank
     higher)."""
-    bad = sum(st != "ok" for st in ev.statuses)
+    # energy created at any phase (a rebound faster than the impact) is no advice, even
+    # within the plausibility rule's 1 % allowance for integration error
+    bad = sum(st != "ok" or sp["restitution_max"] > 1.0
+              for st, sp in zip(ev.statuses, ev.spreads, strict=True))
     if bad:
         return 2.0 + bad / len(ev.statuses)
     errs = [abs(e["restitution"]) for e in ev.rel_errors]
@@ -186,29 +196,32 @@ def _raw_worst(ev: Evaluation, refs: Sequence[Mapping[str, Any]]) -> float:
     return out
 
 
-def _search(obj: _Tracked, space: Space) -> bool:
-    """Sobol scan, then Nelder–Mead on the worst error from the best point (module doc);
-    stops quietly at the deadline. True when the deadline cut it short."""
+def _search(obj: _Tracked, space: Space, evaluations: int) -> bool:
+    """Sobol scan, then Nelder–Mead on the worst error from the best points (module doc), in
+    about ``evaluations`` candidates; stops quietly at the deadline. True when the deadline
+    cut it short."""
     from scipy import optimize
     from scipy.stats import qmc
 
     dim = len(space.parameters)
     start = np.asarray(space.start, dtype=float)
-    pts = qmc.Sobol(dim, scramble=True, seed=SEED).random_base2(
-        math.ceil(math.log2(SCAN_PER_SETTING * dim)))
+    m = math.floor(math.log2(max(2, min(SCAN_PER_SETTING * dim, evaluations // 2))))
+    pts = qmc.Sobol(dim, scramble=True, seed=SEED).random_base2(m)
+    polish = max(dim + 2, (evaluations - len(pts) - 1) // POLISH_STARTS)
     cands = [space.candidate(start)] + [space.from_unit(u) for u in pts]
+    def f(u: np.ndarray) -> float:
+        return score(obj.batch([space.from_unit(np.clip(u, 0.0, 1.0))])[0])
+
     try:
-        for i in range(0, len(cands), 4):
-            obj.batch(cands[i:i + 4])
-        best = min(obj.seen, key=score)
-        u0 = space.to_unit(space.candidate(best.values))
-
-        def f(u: np.ndarray) -> float:
-            return score(obj.batch([space.from_unit(np.clip(u, 0.0, 1.0))])[0])
-
-        optimize.minimize(f, u0, method="Nelder-Mead",
-                          options={"maxfev": POLISH_PER_SETTING * dim, "xatol": 1e-3, "fatol": 1e-4,
-                                   "initial_simplex": _simplex(u0)})
+        obj.batch(cands)
+        # the landscape is rugged (the phase spread moves with every setting): polish from
+        # the best scan points, each a start of its own
+        ranked = sorted(obj.seen, key=score)[:POLISH_STARTS]
+        for start_ev in ranked:
+            u0 = space.to_unit(space.candidate(start_ev.values))
+            optimize.minimize(f, u0, method="Nelder-Mead",
+                              options={"maxfev": polish, "xatol": 1e-3,
+                                       "fatol": 1e-4, "initial_simplex": _simplex(u0)})
     except OutOfBudget:
         return True
     return False
@@ -266,10 +279,12 @@ def check_speeds(velocities_m_s: Sequence[float]) -> tuple[float, ...]:
 def advise(engine: str, timestep_s: float | None = None, scenario: BallOnPlate | None = None,
            velocities_m_s: Sequence[float] = DEFAULT_VELOCITIES_M_S, *,
            target_csv: str | Path | None = None, budget_s: float = DEFAULT_BUDGET_S,
-           phases: int = PHASES, fallback: bool = True) -> Advice:
+           phases: int = PHASES, fallback: bool = True, workers: int | None = 0) -> Advice:
     """The best settings for ``engine`` at ``timestep_s`` (default: its first customary step)
     for ``scenario``'s ball (default: the paper's steel ball) over ``velocities_m_s`` (module
-    doc). Raises ValueError (one line) on bad input; engine trouble costs candidates."""
+    doc). ``workers``: where each candidate's runs execute (0: here; N local Dask worker
+    processes, None one per core: each batch's runs shared out, the answer the same).
+    Raises ValueError (one line) on bad input; engine trouble costs candidates."""
     from impactbench.evaluate import reference_metrics
 
     t0 = time.perf_counter()
@@ -293,8 +308,22 @@ def advise(engine: str, timestep_s: float | None = None, scenario: BallOnPlate |
         get_adapter(search_on)
     ph = offsets(phases)
     deadline = t0 + budget_s
+    if workers is not None and (isinstance(workers, bool) or int(workers) != workers
+                                or workers < 0):
+        raise ValueError(f"workers = {workers!r}: must be an integer >= 0 (None: one per core)")
+    out = _answer(engine, search_on, dt, scenario, speeds, refs, ph, deadline, workers,
+                  target, budget_s, fallback, adapter.version())
+    out.wall_s = time.perf_counter() - t0
+    return out
+
+
+def _answer(engine: str, search_on: str, dt: float, scenario: BallOnPlate,
+            speeds: Sequence[float], refs: list[dict[str, Any]], ph: tuple[float, ...],
+            deadline: float, workers: int | None, target: str, budget_s: float,
+            fallback: bool, version: str) -> Advice:
+    """:func:`advise`'s search and answer (``workers``: :func:`_advise_at`)."""
     best_ev, best_model, tried, cut = _advise_at(engine, search_on, dt, scenario, speeds,
-                                                 refs, ph, deadline)
+                                                 refs, ph, deadline, workers)
     assert best_ev is not None and best_model is not None
     space = _space(best_model, engine, dt)
     if search_on != engine:  # the answer, run in the engine itself at every speed and phase
@@ -307,13 +336,13 @@ def advise(engine: str, timestep_s: float | None = None, scenario: BallOnPlate |
     rows = _rows(best_ev, speeds, refs)
     out = Advice(engine, dt, best_model.name, params, snippet(engine, params, dt), ok,
                  max((r["worst_error"] for r in rows), default=math.nan), rows, tried, ph,
-                 0.0, adapter.version(), target, search_on,
+                 0.0, version, target, search_on,
                  scenario=scenario.to_dict(),
-                 stop=f"time budget of {budget_s:g} s reached" if cut else "searched")
+                 stop=f"time budget of {budget_s:g} s reached" if cut else "searched",
+                 note=best_model.note)
     if not ok and fallback:
         out.fallback = _longest_step(engine, search_on, dt, scenario, speeds, refs, ph,
-                                     deadline, _raw_worst(best_ev, refs))
-    out.wall_s = time.perf_counter() - t0
+                                     deadline, _raw_worst(best_ev, refs), workers)
     return out
 
 
@@ -326,26 +355,69 @@ def _objective(space: Space, scenario: BallOnPlate, speeds: Sequence[float],
     return obj
 
 
+def search_model(item: tuple) -> tuple[list[Evaluation], bool]:
+    """One contact model's search (a worker's task, picklable): ``item`` is (engine, engine
+    to run, model index, step, scenario, speeds, references, phases, seconds allowed,
+    evaluations) → (every evaluation, whether the time cut it short). The model is rebuilt
+    from its index (its functions do not pickle)."""
+    (engine, search_on, index, dt, scenario, speeds, refs, ph, allowed_s, evaluations) = item
+    model = models(engine, dt, scenario.mass_kg)[index]
+    space = _space(model, search_on, dt)
+    obj = _objective(space, scenario, speeds, refs, dt, ph, time.perf_counter() + allowed_s)
+    with quiet(search_on):
+        obj.evaluate(np.asarray(space.start), count_budget=False)  # at least the start
+        cut = _search(obj, space, evaluations)
+    return obj.seen, cut
+
+
+def _in_processes(items: list[tuple], n: int) -> list[tuple[list[Evaluation], bool]]:
+    """:func:`search_model` of each item on ``n`` fresh worker processes (spawned: engines
+    hold no state across them); a task whose process dies gives no evaluations."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+    from concurrent.futures.process import BrokenProcessPool
+
+    out: list[tuple[list[Evaluation], bool]] = []
+    with ProcessPoolExecutor(n, mp_context=multiprocessing.get_context("spawn")) as pool:
+        futures = [pool.submit(search_model, item) for item in items]
+        for f in futures:
+            try:
+                out.append(f.result())
+            except BrokenProcessPool:
+                out.append(([], False))
+    return out
+
+
 def _advise_at(engine: str, search_on: str, dt: float, scenario: BallOnPlate,
                speeds: Sequence[float], refs: list[dict[str, Any]], ph: tuple[float, ...],
-               deadline: float
+               deadline: float, workers: int | None = 0
                ) -> tuple[Evaluation | None, ContactModel | None, list[Tried], bool]:
-    """Search every model of ``engine`` (run on ``search_on``) at ``dt`` until ``deadline``,
-    the remaining time shared out over the models left: (best evaluation, its model, all,
-    whether the deadline cut a search short)."""
+    """Search every model of ``engine`` (run on ``search_on``) at ``dt`` until ``deadline``:
+    one task per model (:func:`search_model`), here one after another (``workers`` 0) or on
+    that many worker processes at once (None: one per core, at most one per model), the
+    remaining time shared out over the models that run one after another — (best
+    evaluation, its model, all, whether the deadline cut a search short). A model's search
+    is the same wherever it runs; one whose worker dies costs that model only."""
+    from impactbench.cluster import available_cores
+
     ms = models(engine, dt, scenario.mass_kg)
+    n = len(ms) if workers == 0 else min(len(ms), workers or available_cores())
+    at_once = 1 if workers == 0 else n
+    allowed = max(deadline - time.perf_counter(), 0.0) * at_once / len(ms)
+    share = EVALUATIONS // len(ms)
+    items = [(engine, search_on, i, dt, scenario, tuple(speeds), refs, ph, allowed, share)
+             for i in range(len(ms))]
+    if workers == 0 or n < 2:
+        found = [search_model(item) for item in items]
+    else:
+        found = _in_processes(items, n)
     best: tuple[float, Evaluation, ContactModel] | None = None
     tried: list[Tried] = []
     cut = False
-    for i, model in enumerate(ms):
-        now = time.perf_counter()
-        share = now + max(deadline - now, 0.0) / (len(ms) - i)
+    for model, (seen, was_cut) in zip(ms, found, strict=True):
+        cut = cut or was_cut
         space = _space(model, search_on, dt)
-        obj = _objective(space, scenario, speeds, refs, dt, ph, share)
-        with quiet(search_on):
-            obj.evaluate(np.asarray(space.start), count_budget=False)  # at least the start
-            cut = _search(obj, space) or cut
-        for ev in obj.seen:
+        for ev in seen:
             s = score(ev)
             sinking = max((sp["penetration_ratio"] for sp in ev.spreads
                            if math.isfinite(sp["penetration_ratio"])), default=math.nan)
@@ -380,14 +452,14 @@ def _rows(ev: Evaluation, speeds: Sequence[float], refs: Sequence[Mapping[str, A
 
 def _longest_step(engine: str, search_on: str, dt: float, scenario: BallOnPlate,
                   speeds: Sequence[float], refs: list[dict[str, Any]], ph: tuple[float, ...],
-                  deadline: float, accept: float) -> dict[str, Any]:
+                  deadline: float, accept: float, workers: int | None = 0) -> dict[str, Any]:
     """Halve the step until a candidate is plausible within :data:`WITHIN` at every speed and
     phase (each step a search of a quarter of what is left of the budget, at least 5 s)."""
     step = dt / 2.0
     while step >= SMALLEST_STEP_S:
         now = time.perf_counter()
         ev, model, _, _ = _advise_at(engine, search_on, step, scenario, speeds, refs, ph,
-                                  now + max((deadline - now) / 4.0, 5.0))
+                                     now + max((deadline - now) / 4.0, 5.0), workers)
         if ev is not None and score(ev) <= WITHIN:
             return {"timestep_s": step, "worst_error": score(ev), "model": model.name
                     if model else "", "accept": accept}

@@ -74,7 +74,7 @@ RUN_KEYWORDS = ("engine", "scenario", "mode", "params", "param_set", "tuned_file
 """The keywords of :func:`run` besides the scenario's fields and options."""
 TUNE_KEYWORDS = ("engine", "scenario", "velocities_m_s", "targets", "weights", "parameters",
                  "solref_form", "timestep_s", "budget_s", "max_evals", "params", "out", "plot",
-                 "store", "fresh", "workers", "scheduler", "yes")
+                 "store", "fresh", "workers", "scheduler", "yes", "phases")
 """The keywords of :func:`tune` besides the scenario's fields and options."""
 TUNE_DISPATCH_MIN_S = 0.5
 """A tuning batch of runs estimated (from the runs so far) below this runs in this process: on
@@ -624,7 +624,8 @@ def tune(engine: str, scenario: str | None = None, *,
          max_evals: int | None = None, params: Mapping[str, Any] | None = None,
          out: str | Path | None = None, plot: str | Path | None = None,
          store: str | Path | bool | None = None, fresh: bool = False, workers: int | None = 0,
-         scheduler: str | None = None, yes: bool = False, **fields: Any) -> TuneFit:
+         scheduler: str | None = None, yes: bool = False, phases: int | None = None,
+         **fields: Any) -> TuneFit:
     """Fit an engine's contact parameters to the reference (``impactbench tune``).
 
     Args:
@@ -649,6 +650,9 @@ def tune(engine: str, scenario: str | None = None, *,
             Dask workers, or an existing Dask scheduler. The fit is the same wherever it runs.
         yes: fit even when one evaluation (a run per velocity) is estimated above 1e7
             integration steps (the budget is checked between evaluations only).
+        phases: the phases of the step each velocity is run at, judged at the worst
+            (:mod:`impactbench.phases`); None: 8 at a step not much shorter than the
+            contact, else 1.
         **fields: the scenario's fields and further options (``mass_kg``, ``material``, …).
 
     Returns a :class:`TuneFit`.
@@ -741,7 +745,7 @@ def tune(engine: str, scenario: str | None = None, *,
             solref_form=solref_form, timestep_s=timestep_s,
             budget_s=DEFAULT_BUDGET_S if budget_s is None else budget_s, max_evals=max_evals,
             fixed=dict(params) if params else None, store=results_store, fresh=fresh,
-            runner=runner)
+            runner=runner, phases=phases)
     files: dict[str, str] = {}
     if files_to["tuned"] is not None:
         model = getattr(built, "model", name)

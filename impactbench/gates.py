@@ -38,6 +38,8 @@ Gate file schema::
                                     # the fixed settings picking the packaged tuned file
     tuned_file = "my_tuned.toml"    # mode tuned: this tuned file (relative to the gate file)
                                     # instead of the packaged one; default timesteps_s: its step
+    phases = 8                      # optional: the head-on ball measured at 8 phases of its step
+                                    # (impactbench.phases: median value, judged at the worst)
     baseline_margin = 0.5           # optional per-gate overrides of [defaults]
     baseline_floor = 1e-4
     [gate.tolerance]                # metric -> tolerated |relative error| (≥ 0)
@@ -132,6 +134,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from impactbench import phases as phases_mod
 from impactbench import scenarios
 from impactbench.engines.registry import ENGINES, MODES
 from impactbench.matrix import Job, RunKey
@@ -147,8 +150,8 @@ FAILING: frozenset[str] = frozenset({WORSE, FAIL, NEW_FAILURE})
 NOT_COMPARABLE_STATUSES: frozenset[str] = frozenset({"unavailable", "unsupported"})
 
 FIXED_KEYS = ("engine", "mode", "scenario", "velocities_m_s", "timesteps_s", "parameters",
-              "params", "tuned_file", "tolerance", "abs_tolerance", "baseline_margin",
-              "baseline_floor")
+              "params", "tuned_file", "phases", "tolerance", "abs_tolerance",
+              "baseline_margin", "baseline_floor")
 DEFAULT_KEYS = ("baseline_margin", "baseline_floor")
 
 
@@ -450,6 +453,8 @@ def _expand(gate: Mapping[str, Any], defaults: Mapping[str, float], base: Path, 
         tuned_file, fitted_dt = _field("tuned_file", lambda: _tuned_file(
             gate["tuned_file"], engines, modes, base))
         timesteps = _field("tuned_file", lambda: _fitted_steps(gate, timesteps, fitted_dt))
+    n_phases = _field("phases", lambda: len(phases_mod.offsets(gate["phases"]))) \
+        if "phases" in gate else 1
     margins = {**defaults, **{k: _field(k, lambda k=k: check.non_negative(k, gate[k]))
                               for k in DEFAULT_KEYS if k in gate}}
     tol = {m: (t, False) for m, t in (_gate_tolerance(gate["tolerance"], spec)
@@ -470,10 +475,12 @@ def _expand(gate: Mapping[str, Any], defaults: Mapping[str, float], base: Path, 
             own_file = tuned_file if mode == "tuned" else ""
             for point in points:
                 for dt in timesteps:
-                    run = RunKey(engine, spec.name, point, mode, dt, params, user, own_file)
+                    run = RunKey(engine, spec.name, point, mode, dt, params, user, own_file,
+                                 n_phases)
                     if dt is None and not spec.owns_timestep:
                         dt = _default_timestep(engine, mode, run.build_scenario())
-                        run = RunKey(engine, spec.name, point, mode, dt, params, user, own_file)
+                        run = RunKey(engine, spec.name, point, mode, dt, params, user, own_file,
+                                     n_phases)
                     out.extend(Check(run, m, t, margins["baseline_margin"],
                                      margins["baseline_floor"], n, line, absolute)
                                for m, (t, absolute) in tol.items())
@@ -658,7 +665,7 @@ def plan(checks: Iterable[Check]) -> list[RunKey]:
 
 def _job(run: RunKey) -> Job:
     return Job(run.engine, run.scenario, run.point, run.mode, run.timestep_s, run.parameters,
-               run.params, run.tuned_file, study="gate")
+               run.params, run.tuned_file, run.phases, study="gate")
 
 
 def execute(runs: Iterable[RunKey], jobs: int | None = None,

@@ -45,6 +45,9 @@ def register(top: argparse._SubParsersAction, groups: dict) -> None:
                    dest="advise_write",
                    help="write the answer as an advice file (default: the packaged one, "
                         "impactbench/data/advice/<engine>_dt<step>.toml)")
+    p.add_argument("--workers", type=int, default=None, metavar="N", dest="advise_workers",
+                   help="local worker processes for the candidates' runs (default one per "
+                        "core; 0: in this process)")
     p.add_argument("--json", action="store_true", help="print the answer as JSON")
     p.set_defaults(func=main)
 
@@ -86,6 +89,8 @@ def text(a: Any) -> str:
         elif fb:
             lines.append(f"No step down to 1e-05 s met the target within 5 %; the best here "
                          f"errs by {_pct(fb['accept'])}.")
+    if a.note:
+        lines.append(f"The model: {a.note}.")
     lines.append(f"({len(a.tried)} candidates in {a.wall_s:.1f} s, {a.engine} "
                  f"{a.engine_version})")
     return "\n".join(lines)
@@ -102,7 +107,7 @@ def main(args: argparse.Namespace) -> int:
                else args.advise_velocities,
                target_csv=args.advise_target,
                budget_s=DEFAULT_BUDGET_S if args.advise_budget_s is None
-               else args.advise_budget_s)
+               else args.advise_budget_s, workers=args.advise_workers)
     if args.advise_figure:
         from impactbench.plots import advice_figure
 

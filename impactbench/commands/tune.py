@@ -116,6 +116,9 @@ def register(top: argparse._SubParsersAction, groups: dict) -> None:
                    metavar="KEY=VALUE",
                    help="an engine setting held fixed and written with the fit (repeatable), "
                    "e.g. Drake's discrete_contact_approximation=sap for a discrete plant")
+    p.add_argument("--phases", type=int, default=None, metavar="N",
+                   help="phases of the step each velocity is run at, judged at the worst "
+                        "(default: 8 at a step not much shorter than the contact, else 1)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     add_execution_flags(p, in_process=True)
     added: set[str] = set()
@@ -185,7 +188,7 @@ def main(args: argparse.Namespace) -> int:
                            max_evals=args.max_evals, params=dict(args.fixed) or None,
                            out=tuned_file, plot=plot_file, store=args.store,
                            fresh=args.fresh, workers=args.workers, scheduler=args.scheduler,
-                           yes=args.yes, **fields)
+                           yes=args.yes, phases=args.phases, **fields)
     except EngineUnavailable as exc:
         print(f"impactbench: error: {exc}")
         return 1

@@ -158,7 +158,7 @@ def tune(engine: str, scenario: BallOnPlate | None = None,
          start: tuple[float, ...] | None = None, references: list[dict] | None = None,
          fixed: dict[str, Any] | None = None, store: Any = None,
          fresh: bool = False, runner: Any = None,
-         phases: tuple[float | None, ...] = (None,)) -> TuneResult:
+         phases: int | None = None) -> TuneResult:
     """Fit ``engine``'s native contact parameters to the Hunt–Crossley reference.
 
     Args:
@@ -183,9 +183,11 @@ def tune(engine: str, scenario: BallOnPlate | None = None,
         runner: an :class:`impactbench.cluster.Runner` that executes the engine runs of each
             Sobol-scan slice and each finite-difference Jacobian at once (Dask workers); None
             runs them in this process. The result does not depend on it.
-        phases: where the first touch falls in a step (:mod:`impactbench.phases`): each
-            velocity is run at every one and scored at its worst; ``(None,)``: the adapters'
-            one phase, as before.
+        phases: how many phases of the step each velocity is run at
+            (:mod:`impactbench.phases`: the first touch at k/phases of a step), scored at the
+            worst; None: :data:`impactbench.phases.PHASES` at a step not much shorter than
+            the reference contact (:func:`impactbench.phases.needs_phases`), else 1 (the
+            adapters' one phase).
 
     At a step too long to resolve the reference contact (fewer than
     ``impactbench.reference.metrics.MIN_CONTACT_SAMPLES`` steps in its shortest duration)
@@ -235,9 +237,15 @@ def tune(engine: str, scenario: BallOnPlate | None = None,
     if not any(w > 0 for w in effective.values()):
         raise ValueError(f"targets = {list(requested)}: {engine} can express none of them "
                          f"(only {', '.join(sorted(space.expressible))})")
+    from impactbench import phases as phases_mod
+
+    if phases is None:
+        phases = phases_mod.PHASES if phases_mod.needs_phases(dt_run, shortest) else 1
+    phases_mod.offsets(phases)  # ValueError (one line) unless an integer >= 1
     obj = Objective(space, scenario, velocities, effective, timestep_s,
                     references=list(references or []), store=store, fresh=fresh,
-                    runner=runner, phases=tuple(phases))
+                    runner=runner,
+                    phases=phases_mod.offsets(phases) if phases > 1 else (None,))
     try:
         first = obj.evaluate(np.asarray(space.start), count_budget=False)
         obj.deadline = t0 + budget_s

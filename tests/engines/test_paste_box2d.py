@@ -21,6 +21,8 @@ from conftest import require_engine
 from impactbench.engines.advice_models import ENGINE_STEPS_S
 from impactbench.reference.scenarios import BallOnPlate
 
+from impactbench.advice_files import packaged_advice
+
 SPEEDS = (1.0, 3.0)
 """Impact speeds (m/s): 1 m/s is Box2D's compiled-in ``b2_velocityThreshold``, at which no
 restitution applies (the claim and the plain script both stop dead: e = 0), 3 m/s above it."""
@@ -84,9 +86,7 @@ def _plain_restitution(s: dict[str, float], ball: BallOnPlate, speed: float,
 def checked():
     """(advice, {speed: [plain e at each of the advice's phases]})."""
     require_engine("box2d")
-    from impactbench.advise import advise
-
-    advice = advise("box2d", ENGINE_STEPS_S["box2d"][0], velocities_m_s=SPEEDS, budget_s=6.0)
+    advice = packaged_advice("box2d", ENGINE_STEPS_S["box2d"][0], SPEEDS)
     parsed, ball = _parse(advice.snippet), BallOnPlate()
     plain = {v: [_plain_restitution(parsed, ball, v, ph) for ph in advice.phases]
              for v in SPEEDS}

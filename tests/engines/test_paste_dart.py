@@ -21,6 +21,8 @@ from conftest import require_engine
 from impactbench.engines.advice_models import ENGINE_STEPS_S
 from impactbench.reference.scenarios import BallOnPlate
 
+from impactbench.advice_files import packaged_advice
+
 SPEEDS = (1.0, 3.0)
 """Impact speeds (m/s)."""
 
@@ -105,9 +107,7 @@ def _plain_restitution(s: dict[str, float], ball: BallOnPlate, speed: float,
 def checked():
     """(advice, {speed: [plain e at each of the advice's phases]})."""
     require_engine("dart")
-    from impactbench.advise import advise
-
-    advice = advise("dart", ENGINE_STEPS_S["dart"][0], velocities_m_s=SPEEDS, budget_s=6.0)
+    advice = packaged_advice("dart", ENGINE_STEPS_S["dart"][0], SPEEDS)
     parsed, ball = _parse(advice.snippet), BallOnPlate()
     plain = {v: [_plain_restitution(parsed, ball, v, ph) for ph in advice.phases]
              for v in SPEEDS}

@@ -26,7 +26,7 @@ from conftest import require_engine
 from impactbench.engines.advice_models import ENGINE_STEPS_S
 from impactbench.reference.scenarios import BallOnPlate
 
-from impactbench.advise import advise
+from impactbench.advice_files import packaged_advice
 
 ENGINE = "newton"
 SPEEDS = (1.0, 3.0)
@@ -150,8 +150,7 @@ def advice():
     (~30 s more here), and changes neither the params, the snippet nor the per-speed rows
     this module tests."""
     require_engine(ENGINE)
-    return advise(ENGINE, ENGINE_STEPS_S[ENGINE][0], velocities_m_s=SPEEDS, budget_s=6.0,
-                  fallback=False)
+    return packaged_advice(ENGINE, ENGINE_STEPS_S[ENGINE][0], SPEEDS)
 
 
 @pytest.fixture(scope="module")

@@ -20,7 +20,7 @@ from conftest import require_engine
 from impactbench.engines.advice_models import ENGINE_STEPS_S
 from impactbench.reference.scenarios import BallOnPlate
 
-from impactbench.advise import advise
+from impactbench.advice_files import packaged_advice
 
 ENGINE = "pymunk"
 SPEEDS = (1.0, 3.0)
@@ -96,8 +96,7 @@ def advice():
     the longer search for a shorter step where nothing is plausible changes neither the
     params, the snippet nor the per-speed rows this module tests."""
     require_engine(ENGINE)
-    return advise(ENGINE, ENGINE_STEPS_S[ENGINE][0], velocities_m_s=SPEEDS, budget_s=6.0,
-                  fallback=False)
+    return packaged_advice(ENGINE, ENGINE_STEPS_S[ENGINE][0], SPEEDS)
 
 
 @pytest.fixture(scope="module")
