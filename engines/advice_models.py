@@ -154,13 +154,15 @@ def models(engine: str, timestep_s: float, mass_kg: float) -> tuple[ContactModel
 
 
 def _g(x: float) -> str:
-    return f"{float(x):.6g}"
+    return f"{float(x):.10g}"
 
 
-def snippet(engine: str, params: Mapping[str, Any], timestep_s: float) -> str:
+def snippet(engine: str, params: Mapping[str, Any], timestep_s: float,
+            mass_kg: float | None = None) -> str:
     """The settings to paste, in the engine's own words, from ``params`` (``custom`` keys)
-    and the step alone. Each is a complete recipe on top of the engine's defaults, for a
-    ball body ``ball`` (shape ``ball_shape``, …) over a static plate ``plate``."""
+    and the step alone (``mass_kg``: the body's, for a remark where it matters). Each is a
+    complete recipe on top of the engine's defaults, for a ball body ``ball`` (shape
+    ``ball_shape``, …) over a static plate ``plate``."""
     p, dt = dict(params), timestep_s
     if engine in ("mujoco", "mjx"):
         sr = " ".join(_g(x) for x in p["solref"])
@@ -229,9 +231,14 @@ def snippet(engine: str, params: Mapping[str, Any], timestep_s: float) -> str:
                 f"ball.CreateCircleFixture(radius=R, density=rho, restitution="
                 f"{_g(p['restitution'])})  # plate fixture: restitution 0 (Box2D takes the max)")
     if engine == "newton":
-        return (f"cfg = newton.ModelBuilder.ShapeConfig(ke={_g(p['ke'])}, kd={_g(p['kd'])})"
+        text = (f"cfg = newton.ModelBuilder.ShapeConfig(ke={_g(p['ke'])}, kd={_g(p['kd'])})"
                 "  # ball and plate shapes\n"
                 f"solver = newton.solvers.SolverFeatherstone(model); step dt = {_g(dt)}")
+        if mass_kg and float(p["kd"]) * dt / mass_kg > 1.0:
+            text += (f"\n# kd·dt/m = {float(p['kd']) * dt / mass_kg:.3g} > 1: the approach "
+                     "speed reverses within one step (the explicit damping overshoots), which "
+                     "is where this rebound comes from: valid at this step only")
+        return text
     raise ValueError(f"engine = {engine!r}: no snippet for it")
 
 

@@ -83,12 +83,12 @@ def text(a: Any) -> str:
         lines.append(f"No setting is plausible at every speed and phase at this step "
                      f"({len(a.tried)} candidates).")
         if fb.get("timestep_s"):
-            lines.append(f"Run at dt <= {fb['timestep_s']:.4g} s ({fb['model']}: worst error "
-                         f"{_pct(fb['worst_error'])}), or accept a worst error of "
+            lines.append(f"Run at dt <= {fb['timestep_s']:.4g} s ({fb['model']}: plausible, "
+                         f"worst error {_pct(fb['worst_error'])}), or accept a worst error of "
                          f"{_pct(fb['accept'])} with implausible runs.")
         elif fb:
-            lines.append(f"No step down to 1e-05 s met the target within 5 %; the best here "
-                         f"errs by {_pct(fb['accept'])}.")
+            lines.append(f"Nothing is plausible at any step down to 1e-05 s either; the best "
+                         f"here errs by {_pct(fb['accept'])}, with implausible runs.")
     if a.note:
         lines.append(f"The model: {a.note}.")
     lines.append(f"({len(a.tried)} candidates in {a.wall_s:.1f} s, {a.engine} "

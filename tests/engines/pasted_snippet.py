@@ -15,12 +15,14 @@ edges, each between a sample in contact and one in free flight, so e then lies b
 readings at those samples (at MuJoCo's customary 2 ms its default ``solref="0.02 1"`` contact
 spans ~44 steps, and the readings differ by up to 5e-4 in e).
 
-The snippet prints every number with 6 significant digits (``advice_models._g``) while the
+The snippet prints every number with 10 significant digits (``advice_models._g``) while the
 advice ran the unrounded values: the test reruns the plain script with each number printed
-with all 6 digits (a searched value; a shorter one is as set) moved by half a unit in its 6th
-digit, either way, and widens the reading by the largest move each number makes (first order).
-Measured at MuJoCo's 2 ms: the rounding of a direct ``solref="-246026 -8.72031"`` moves e by
-1.8e-6, of ``"-87230.4 -5.3827"`` by 1.7e-7.
+with all 10 digits (a searched value; a shorter one is as set) moved by half a unit in its
+10th digit, either way, and widens the reading by the largest move each number makes (first
+order). Measured at MuJoCo's 2 ms when the snippet printed 6 digits: the rounding of a direct
+``solref="-246026 -8.72031"`` moved e by 1.8e-6, of ``"-87230.4 -5.3827"`` by 1.7e-7; a 6-digit
+PyBullet restitution printed 0.84767 (a trailing zero dropped, so taken as exact) for
+0.8476701389 and the plain e was 1.4e-7 off — hence 10 digits.
 """
 
 from __future__ import annotations
@@ -36,13 +38,13 @@ MIN_CONTACT_SAMPLES = 10
 ENERGY_GAIN_LIMIT = 0.01
 """The suite's divergence rule: a run ending with over 1 % more kinetic energy than it started
 with is ``diverged``, and a diverged phase is left out of the advice's min/median/max."""
-SIGNIFICANT_DIGITS = 6
+SIGNIFICANT_DIGITS = 10
 NUMBER = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
 """A number in a snippet (a regular expression)."""
 
 
 def half_unit(x: float) -> float:
-    """Half a unit in the last of the snippet's 6 significant digits of ``x`` (0 for 0)."""
+    """Half a unit in the last of the snippet's 10 significant digits of ``x`` (0 for 0)."""
     if x == 0.0:
         return 0.0
     return 0.5 * 10.0 ** (math.floor(math.log10(abs(x))) - (SIGNIFICANT_DIGITS - 1))
@@ -57,7 +59,7 @@ def digits(token: str) -> int:
 def nudged(text: str, value: str = NUMBER) -> list[str]:
     """``text`` with each of its numbers that are settings (the regular expression ``value``,
     whose group ``n`` is the number; default: every number) and may have been rounded (printed
-    with all 6 significant digits: a shorter one, such as the step 0.002 or a fixed 0.0001, is
+    with all 10 significant digits: a shorter one, such as the step 0.002 or a fixed 0.0001, is
     the advice's own value) moved by +/- half a unit of its last printed digit, one number and
     one side at a time (2 per number, in order)."""
     out = []
