@@ -97,8 +97,10 @@ def merge(runs: Sequence[Mapping[str, Any]], phases: Sequence[float]) -> dict[st
     if str(out.get("status")) in MEASURED and out.get("rel_error"):
         from impactbench.reference.metrics import relative_error
 
+        # only where the worst phase compared (a metric not resolved at the step keeps NaN)
         out["rel_error"] = {k: (relative_error(float(out[k]), float(ref[k]))
-                                if k in spread and k in ref else e)
+                                if k in spread and k in ref and math.isfinite(float(e))
+                                else e)
                             for k, e in out["rel_error"].items()}
     out["wall_s"] = float(sum(float(r.get("wall_s") or 0.0) for r in runs))
     out["phases"] = {"phases": [float(p) for p in phases], "worst_phase": float(phases[w]),

@@ -29,13 +29,14 @@ SPEEDS = (1.0, 3.0)
 """Impact speeds (m/s)."""
 TOL = 1e-9
 """e allowed outside what the plain script reads (the minimum: float64 MJX steps the same model
-to the bit). Measured (2 ms, 1 and 3 m/s, 8 phases): 0 outside the plain reading once the
+to the bit). Measured (MJX 3.17.0, 2 ms, 1 and 3 m/s, 8 phases, the snippet's 10 significant
+digits): 0 outside the plain reading, for the packaged advice
+(``solref="-220546.2776 -57.55881061"``) and for the MJX adapter's custom runs below, once the
 printed numbers' rounding and the suite's interpolated reading of a long contact are allowed
-for (:mod:`pasted_snippet`). Without those allowances the worst |Δe| per speed:
-``solref="-87230.4 -5.3827"`` (an advice) 1.7e-7 at 1 and at 3 m/s, the 6-digit rounding (its
-phase 0 at 3 m/s gains 1.3 % energy: ``diverged`` and left out, in both); against the MJX
-adapter's own custom runs ``"0.02 1"`` 5.0e-4 (the interpolation), ``"0.00612345 0.512345"``
-0 and ``"-246026 -8.72031"`` 1.8e-6 (the rounding)."""
+for (:mod:`pasted_snippet`). Without those allowances the worst |Δe| per speed: the advice
+1.8e-10 at 1 m/s and 1.6e-10 at 3 m/s, the 10-digit rounding (as C MuJoCo's); custom
+``"0.02 1"`` 5.0e-4 (the interpolation), ``"0.00612345 0.512345"`` 0 (printed exactly) and
+``"-246026.1235 -8.720312346"`` 1.7e-10 (the rounding; 1.8e-6 when printed with 6 digits)."""
 CAP_S = 1.0
 """Steps after launch before a plain run gives up (s): the suite's own time cap for a
 ``custom`` MuJoCo/MJX ball (a run still in contact then is ``max_time``, left out)."""
@@ -149,7 +150,7 @@ def plain_runs(compiled, text: str, worlds: list[tuple[float, float]]) -> list[R
 
 
 def test_the_snippet_is_mjcf_for_mjx_at_the_advised_step(advice) -> None:
-    """The snippet sets the advice's step (s, to its 6 printed digits) and a solref, and says
+    """The snippet sets the advice's step (s, to its 10 printed digits) and a solref, and says
     to move the model to MJX."""
     import re
 

@@ -16,7 +16,7 @@ Bullet's default ``linearDamping`` 0.04 stays on, as in any user's script: on a 
 multibody it is a drag m·v·0.04·(1 + |v|) (N), which slows the ball by 3.3e-4 (1 m/s) to
 6.7e-4 (3 m/s) of its speed per step of free flight. So the speeds are read at the free-flight
 samples just outside the contact (as the suite reads them), not at launch or long after:
-read at launch and 3 steps after, e would be 1.2e-3 lower at 3 m/s.
+read at launch and 3 steps after, the advice's e would be 3.1e-3 lower at 3 m/s.
 """
 
 from __future__ import annotations
@@ -31,13 +31,18 @@ SPEEDS = (1.0, 3.0)
 """Impact speeds (m/s)."""
 TOL = 1e-9
 """e allowed outside what the plain script reads (the minimum for exact agreement). Measured
-(1/240 s, 1 and 3 m/s, 8 phases): the advice ``restitution=0.9`` with no push-out 0 at both
-speeds (bit for bit); the compliant snippet of the last test (K 3.1e4 N/m, D 1.3 N·s/m)
-≤ 7.8e-16 (the plate's box differs from the suite's). Read at launch and
-3 steps after the contact instead (the drag, module doc) the advice's e would be 1.7e-3 (1 m/s)
-and 3.4e-3 (3 m/s) lower. Before the snippet printed the step as ``1 / 240`` (it printed
-0.00416667) the restitution snippets were ~1e-9 off, and before it gave the plate infinite
-stiffness and zero damping the compliant one was 3.7e-4 off."""
+(PyBullet 3.2.7, 1/240 s, 1 and 3 m/s, 8 phases, the snippet's 10 significant digits): 0
+outside the plain reading at both speeds for the packaged advice (``restitution=0.8476701389``,
+no push-out; 3.7e-11 before the printed number's rounding is allowed for) and for the custom
+runs ``restitution=0.9`` (bit for bit) and ``0.8123456789123`` (1.2e-11 before the allowance);
+the compliant snippet of the last test (K 3.1e4 N/m, D 1.3 N·s/m) ≤ 7.8e-16 (the plate's box
+differs from the suite's), K 31234.56789123, D 1.3456789123 0 (8.7e-12 before the allowance).
+Read at launch and 3 steps after the contact instead (the drag, module doc) the advice's e
+would be 1.6e-3 (1 m/s) and 3.1e-3 (3 m/s) lower. With 6 digits the snippet printed the
+advice's restitution 0.8476701389 as 0.84767 and the plain e was 1.4e-7 off; before it printed
+the step as ``1 / 240`` (it printed 0.00416667) the restitution snippets were ~1e-9 off, and
+before it gave the plate infinite stiffness and zero damping the compliant one was 3.7e-4
+off."""
 CAP_S = 0.5
 """Time after launch before a plain run gives up (s): the suite's cap for an out-of-box
 PyBullet ball (a ball still in contact then is ``max_time``, left out of the spread)."""

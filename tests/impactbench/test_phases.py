@@ -90,3 +90,19 @@ def test_phases_move_a_rigid_contact_s_outcome_at_a_long_step() -> None:
     calm = es({"contactERP": 0.0, "contactBreakingThreshold": 1e-4})
     assert max(calm) - min(calm) < 0.02
     assert all(abs(e - 0.86) < 0.02 for e in calm)
+
+
+def test_merge_keeps_a_metric_that_did_not_compare_uncompared() -> None:
+    """A peak force not resolved at the step has no error in any phase: the median of its
+    values is reported, its error stays NaN (never compared)."""
+    runs = []
+    for e, f in ((0.8, 10.0), (0.9, 30.0), (0.85, 20.0)):
+        run = _run("ok", e)
+        run["peak_force_n"] = f
+        run["reference"]["peak_force_n"] = 100.0
+        run["rel_error"]["peak_force_n"] = math.nan
+        runs.append(run)
+    out = phases.merge(runs, phases.offsets(3))
+    assert out["peak_force_n"] == 20.0
+    assert math.isnan(out["rel_error"]["peak_force_n"])
+    assert out["rel_error"]["restitution"] == pytest.approx((0.85 - 0.9) / 0.9)

@@ -51,14 +51,15 @@ def test_practical_section_tables_and_figure(practical_report: report.Report) ->
     df = practical_report.results
     rows = df[(df.study == "practical") & (df.metric == "restitution")]
     tuned = rows[rows["mode"] == "tuned"]
-    # the packaged files fitted at these very steps apply (no timestep mismatch): plausible
-    # where their provenance says so (MuJoCo 2 ms: 0.5 and 1 m/s; pymunk 1/60 s: never, the
-    # ball moves 8 mm, 0.57 radii, per step at 0.5 m/s), implausible elsewhere
-    assert set(tuned.status) <= {"ok", "implausible"}
-    assert ((tuned.status == "ok") == (tuned.penetration_ratio <= 0.1)).all()
-    ok = tuned[tuned.status == "ok"]
-    assert set(ok.engine) == {"mujoco"} and set(ok.velocity_m_s) == {1.0}
-    assert (ok.rel_error.abs() < 0.05).all()  # measured 1.6 % (the file's provenance)
+    # the packaged files fitted at these very steps apply (no timestep mismatch), each run at
+    # 8 phases of its step: plausible at every speed and phase, as their provenance says
+    # (fitted on the worst phase: MuJoCo 2 ms worst 19.1 %, pymunk 1/60 s 13.0 %; the sinking
+    # beyond the step's own overlap is 6e-5 R and 0)
+    assert set(tuned.status) == {"ok"}
+    assert (tuned.penetration_ratio <= 0.1).all() and (tuned.phases == 8).all()
+    worst = [max(abs(r.value_min - r.reference), abs(r.value_max - r.reference)) / r.reference
+             for r in tuned.itertuples()]
+    assert max(worst) < 0.25  # measured 0.191 (MuJoCo at 5 m/s; 1 m/s 0.140; pymunk 0.130)
     assert "## At your timestep" in text
 
 
@@ -114,8 +115,9 @@ def test_at_your_timestep_opens_the_report_with_settings_to_paste(
     assert text[first:].startswith("## At your timestep")
     section = text[first:text.index("## Scoreboard")]
     assert "| mujoco 4" in section and "| 2 ms |" in section and "1/60 s" in section
-    assert 'solref="' in section and "model.geom_solref" in section  # tuned MuJoCo at 2 ms
-    assert "plausible runs" in section and "max penetration" in section
+    # MuJoCo at 2 ms: the packaged advice (a direct solref on the geoms' defaults) is best
+    assert "| advised |" in section and '<default><geom solref="' in section
+    assert "plausible runs" in section and "max sinking beyond the step" in section
     assert "Scoreboard: ball on plate, dt = 1e-05 s" in text
 
 
