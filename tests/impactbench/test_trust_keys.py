@@ -162,6 +162,7 @@ SETTINGS_VARIANTS: dict[str, list[tuple[Any, Any]]] = {
     "options": [({}, {"injection": "secant"}), ({"injection": "secant"},
                                                 {"injection": "explicit"}),
                 ({"x": 1.0}, {"x": NEAR})],
+    "phase": [(None, 0.0), (0.0, 0.125), (0.5, math.nextafter(0.5, 1.0))],
 }
 """Per RunSettings field: (value, other value) pairs, text and nearly equal floats included."""
 
