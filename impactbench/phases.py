@@ -70,10 +70,11 @@ def worst(runs: Sequence[Mapping[str, Any]]) -> int:
 
 def merge(runs: Sequence[Mapping[str, Any]], phases: Sequence[float]) -> dict[str, Any]:
     """One point's runs at ``phases`` (its run objects, :func:`impactbench.evaluate.compare`'s)
-    → one run object: the worst phase's (:func:`worst`: its status, message, plausibility and
-    every field), with each metric and its error replaced by the median over the phases that
-    measured (where the worst phase measured too), and ``phases``: the phases, the worst one,
-    and per metric its min, median and max over them."""
+    → one run object: the worst phase's (:func:`worst`: its status, message and every
+    field), with each metric and its error replaced by the median over the phases that
+    measured (where the worst phase measured too), the plausibility measures the largest over
+    all phases, and ``phases``: the phases, the worst one, and per metric its min, median and
+    max over them."""
     import numpy as np
 
     if len(runs) != len(phases) or not runs:
@@ -102,6 +103,15 @@ def merge(runs: Sequence[Mapping[str, Any]], phases: Sequence[float]) -> dict[st
                                 if k in spread and k in ref and math.isfinite(float(e))
                                 else e)
                             for k, e in out["rel_error"].items()}
+    # the plausibility measures are the worst over every phase (the largest sinking, step
+    # overlap and energy ratio), not only the speaking phase's
+    measures: dict[str, float] = {}
+    for r in runs:
+        for k, v in (r.get("plausibility") or {}).items():
+            if isinstance(v, float | int) and math.isfinite(v):
+                measures[k] = max(measures.get(k, -math.inf), float(v))
+    if measures:
+        out["plausibility"] = {**(runs[w].get("plausibility") or {}), **measures}
     out["wall_s"] = float(sum(float(r.get("wall_s") or 0.0) for r in runs))
     out["phases"] = {"phases": [float(p) for p in phases], "worst_phase": float(phases[w]),
                      "measured": len(measured), "spread": spread}

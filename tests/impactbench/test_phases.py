@@ -106,3 +106,14 @@ def test_merge_keeps_a_metric_that_did_not_compare_uncompared() -> None:
     assert out["peak_force_n"] == 20.0
     assert math.isnan(out["rel_error"]["peak_force_n"])
     assert out["rel_error"]["restitution"] == pytest.approx((0.85 - 0.9) / 0.9)
+
+
+def test_merge_reports_the_largest_sinking_over_every_phase() -> None:
+    """The speaking phase is the worst by error; the sinking, step overlap and energy ratio
+    reported are the largest over all phases (a plausible point's deepest phase is shown)."""
+    runs = [_run("ok", 0.80), _run("ok", 0.89), _run("ok", 0.91)]
+    runs[1]["plausibility"] = {"penetration_ratio": 0.07, "step_overlap_ratio": 0.5}
+    out = phases.merge(runs, phases.offsets(3))
+    assert out["phases"]["worst_phase"] == 0.0  # furthest from 0.9
+    assert out["plausibility"]["penetration_ratio"] == 0.07
+    assert out["plausibility"]["step_overlap_ratio"] == 0.5
