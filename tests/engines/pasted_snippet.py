@@ -34,6 +34,7 @@ import re
 import statistics
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 MIN_CONTACT_SAMPLES = 10
 """A contact with fewer force samples is read at the free-flight samples just outside it."""
@@ -241,3 +242,13 @@ def mjcf(text: str, radius_m: float, mass_kg: float) -> str:
         return " ".join(f'{k}="{v}"' for k, v in d.items())
 
     return MJCF.format(option=joined(option), geom=joined(geom), radius=radius_m, mass=mass_kg)
+
+
+def measured(runs: Sequence[Any]) -> list[Any]:
+    """The phases' readings the suite measures: e finite and no more than
+    :data:`ENERGY_GAIN_LIMIT` kinetic energy gained (a reading is e, or (e, slack))."""
+    def e_of(r: Any) -> float:
+        return float(r[0] if isinstance(r, tuple) else r)
+
+    return [r for r in runs if math.isfinite(e_of(r))
+            and e_of(r) ** 2 <= 1.0 + ENERGY_GAIN_LIMIT]
