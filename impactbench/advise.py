@@ -98,9 +98,11 @@ class Advice:
             ``phases_measured`` phases that measured one: a diverged phase has none),
             ``worst_error``, ``step_overlap_ratio``, ``sinking_ratio``, ``status``).
         tried: every candidate evaluated (the trade-off figure's points).
-        fallback: where nothing is plausible, ``{"timestep_s": X, "worst_error": …}`` — the
-            longest step found at which the engine meets the target within 5 % (None when
-            none down to :data:`SMALLEST_STEP_S`), and ``accept``: the best implausible error.
+        fallback: where nothing is plausible, ``{"timestep_s": X, "worst_error": …,
+            "model": …}`` — the longest step found at which a candidate is plausible at every
+            speed and phase, and its worst error there (``timestep_s`` None when none down to
+            :data:`SMALLEST_STEP_S`), and ``accept``: the best worst error at the asked step
+            (implausible).
     """
 
     engine: str
@@ -139,12 +141,12 @@ class Advice:
 class _Tracked(Objective):
     """An :class:`Objective` that keeps every evaluation (the trade-off figure's points)."""
 
-    seen: list[Evaluation]
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        self.seen: list[Evaluation] = []
 
     def evaluate(self, values: np.ndarray, *, count_budget: bool = True) -> Evaluation:
         ev = super().evaluate(values, count_budget=count_budget)
-        if not hasattr(self, "seen"):
-            self.seen = []
         self.seen.append(ev)
         return ev
 
@@ -357,10 +359,10 @@ def _answer(engine: str, search_on: str, dt: float, scenario: BallOnPlate,
 def _objective(space: Space, scenario: BallOnPlate, speeds: Sequence[float],
                refs: list[dict[str, Any]], dt: float, ph: tuple[float, ...],
                deadline: float) -> _Tracked:
-    obj = _Tracked(space, scenario, tuple(speeds), {"restitution": 1.0}, dt,
-                   deadline=deadline, references=list(refs), phases=ph)
-    obj.seen = []
-    return obj
+    """The restitution-only objective of one space, at every speed and phase, every
+    evaluation kept."""
+    return _Tracked(space, scenario, tuple(speeds), {"restitution": 1.0}, dt,
+                    deadline=deadline, references=list(refs), phases=ph)
 
 
 def search_model(item: tuple) -> tuple[list[Evaluation], bool]:
