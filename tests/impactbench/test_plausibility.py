@@ -115,8 +115,12 @@ def test_tuning_is_constrained_and_says_when_the_limits_bind() -> None:
     from impactbench.tuning import output
     from impactbench.tuning.optimize import tune
 
+    # one phase (the adapters'): this is the limits' bookkeeping, not the phases' (at 8
+    # phases, judged at the worst, 40 evaluations of the 6-knob solref+solimp space find no
+    # candidate plausible at 0.5 m/s; the packaged 2 ms file's 2-knob time-constant fit took
+    # 140; the phases are tested in test_tune_phases.py)
     result = tune("mujoco", BallOnPlate(), velocities_m_s=(0.5, 1.0), timestep_s=2e-3,
-                  targets=("restitution",), max_evals=40, budget_s=120)
+                  targets=("restitution",), max_evals=40, budget_s=120, phases=1)
     tuned = result.tuned
     assert tuned.objective <= result.start.objective
     for st, pen in zip(tuned.statuses, tuned.penetration_ratios, strict=True):

@@ -104,8 +104,16 @@ def test_plausibility_energy_uses_the_shapes_inertia():
     s = Oblique(shape="disc", angle_deg=45.0)
     ref = oblique.rigid(s)
 
-    class Rec:
-        penetration_m = __import__("numpy").asarray([0.0, 1e-5])
+    np = __import__("numpy")
+
+    class Rec:  # a record's fields the measures read (one contact sample at a 1 µs step)
+        penetration_m = np.asarray([0.0, 1e-5])
+        penetration_rate_m_s = np.asarray([1.0, 0.0])
+        normal_force_n = np.asarray([0.0, 1.0])
+
+        @property
+        def meta(self) -> dict:
+            return {"timestep_s": 1e-6}
 
         def __len__(self) -> int:
             return 2
