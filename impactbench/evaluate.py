@@ -90,13 +90,24 @@ def compare_many(engine: str, items: list[tuple[Scenario, str, RunSettings | Non
     same objects (``wall_s`` aside): the runs go to the engine together
     (:func:`~impactbench.engines.base.run_many_safely`), so an engine that batches (MJX's
     ball: one ``vmap``) runs them in one call — a tuner's generation."""
+    return [run for run, _ in compare_many_records(engine, items)]
+
+
+def compare_many_records(engine: str, items: list[tuple[Scenario, str, RunSettings | None,
+                                                        dict[str, Any] | None]]
+                         ) -> list[tuple[dict[str, Any], ImpactRecord]]:
+    """:func:`compare_many` with each run's record: ``(object, record)`` per item, as
+    :func:`compare` returns them (a report's batch of runs keeps their force histories)."""
     prepared = [_prepared(engine, *item) for item in items]
     todo = [i for i, p in enumerate(prepared) if p[4] is None]
     recs = dict(zip(todo, run_many_safely(engine, [(prepared[i][0], items[i][1],
                                                     prepared[i][1]) for i in todo]),
                     strict=True))
-    return [_scored(engine, p[0], item[1], p[1], p[2], p[3], recs.get(i, p[4]))
-            for i, (p, item) in enumerate(zip(prepared, items, strict=True))]
+    out = []
+    for i, (p, item) in enumerate(zip(prepared, items, strict=True)):
+        rec = recs.get(i, p[4])
+        out.append((_scored(engine, p[0], item[1], p[1], p[2], p[3], rec), rec))
+    return out
 
 
 def _prepared(engine: str, scenario: Scenario, mode: str, settings: RunSettings | None,

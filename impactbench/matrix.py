@@ -25,9 +25,6 @@ from impactbench.config import ReportConfig
 from impactbench.evaluate import compare, reference_metrics
 from impactbench.scenarios import Point
 
-HISTORY_POINTS = 1500
-"""Histories returned for plots are thinned to about this many samples."""
-
 
 @dataclass(frozen=True, order=True)
 class RunKey:
@@ -134,19 +131,6 @@ class JobResult:
     """True when the run came from the results store instead of an engine."""
 
 
-def _thin(rec, points: int = HISTORY_POINTS) -> dict[str, np.ndarray]:
-    n = len(rec)
-    if n == 0:
-        return {}
-    step = max(1, math.ceil(n / points))
-    idx = np.unique(np.r_[np.arange(0, n, step), np.argmax(rec.normal_force_n), n - 1])
-    return {
-        "time_s": rec.time_s[idx],
-        "normal_force_n": rec.normal_force_n[idx],
-        "penetration_m": rec.penetration_m[idx],
-    }
-
-
 def job_settings(job: Job):
     """The :class:`~impactbench.engines.base.RunSettings` of a job (hashed into its store key)."""
     from impactbench.config import thawed
@@ -174,55 +158,144 @@ def job_inputs(job: RunKey, settings: Any) -> dict[str, Any]:
     return inputs
 
 
+Item = tuple[Job, "dict[str, Any] | None", Any]
+"""One job as the workers get it: (job, its reference metrics, its RunSettings)."""
+
+
 def execute(job: Job, reference: dict[str, Any] | None = None,
             settings: Any = None) -> JobResult:
     """Run one job (in a worker process). Never raises for engine trouble. A job of several
     phases runs once per phase (:func:`impactbench.phases.offsets`) and is merged
     (:func:`impactbench.phases.merge`: the median and range, judged at the worst phase; its
     history is the worst phase's)."""
-    from impactbench import phases
-
     settings = settings if settings is not None else job_settings(job)
-    offsets = phases.offsets(job.phases) if job.phases > 1 else (None,)
-    runs, recs = [], []
+    pairs = []
     try:
-        for ph in offsets:
-            run, rec = compare(job.engine, job.build_scenario(), job.mode,
-                               settings if ph is None else replace(settings, phase=ph),
-                               reference)
-            runs.append(run)
-            recs.append(rec)
+        for scenario, mode, ph_settings, ref in _phase_runs(job, reference, settings):
+            pairs.append(compare(job.engine, scenario, mode, ph_settings, ref))
     except ValueError as exc:  # settings the engine refused (bad input for a lone run):
         # in a matrix, one row that says why, never the loss of the other runs
         return _crashed(job, f"bad settings: {exc}", reference or {})
+    return _result(job, pairs)
+
+
+def _phase_runs(job: Job, reference: dict[str, Any] | None, settings: Any) -> list[tuple]:
+    """The engine runs of a job: ``(scenario, mode, settings, reference)`` per phase."""
+    from impactbench import phases
+
+    scenario = job.build_scenario()
+    offsets = phases.offsets(job.phases) if job.phases > 1 else (None,)
+    return [(scenario, job.mode, settings if ph is None else replace(settings, phase=ph),
+             reference) for ph in offsets]
+
+
+def _result(job: Job, pairs: list[tuple[dict[str, Any], Any]]) -> JobResult:
+    """A job's result from its runs' (object, record) pairs, one per phase."""
+    from impactbench import phases
+
+    runs = [run for run, _ in pairs]
     if job.phases > 1:
         worst = phases.worst(runs)
-        run, rec = phases.merge(runs, offsets), recs[worst]
-    return JobResult(job, run, _thin(rec) if job.keep_history else {})
+        run, rec = phases.merge(runs, phases.offsets(job.phases)), pairs[worst][1]
+    else:
+        run, rec = pairs[0]
+    history = job.spec.kept_history(rec, run, job.build_scenario()) \
+        if job.keep_history and rec is not None else {}
+    return JobResult(job, run, history)
 
 
-def execute_item(item: tuple[Job, dict[str, Any] | None, Any]) -> JobResult:
-    """:func:`execute` of one (job, reference, settings) item (what the workers run)."""
-    return execute(*item)
+def execute_items(items: list[Item]) -> list[JobResult]:
+    """The results of a work item (what the workers run): one job (:func:`execute`), or jobs
+    of one engine whose builder batches their scenario, all their runs (every phase of each)
+    handed to the engine in one call (:func:`impactbench.evaluate.compare_many_records` →
+    :meth:`~impactbench.engines.base.Adapter.run_many`: MJX one ``vmap``, Newton one model
+    with a world per run), each record the lone run's; should the batch refuse its settings,
+    each job alone says which."""
+    if len(items) == 1:
+        return [execute(*items[0])]
+    from impactbench.evaluate import compare_many_records
+
+    runs: list[tuple] = []
+    owner: list[int] = []
+    for k, (job, reference, settings) in enumerate(items):
+        settings = settings if settings is not None else job_settings(job)
+        for run in _phase_runs(job, reference, settings):
+            runs.append(run)
+            owner.append(k)
+    try:
+        pairs = compare_many_records(items[0][0].engine, runs)
+    except ValueError:
+        return [execute(*item) for item in items]
+    grouped: list[list[tuple]] = [[] for _ in items]
+    for k, pair in zip(owner, pairs, strict=True):
+        grouped[k].append(pair)
+    return [_result(job, got) for (job, _, _), got in zip(items, grouped, strict=True)]
 
 
-def prepare_item(item: tuple[Job, dict[str, Any] | None, Any]) -> None:
-    """Load a job's engine adapter (its modules and the engine's package) before the job's
-    clock starts: on a restarted worker these imports take seconds under load. An engine that
-    fails to load is left to the run itself, which reports it."""
+def prepare_items(items: list[Item]) -> None:
+    """Load a work item's engine adapter (its modules and the engine's package) before the
+    item's clock starts: on a restarted worker these imports take seconds under load. An
+    engine that fails to load is left to the run itself, which reports it."""
     from impactbench.engines.base import get_adapter
 
     with contextlib.suppress(Exception):
-        get_adapter(item[0].engine)
+        get_adapter(items[0][0].engine)
+
+
+BATCH_RUNS = 512
+"""At most this many engine runs (phases counted) in one batched work item."""
+
+
+def work_items(pending: list[Job], settings: dict[str, Any],
+               references: dict[tuple, dict[str, Any]]) -> list[list[Item]]:
+    """``pending`` as work items, in the order given: each job alone, but the jobs of an
+    engine whose builder batches their scenario (:attr:`~impactbench.engines.base.Builder.
+    batch`) together, per engine and scenario, in items of at most :data:`BATCH_RUNS` runs
+    (placed where the group's first job is)."""
+    batching: dict[tuple[str, str], bool] = {}
+    groups: dict[tuple[str, str], list[list[Item]]] = {}
+    out: list[list[Item]] = []
+    for job in pending:
+        item = (job, references[job.reference_key], settings[job.id])
+        key = (job.engine, job.scenario)
+        if key not in batching:
+            batching[key] = _batches(job)
+        if not batching[key]:
+            out.append([item])
+            continue
+        chunks = groups.get(key)
+        if chunks is None or sum(i[0].phases for i in chunks[-1]) + job.phases > BATCH_RUNS:
+            chunks = groups.setdefault(key, [])
+            chunks.append([])
+            out.append(chunks[-1])
+        chunks[-1].append(item)
+    return out
+
+
+def _batches(job: Job) -> bool:
+    """Whether ``job``'s engine runs its scenario in batches (a builder with ``batch``)."""
+    from impactbench.engines.base import get_adapter
+
+    try:
+        found = get_adapter(job.engine).builder(job.build_scenario())
+    except Exception:  # an engine not installed here: its runs say so, one by one
+        return False
+    return bool(found is not None and found.batch)
 
 
 def plan(config: ReportConfig, engines: Iterable[str] | None = None) -> list[Job]:
-    """All jobs of a config: the matrix, then the practical and work-precision studies."""
+    """All jobs of a config: the matrix and a measured scenario's replays
+    (:meth:`~impactbench.scenarios.spec.ScenarioSpec.report_jobs`), then the practical and
+    work-precision studies."""
     from impactbench.tuned import tuned_path
 
+    restricted = engines
     engines = tuple(engines if engines is not None else config.engines)
     jobs: list[Job] = []
     for sm in config.scenarios:
+        if scenarios.get(sm.name).measured:  # its replays, beside the matrix on its workers
+            jobs += scenarios.get(sm.name).report_jobs(config, sm, restricted)
+            continue
         params = tuple(sorted(sm.parameters.items()))
         for engine in engines:
             modes = [m for m in sm.modes or config.modes
@@ -473,10 +546,15 @@ def run_jobs(jobs: list[Job], workers: int | None = None,
     if timeout_s is not None and not (math.isfinite(timeout_s) and timeout_s > 0):
         raise ValueError(f"timeout = {timeout_s!r}: must be a number of seconds > 0")
 
-    def timeout_of(item: tuple) -> float:
-        # the engine's first-use compile does not count against the timeout
-        return (timeout_s or cluster.default_timeout(cluster.run_estimate_s(
-            steps[item[0].id]))) + cluster.first_use_s(item[0].engine)
+    def cost_of(item: list[Item]) -> float:
+        return sum(cluster.run_estimate_s(steps[job.id]) for job, _, _ in item)
+
+    def timeout_of(item: list[Item]) -> float:
+        # the engine's first-use compile does not count against the timeout; a batch's
+        # (its runs' together) is its runs' own timeouts added up
+        job = item[0][0]
+        return (timeout_s * len(item) if timeout_s else cluster.default_timeout(
+            cost_of(item))) + cluster.first_use_s(job.engine)
 
     unstored: list[JobResult] = []
     last_flush = time.monotonic()
@@ -514,18 +592,23 @@ def run_jobs(jobs: list[Job], workers: int | None = None,
             # default placement: work estimated below a cluster's start-up runs here (a
             # given --workers N, or a scheduler, always sends it to the workers)
             floor = DISPATCH_MIN_S if workers is None and scheduler is None else 0.0
+            items = work_items(pending, settings, references)
+
+            def failed(item: list[Item], why: str, status: str = "crashed") -> None:
+                more = f" (one of a batch of {len(item)} runs)" if len(item) > 1 else ""
+                for job, reference, _ in item:
+                    finished(_crashed(job, why + more, reference, status))
+
             with cluster.Runner(workers, scheduler, min_dispatch_s=floor) as runner:
                 try:
-                    runner.run(execute_item, [(j, references[j.reference_key], settings[j.id])
-                                              for j in pending], estimate_s=estimate,
-                               on_result=lambda _item, result: finished(result),
-                               on_crash=lambda item, why: finished(
-                                   _crashed(item[0], why, item[1])),
-                               on_timeout=lambda item, why: finished(
-                                   _crashed(item[0], why, item[1], "timeout")),
-                               label="runs", group=lambda item: item[0].engine,
-                               cost=lambda item: cluster.run_estimate_s(steps[item[0].id]),
-                               timeout_s=timeout_of, on_tick=tick, prepare=prepare_item)
+                    runner.run(execute_items, items, estimate_s=estimate,
+                               on_result=lambda _item, got: [finished(r) for r in got],
+                               on_crash=failed,
+                               on_timeout=lambda item, why: failed(item, why, "timeout"),
+                               label="runs",
+                               group=lambda item: (item[0][0].engine, len(item) > 1),
+                               cost=cost_of, timeout_s=timeout_of, on_tick=tick,
+                               prepare=prepare_items)
                 except KeyboardInterrupt:
                     flush()  # before the cluster closes (seconds)
                     raise

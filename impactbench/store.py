@@ -62,11 +62,18 @@ RESET_CORRUPT = False
 """Move a corrupt store aside and start a new one (``--store-reset``) instead of failing."""
 STAGED = ".staged-"
 CORRUPT = ".corrupt-"
-TABLES = ("results", "runs", "histories", "sweep_points")
+TABLES = ("results", "runs", "histories", "history_series", "sweep_points")
 _CORRUPT_SIGNS = ("not a valid duckdb", "could not read enough bytes", "checksum", "corrupt",
                   "serialization error", "truncated to")
 """Words of a DuckDB error that mean the file's content is damaged (not a full disk, a
 permission, a lock or a newer DuckDB's file: those are one-line errors, never moved aside)."""
+
+
+def _has_table(con: Any, name: str) -> bool:
+    """Whether the connected store has table ``name`` (a store written by an older
+    impactbench may lack a newer table until its next write creates it)."""
+    return bool(con.execute("SELECT count(*) FROM information_schema.tables WHERE "
+                            "table_name = ?", [name]).fetchone()[0])
 
 
 class StoreLocked(ValueError):
@@ -120,6 +127,12 @@ CREATE TABLE IF NOT EXISTS histories (
     normal_force_n DOUBLE[],
     penetration_m DOUBLE[]
 );
+CREATE TABLE IF NOT EXISTS history_series (
+    run_key VARCHAR NOT NULL,
+    name VARCHAR NOT NULL,
+    series DOUBLE[],
+    PRIMARY KEY (run_key, name)
+);
 """
 _MIGRATE_POINT = """
 UPDATE results SET point = CASE WHEN local IS NULL OR local = ''
@@ -133,6 +146,11 @@ ALTER TABLE results DROP COLUMN velocity_m_s;
 """A store written before scenarios became specs kept a run's point in three columns
 (``local``, ``structure``, ``velocity_m_s``); one JSON ``point`` column holds any scenario's."""
 HISTORY_KEYS = ("time_s", "normal_force_n", "penetration_m")
+SERIES = "series"
+"""The key of a ``histories`` row's other series, on their way to ``history_series``."""
+"""The force history's series, the columns of ``histories``. A history's other series (the
+cube tosses' picked trajectories: :meth:`~impactbench.scenarios.spec.ScenarioSpec.
+kept_history`) are rows of ``history_series``, one per run and name."""
 POINT_KEYS = ("peak_force_n", "pulse_width_s", "contact_time_s", "impulse_ns", "impacts")
 """The metric columns of ``sweep_points``: the 2-DOF solver's ``METRIC_KEYS`` (tested equal)."""
 CANDIDATE = "tune"
@@ -595,10 +613,16 @@ class Store:
             hist_rows = con.execute(
                 "SELECT h.run_key, time_s, normal_force_n, penetration_m FROM histories h "
                 "JOIN wanted USING (run_key)").fetchall() if need_history else []
+            series = con.execute(
+                "SELECT s.run_key, name, series FROM history_series s "
+                "JOIN wanted USING (run_key)").fetchall() if need_history and _has_table(
+                    con, "history_series") else []  # (a store from before the table)
         histories = {key: {name: np.asarray(arr, dtype=float)
                            for name, arr in zip(HISTORY_KEYS, arrays, strict=True)}
                      if len(arrays[0]) else {}  # a run that recorded nothing
                      for key, *arrays in hist_rows}
+        for key, name, arr in series:
+            histories.setdefault(key, {})[name] = np.asarray(arr, dtype=float)
         out = {}
         for key, run in rows:
             if key in need_history and key not in histories:
@@ -714,8 +738,12 @@ class Store:
                     "study": job.get("study", ""),
                 })
             if history or job.get("keep_history"):  # none recorded (a failed run): empty
+                # its other series ride along (``_put`` writes them to history_series)
                 hist.append({"run_key": key, **{k: [float(x) for x in history.get(k, ())]
-                                                for k in HISTORY_KEYS}})
+                                                for k in HISTORY_KEYS},
+                             SERIES: [{"run_key": key, "name": k,
+                                       "series": [float(x) for x in v]}
+                                      for k, v in history.items() if k not in HISTORY_KEYS]})
         return rows, runs, hist
 
     def _put(self, rows: list[dict], runs: list[dict], hist: list[dict]) -> int:
@@ -728,12 +756,20 @@ class Store:
             con.execute("INSERT OR REPLACE INTO results BY NAME SELECT * FROM results_table")
             con.register("runs_table", pa.Table.from_pylist(runs))
             con.execute("INSERT OR REPLACE INTO runs BY NAME SELECT * FROM runs_table")
+            series = [one for h in hist for one in h.get(SERIES, ())]
             if hist:
+                schema = pa.schema([("run_key", pa.string())]
+                                   + [(k, pa.list_(pa.float64())) for k in HISTORY_KEYS])
                 con.register("histories_table", pa.Table.from_pylist(
-                    hist, schema=pa.schema([("run_key", pa.string())]
-                                           + [(k, pa.list_(pa.float64())) for k in HISTORY_KEYS])))
+                    [{k: v for k, v in h.items() if k != SERIES} for h in hist], schema=schema))
                 con.execute("INSERT OR REPLACE INTO histories BY NAME "
                             "SELECT * FROM histories_table")
+            if series:
+                con.register("series_table", pa.Table.from_pylist(
+                    series, schema=pa.schema([("run_key", pa.string()), ("name", pa.string()),
+                                              ("series", pa.list_(pa.float64()))])))
+                con.execute("INSERT OR REPLACE INTO history_series BY NAME "
+                            "SELECT * FROM series_table")
             con.execute("COMMIT")
         finally:
             con.close()

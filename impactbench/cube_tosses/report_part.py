@@ -28,18 +28,6 @@ def _selection_text(tosses: str) -> str:
             "all": "every toss"}.get(tosses, f"tosses {tosses}")
 
 
-def _picks(per_toss: list[dict[str, Any]]) -> list[tuple[str, int]]:
-    """(label, toss) of the best, the median and the worst toss by position error."""
-    ok = sorted((r for r in per_toss if r.get("status", "ok") == "ok"),
-                key=lambda r: float(r["position_error"]))
-    if not ok:
-        return []
-    picks = [("best", ok[0]), ("median", ok[len(ok) // 2]), ("worst", ok[-1])]
-    seen: set[int] = set()
-    return [(label, int(r["toss"])) for label, r in picks
-            if not (int(r["toss"]) in seen or seen.add(int(r["toss"])))]
-
-
 def _replay_row(who: str, mode: str, param_set: str, out: dict[str, Any]) -> list[Cell]:
     """One row of the real-tosses table: who ran, mode, parameter set, tosses ok, the
     quartiles of both errors, their means and the run's message (a note under the table:
@@ -80,25 +68,23 @@ def footnoted(rows: list[list[Cell]], at: int) -> tuple[list[list[Cell]], list[s
     return out, [f"{str(n).translate(_SUPERSCRIPTS)} {text}" for text, n in numbers.items()]
 
 
-def report_part(ctx: ReportContext, spec: scenarios.ScenarioSpec, sm: Any) -> dict[str, Any]:
-    """One data-driven scenario's part of "Against real tosses" (see :func:`real_tosses`)."""
-    import impactbench.cube_tosses.plots as toss_plots
-    from impactbench.cube_tosses.scenario import trajectories
-    from impactbench.engines.registry import stdout_to_stderr
-
-    table = ctx.cfg.raw.get(spec.table, {})
-    engines = table.get("engines", list(ctx.cfg.engines))
+def replay_jobs(cfg: Any, spec: scenarios.ScenarioSpec, sm: Any,
+                engines: Any = None) -> list:
+    """The replays of one measured scenario in a report, as jobs (``study = real_tosses``,
+    keeping their picked tosses' trajectories for the figures): per engine of its table
+    (default: the report's ``engines``; a table's own list is kept to those), per mode (default
+    :data:`~impactbench.config.REPLAY_MODES`), ``custom`` once per parameter set the engine
+    has, in the table's order."""
     from impactbench.config import REPLAY_MODES
+    from impactbench.matrix import Job
 
+    table = cfg.raw.get(spec.table, {})
+    chosen = list(engines) if engines is not None else list(cfg.engines)
+    own = table.get("engines")
+    engines = [e for e in own if engines is None or e in chosen] if own else chosen
     modes = table.get("modes", list(REPLAY_MODES))
     sets = table.get("param_sets", [])
     scenario = spec.build(parameters=sm.parameters)
-    store = _section_store(ctx)
-    which = _selection_text(scenario.tosses)
-    rows, cdf, done = [], [], []
-    from impactbench.cliutil import progress_bar
-    from impactbench.matrix import Job, run_jobs
-
     fields = tuple(sorted(sm.parameters.items()))
     jobs = []
     for engine in engines:  # the same door as every run: the engines' cube-toss builders
@@ -112,29 +98,68 @@ def report_part(ctx: ReportContext, spec: scenarios.ScenarioSpec, sm: Any) -> di
                         choices.append((("param_set", name),))
                     except ValueError:
                         pass  # this engine has no such set
-            jobs += [Job(engine, spec.name, (), mode, None, fields, params, study="real_tosses")
-                     for params in choices]
-    total = int(bool(table.get("model", True))) + len(jobs)
+            jobs += [Job(engine, spec.name, (), mode, None, fields, params,
+                         study="real_tosses", keep_history=True) for params in choices]
+    return jobs
+
+
+def _replays(ctx: ReportContext, jobs: list, missing: list, tick: Any) -> dict[str, Any]:
+    """Each job's result (by job id): the report's own (its runs, which had these jobs in
+    its plan), the ``missing`` ones run here through the section's store."""
+    from impactbench.engines.registry import stdout_to_stderr
+    from impactbench.matrix import run_jobs
+
+    wanted = {job.id for job in jobs}
+    done = {r.job.id: r for r in ctx.results if r.job.id in wanted}
+    if missing:
+        store = _section_store(ctx)
+        with stdout_to_stderr():
+            got = run_jobs(missing, 0, progress=lambda n: tick(n) if n else None, store=store)
+        if store.full is not None:  # said once per store: the report's own may have said it
+            store.say_full(store.kept_of(missing), len(missing), f"{missing[0].scenario} replays")
+        done.update((r.job.id, r) for r in got)
+    return done
+
+
+def report_part(ctx: ReportContext, spec: scenarios.ScenarioSpec, sm: Any) -> dict[str, Any]:
+    """One data-driven scenario's part of "Against real tosses" (see :func:`real_tosses`).
+
+    Its replays (:func:`replay_jobs`) come from the report's runs (planned beside the matrix,
+    so they share its workers and store); called on its own (a context without them), the
+    part runs them here. The figures of the best, median and worst toss are drawn from the
+    trajectories each replay kept (:func:`~impactbench.cube_tosses.scenario.kept_history`),
+    re-run only for a replay that kept none."""
+    import impactbench.cube_tosses.plots as toss_plots
+    from impactbench.cube_tosses.scenario import picks, trajectories, trajectories_of_history
+    from impactbench.engines.registry import stdout_to_stderr
+
+    table = ctx.cfg.raw.get(spec.table, {})
+    scenario = spec.build(parameters=sm.parameters)
+    which = _selection_text(scenario.tosses)
+    rows, cdf, done = [], [], []
+    from impactbench.cliutil import progress_bar
+
+    jobs = replay_jobs(ctx.cfg, spec, sm, _report_engines(ctx, table))
+    ran = {r.job.id for r in ctx.results}
+    missing = [job for job in jobs if job.id not in ran]
+    total = int(bool(table.get("model", True))) + len(missing)
     tick, close = (progress_bar(total, f"{spec.name} replay") if ctx.show_progress
                    else ((lambda n: None), (lambda: None)))
     if table.get("model", True):  # the reference model first: the floor the engines approach
         from impactbench.cube_tosses.scenario import MODEL_LABEL, model_run
 
-        out = model_run(scenario, store=store)
+        out = model_run(scenario, store=_section_store(ctx))
         tick(1)
         numbers = out["status"] in ("ok", "partial")
         rows.append(_replay_row(f"{MODEL_LABEL} ({out['engine_version']})", "fitted",
                                 "reference.toml", out))
         if numbers:
             cdf.append((MODEL_LABEL, "reference", "fitted", out["per_toss"]))
-    with stdout_to_stderr():
-        results = run_jobs(jobs, 0, progress=lambda n: tick(n) if n else None, store=store)
-    if store.full is not None:  # said once per store: the report's own may have said it
-        store.say_full(store.kept_of(jobs), len(jobs), f"{spec.name} replays")
+    results = _replays(ctx, jobs, missing, tick)
     by_engine: dict[str, list] = {}
     for job in jobs:  # in the config's order (results come sorted by job id)
         by_engine.setdefault(job.engine, []).append(job)
-    found = {r.job.id: r.run for r in results}
+    found = {job_id: r.run for job_id, r in results.items()}
     for engine, own in by_engine.items():
         outs = [(job, found[job.id]) for job in own]
         whys = {out["message"] for _, out in outs}
@@ -151,9 +176,10 @@ def report_part(ctx: ReportContext, spec: scenarios.ScenarioSpec, sm: Any) -> di
                                     job.mode, param_set or "—", out))
             if numbers:
                 cdf.append((label, engine, job.mode, out["per_toss"]))
-                done.append((label, engine, job.mode, param_set, out))
+                done.append((label, engine, job.mode, param_set, out,
+                             results[job.id].history))
     close()
-    step = next((o for *_, o in done), {})
+    step = next((d[4] for d in done), {})
     dt = float(step.get("timestep_s") or math.nan)
     dt_text = (f"1/{round(1 / dt)} s" if abs(1 / dt - round(1 / dt)) < 1e-6 / dt
                else f"{dt:.4g} s") if math.isfinite(dt) and dt > 0 else ""
@@ -174,15 +200,17 @@ def report_part(ctx: ReportContext, spec: scenarios.ScenarioSpec, sm: Any) -> di
             if run[1] not in best or median < float(best[run[1]][4]["position_error_median"]):
                 best[run[1]] = run
         done = [run for run in done if best.get(run[1]) is run]
-    for label, engine, mode, param_set, out in done:
-        picks = _picks(out["per_toss"])
-        with stdout_to_stderr():
-            got = trajectories(engine, scenario, mode, [t for _, t in picks],
-                               params={"param_set": param_set} if param_set else None,
-                               tuned=out.get("params") if mode == "tuned" else None)
+    for label, engine, mode, param_set, out, history in done:
+        chosen = picks(out["per_toss"])
+        got = trajectories_of_history(history)
+        if [g["toss"] for g in got] != [t for _, t in chosen]:  # kept none: run them again
+            with stdout_to_stderr():
+                got = trajectories(engine, scenario, mode, [t for _, t in chosen],
+                                   params={"param_set": param_set} if param_set else None,
+                                   tuned=out.get("params") if mode == "tuned" else None)
         name = "_".join(x for x in (stem, engine, mode, param_set) if x)
         title = f"Measured and simulated, {label}"
-        path = toss_plots.trajectories(got, [p for p, _ in picks], engine, title, how,
+        path = toss_plots.trajectories(got, [p for p, _ in chosen], engine, title, how,
                                        ctx.fig_dir / f"report_{name}_trajectories.png")
         trajs.append(ctx.add_figure(path, f"{title}: the best, median and worst toss by "
                                     f"position error; {how}", f"real_tosses:{spec.name}"))
@@ -218,3 +246,11 @@ def report_part(ctx: ReportContext, spec: scenarios.ScenarioSpec, sm: Any) -> di
     return {"title": f"{spec.title}: {which}", "intro": intro,
             "table": Table(columns, rows, text_columns=3), "notes": notes,
             "cdf": figures, "trajectories": trajs}
+
+
+def _report_engines(ctx: ReportContext, table: Any) -> list[str] | None:
+    """The engines a report ran (its results'), to which a table's own list is kept; None
+    (every engine of the config) for a context without results."""
+    ran = {r.job.engine for r in ctx.results}
+    return [e for e in ctx.cfg.engines if e in ran] + sorted(ran - set(ctx.cfg.engines)) \
+        if ran else None

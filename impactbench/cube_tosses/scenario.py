@@ -480,15 +480,68 @@ def trajectories(engine: str, scenario: Any, mode: str, toss_ids: list[int], *,
     picked = replace(scenario, tosses=",".join(str(i) for i in toss_ids))
     rec = run_safely(engine, picked, mode, RunSettings(params=dict(params) if params else None,
                                                         tuned=dict(tuned) if tuned else None))
-    got, _ = starts(picked)
-    poses = rec.meta.get("poses", {})
+    return trajectories_of_record(picked, rec, toss_ids)
+
+
+def trajectories_of_record(scenario: Any, record: Any, toss_ids: list[int]
+                           ) -> list[dict[str, Any]]:
+    """:func:`trajectories` of ``toss_ids`` from a replay's record (its ``poses``), in the
+    order given; a toss the record did not replay is left out."""
+    poses = record.meta.get("poses", {})
+    by_id = {int(s.toss): s for s in starts(scenario)[0]}
     out = []
-    for s in got:
-        if int(s.toss) not in poses:
+    for toss in toss_ids:
+        s = by_id.get(int(toss))
+        if s is None or int(toss) not in poses:
             continue
-        p, q = poses[int(s.toss)]
+        p, q = poses[int(toss)]
         out.append({"toss": s.toss, "t_s": s.t_ref - s.t_ref[0],
                     "z_ref_m": s.p_ref[:, 2], "z_sim_m": p[:, 2],
                     "angle_ref_deg": np.degrees(rotation_angle(s.q_ref[0], s.q_ref)),
                     "angle_sim_deg": np.degrees(rotation_angle(q[0], q))})
+    return out
+
+
+def picks(per_toss: list[dict[str, Any]]) -> list[tuple[str, int]]:
+    """(label, toss) of the best, the median and the worst toss by position error (each toss
+    once)."""
+    ok = sorted((r for r in per_toss if r.get("status", "ok") == "ok"),
+                key=lambda r: float(r["position_error"]))
+    if not ok:
+        return []
+    chosen = [("best", ok[0]), ("median", ok[len(ok) // 2]), ("worst", ok[-1])]
+    seen: set[int] = set()
+    return [(label, int(r["toss"])) for label, r in chosen
+            if not (int(r["toss"]) in seen or seen.add(int(r["toss"])))]
+
+
+TRAJECTORY_SERIES = ("t_s", "z_ref_m", "z_sim_m", "angle_ref_deg", "angle_sim_deg")
+"""The series of one toss's trajectories (:func:`trajectories`), s, m and degrees."""
+
+
+def kept_history(record: Any, run: Mapping[str, Any], scenario: Any) -> dict[str, Any]:
+    """What a replay the report plots keeps: the trajectories (:func:`trajectories_of_record`)
+    of its best, median and worst toss (:func:`picks`), as named arrays — ``picks`` (the toss
+    ids), ``sizes`` (samples per toss) and each of :data:`TRAJECTORY_SERIES` concatenated over
+    the picks ({} for a replay without numbers)."""
+    if not run.get("per_toss") or not record.meta.get("poses"):
+        return {}
+    got = trajectories_of_record(scenario, record, [t for _, t in picks(run["per_toss"])])
+    if not got:
+        return {}
+    return {"picks": np.array([float(g["toss"]) for g in got]),
+            "sizes": np.array([float(len(g["t_s"])) for g in got]),
+            **{name: np.concatenate([np.asarray(g[name], dtype=float) for g in got])
+               for name in TRAJECTORY_SERIES}}
+
+
+def trajectories_of_history(history: Mapping[str, Any]) -> list[dict[str, Any]]:
+    """:func:`kept_history`'s arrays back as :func:`trajectories`' list ([] for none)."""
+    if "picks" not in history or "sizes" not in history:
+        return []
+    ends = np.cumsum(np.asarray(history["sizes"], dtype=int))
+    out = []
+    for toss, stop, start in zip(history["picks"], ends, np.r_[0, ends[:-1]], strict=True):
+        out.append({"toss": int(toss), **{name: np.asarray(history[name][start:stop])
+                                          for name in TRAJECTORY_SERIES}})
     return out

@@ -263,6 +263,17 @@ class CubeTossSpec(ScenarioSpec):
 
         return report_part(ctx, self, table)
 
+    def report_jobs(self, cfg: Any, table: Any, engines: Any) -> list:
+        """The replays of the config's ``[cube_toss]`` table (engines, modes, parameter sets),
+        planned with the matrix (:func:`impactbench.cube_tosses.report_part.replay_jobs`)."""
+        from impactbench.cube_tosses.report_part import replay_jobs
+
+        return replay_jobs(cfg, self, table, engines)
+
+    def kept_history(self, record: Any, run: Any, scenario: Any) -> dict[str, Any]:
+        """The best, median and worst toss's trajectories, for the report's figures."""
+        return dict(_side().kept_history(record, run, scenario))
+
     def add_options(self, group: argparse._ArgumentGroup, with_gravity: bool = True) -> None:
         """The data file and the toss selection (``with_gravity`` is the ball's; unused)."""
         group.add_argument("--data", default=None, metavar="FILE",

@@ -25,6 +25,23 @@ from typing import Any
 
 Point = tuple[tuple[str, Any], ...]
 """The values of a scenario's axes for one run, in the spec's axis order."""
+HISTORY_POINTS = 1500
+"""A run's force history kept for plots is thinned to about this many samples."""
+
+
+def thinned_history(record: Any, points: int = HISTORY_POINTS) -> dict[str, Any]:
+    """A record's force history for plots: ``time_s``, ``normal_force_n``, ``penetration_m``
+    (s, N, m) thinned to about ``points`` samples, its peak force and last sample kept;
+    {} for a record without samples."""
+    import numpy as np
+
+    n = len(record)
+    if n == 0:
+        return {}
+    step = max(1, math.ceil(n / points))
+    idx = np.unique(np.r_[np.arange(0, n, step), np.argmax(record.normal_force_n), n - 1])
+    return {"time_s": record.time_s[idx], "normal_force_n": record.normal_force_n[idx],
+            "penetration_m": record.penetration_m[idx]}
 
 
 @dataclass(frozen=True)
@@ -252,6 +269,21 @@ class ScenarioSpec:
     def report_figures(self, ctx: Any, runs: list, loops: list) -> None:
         """Draw its extra report figures (``ctx``: the report's context; ``runs``: its
         matrix runs; ``loops``: its force–penetration loops); none."""
+
+    def report_jobs(self, cfg: Any, table: Any, engines: Iterable[str]) -> list:
+        """A measured scenario's runs in a report (its config ``table``: engines, modes,
+        parameter sets, fields), as jobs (:class:`~impactbench.matrix.Job`) planned with the
+        matrix's (:func:`impactbench.matrix.plan`), so they run beside it on the same workers
+        and store; [] for a scenario whose runs are the matrix's own points."""
+        return []
+
+    def kept_history(self, record: Any, run: Mapping[str, Any], scenario: Any
+                     ) -> dict[str, Any]:
+        """What a run the report plots keeps of its record (named 1-D float arrays, stored
+        with the run): the force history, thinned (:func:`thinned_history`); a measured
+        scenario keeps what its figures draw (the cube tosses: the picked tosses'
+        trajectories). ``run``: the run's comparison object."""
+        return thinned_history(record)
 
     # ------------------------------------------------------------------ labels
     def point_id(self, point: Point) -> str:

@@ -49,7 +49,7 @@ def test_engines_alone_is_the_default_report_for_that_engine(tmp_path: Path) -> 
     assert mine.practical == default.practical
     jobs = matrix.plan(mine)
     assert jobs and jobs == [j for j in matrix.plan(default) if j.engine == "mujoco"]
-    assert {j.study for j in jobs} == {"matrix", "practical", "work_precision"}
+    assert {j.study for j in jobs} == {"matrix", "real_tosses", "practical", "work_precision"}
 
 
 def test_tables_merge_key_by_key_and_lists_replace(tmp_path: Path) -> None:

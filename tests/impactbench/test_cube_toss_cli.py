@@ -300,7 +300,11 @@ def test_config_table_plans_no_matrix_jobs_and_checks_its_keys(tmp_path) -> None
     cfg = tiny_config(tmp_path)
     (sm,) = cfg.scenarios
     assert sm.name == NAME and sm.points() == [] and sm.parameters == {"tosses": "0,1,57"}
-    assert plan(cfg) == []
+    # no matrix points: its jobs are the replays (per engine and mode, dair2022 where the
+    # engine has it), planned beside the matrix and keeping their trajectories
+    jobs = plan(cfg)
+    assert {j.study for j in jobs} == {"real_tosses"} and all(j.keep_history for j in jobs)
+    assert all(j.scenario == NAME and j.point == () for j in jobs)
     for table, words in (({"param_sets": ["dair22"]}, "cube_toss.param_sets: param-set = "
                                                       "'dair22'"),
                          ({"modes": ["sometimes"]}, "cube_toss.modes"),
@@ -404,3 +408,49 @@ def test_trajectories_start_at_the_measured_pose() -> None:
     assert tr["toss"] == 57 and tr["t_s"][0] == 0.0
     assert tr["z_sim_m"][0] == pytest.approx(tr["z_ref_m"][0], abs=1e-12)
     assert tr["angle_sim_deg"][0] == 0.0 and len(tr["z_sim_m"]) == len(tr["z_ref_m"])
+
+
+def test_a_report_replays_beside_the_matrix_and_draws_what_the_replays_kept(
+        tmp_path, monkeypatch) -> None:
+    """The report plans the replays with the matrix (one run on its workers and store); each
+    keeps its best, median and worst toss's trajectories, which the figures draw: a rerun
+    served from the store draws them again without replaying anything, and the kept
+    trajectories are the ones a replay of those tosses gives."""
+    require_engine("pybullet")
+    import numpy as np
+
+    from impactbench import report
+    from impactbench.matrix import job_inputs, job_settings, plan
+    from impactbench.store import Store, run_key
+
+    cfg = tiny_config(tmp_path, modes=["custom"])
+    store = Store(tmp_path / "s.duckdb")
+    first = report.build(cfg, tmp_path / "a", store=store, workers=0, show_progress=False)
+    runs = [r for r in first.results.itertuples() if r.study == "real_tosses"]
+    assert {r.engine for r in runs} == {"pybullet"}  # (pymunk has no dair2022 set)
+    figure = (tmp_path / "a" / "figures"
+              / "report_cube_toss_pybullet_custom_dair2022_trajectories.png")
+    assert figure.is_file()
+    (job,) = [j for j in plan(cfg) if j.engine == "pybullet"]
+    key = run_key(job_inputs(job, job_settings(job)))
+    ((run, history),) = store.get([key], with_history=[key]).values()
+    kept = toss_scenario.trajectories_of_history(history)
+    chosen = [t for _, t in toss_scenario.picks(run["per_toss"])]
+    assert [k["toss"] for k in kept] == chosen and len(chosen) == 3
+    again = toss_scenario.trajectories("pybullet", job.build_scenario(), "custom", chosen,
+                                       params={"param_set": "dair2022"})
+    for k, a in zip(kept, again, strict=True):
+        for name in toss_scenario.TRAJECTORY_SERIES:
+            assert np.array_equal(k[name], a[name]), name
+
+    def no_replays(*args, **kwargs):
+        raise AssertionError("replayed again")
+
+    monkeypatch.setattr(toss_scenario, "trajectories", no_replays)
+    monkeypatch.setattr("impactbench.engines.base.Adapter.replay_tosses", no_replays)
+    second = report.build(cfg, tmp_path / "b", store=store, workers=0, show_progress=False)
+    assert (tmp_path / "b" / "figures" / figure.name).is_file()
+    same = ["position_error_median", "rotation_error_deg_median"]
+    a = first.results[first.results.metric.isin(same)].value.tolist()
+    b = second.results[second.results.metric.isin(same)].value.tolist()
+    assert a == b

@@ -99,7 +99,7 @@ def test_default_config_has_the_practical_section() -> None:
     assert len(cfg.work_precision.velocities_m_s) >= 2
     assert max(cfg.work_precision.timesteps_s) >= 1e-2
     studies = {j.study for j in plan(cfg)}
-    assert studies == {"matrix", "practical", "work_precision"}
+    assert studies == {"matrix", "real_tosses", "practical", "work_precision"}
     drake = [j for j in plan(cfg) if j.study == "practical" and j.engine == "drake"]
     approximations = {dict(j.params).get("discrete_contact_approximation") for j in drake}
     assert approximations >= {"tamsi", "sap", "similar", "lagged"}
