@@ -454,18 +454,19 @@ FLUSH_EVERY_S = 2.0
 
 
 def estimated_steps_of(reference: dict[str, Any], timestep_s: float | None) -> float:
-    """Rough integration steps of one run: twice the reference contact time over the
-    timestep (adapters record from just before contact until separation). 0 with the
-    adapter's default step (those are sized for the scenario)."""
-    duration = reference.get("duration_s", reference.get("contact_time_s"))
-    if not timestep_s or not isinstance(duration, float | int) or not math.isfinite(duration):
-        return 0.0
-    return 2.0 * float(duration) / timestep_s
+    """Rough integration steps of one run (:func:`impactbench.scenarios.spec.
+    contact_steps`: twice the reference contact time over the timestep; 0 with the adapter's
+    default step)."""
+    from impactbench.scenarios.spec import contact_steps
+
+    return contact_steps(reference, timestep_s)
 
 
 def estimated_steps(job: Job, reference: dict[str, Any]) -> float:
-    """:func:`estimated_steps_of` for a job (each of its phases a run)."""
-    return job.phases * estimated_steps_of(reference, job.timestep_s)
+    """A job's rough integration steps: its scenario's estimate
+    (:meth:`~impactbench.scenarios.spec.ScenarioSpec.estimated_steps`), each phase a run."""
+    return job.phases * job.spec.estimated_steps(job.build_scenario(), reference,
+                                                 job.timestep_s)
 
 
 DISPATCH_MIN_S = 1.0
@@ -535,8 +536,9 @@ def run_jobs(jobs: list[Job], workers: int | None = None,
             group.append(job)
     steps = {j.id: estimated_steps(j, references[j.reference_key])
              for g in twins.values() for j in g[:1]}
-    # the longest runs first (by estimated steps), so that they do not finish last alone
-    pending = sorted((g[0] for g in twins.values()), key=lambda j: (-steps[j.id], j.id))
+    # the longest runs first (by estimated work), so that they do not finish last alone
+    pending = sorted((g[0] for g in twins.values()),
+                     key=lambda j: (-steps[j.id] * j.spec.step_cost, j.id))
     if not yes:
         from impactbench.cliutil import check_cost
 
@@ -547,7 +549,8 @@ def run_jobs(jobs: list[Job], workers: int | None = None,
         raise ValueError(f"timeout = {timeout_s!r}: must be a number of seconds > 0")
 
     def cost_of(item: list[Item]) -> float:
-        return sum(cluster.run_estimate_s(steps[job.id]) for job, _, _ in item)
+        return sum(cluster.run_estimate_s(steps[job.id] * job.spec.step_cost)
+                   for job, _, _ in item)
 
     def timeout_of(item: list[Item]) -> float:
         # the engine's first-use compile does not count against the timeout; a batch's
@@ -588,7 +591,8 @@ def run_jobs(jobs: list[Job], workers: int | None = None,
 
     try:
         if pending:
-            estimate = sum(cluster.run_estimate_s(steps[j.id]) for j in pending)
+            estimate = sum(cluster.run_estimate_s(steps[j.id] * j.spec.step_cost)
+                           for j in pending)
             # default placement: work estimated below a cluster's start-up runs here (a
             # given --workers N, or a scheduler, always sends it to the workers)
             floor = DISPATCH_MIN_S if workers is None and scheduler is None else 0.0

@@ -29,6 +29,16 @@ HISTORY_POINTS = 1500
 """A run's force history kept for plots is thinned to about this many samples."""
 
 
+def contact_steps(reference: Mapping[str, Any], timestep_s: float | None) -> float:
+    """Rough integration steps of one run: twice the reference contact time over the
+    timestep (adapters record from just before contact until separation). 0 with the
+    adapter's default step (those are sized for the scenario)."""
+    duration = reference.get("duration_s", reference.get("contact_time_s"))
+    if not timestep_s or not isinstance(duration, float | int) or not math.isfinite(duration):
+        return 0.0
+    return 2.0 * float(duration) / timestep_s
+
+
 def thinned_history(record: Any, points: int = HISTORY_POINTS) -> dict[str, Any]:
     """A record's force history for plots: ``time_s``, ``normal_force_n``, ``penetration_m``
     (s, N, m) thinned to about ``points`` samples, its peak force and last sample kept;
@@ -137,6 +147,10 @@ class ScenarioSpec:
     tuned_from: str = ""
     """The scenario whose tuned files this one's ``tuned`` runs take, fitted at the run's
     step ("": its own; the bounce takes the ball's: the same body and contact)."""
+    step_cost: float = 1.0
+    """What one of its runs' steps (:meth:`estimated_steps`) costs, in the suite's prior
+    step (:data:`impactbench.cluster.STEP_S`): a run's time estimate, hence its timeout and
+    the time left, scale with steps × this."""
 
     # ------------------------------------------------------------------ the dataclass
     @property
@@ -276,6 +290,12 @@ class ScenarioSpec:
         matrix's (:func:`impactbench.matrix.plan`), so they run beside it on the same workers
         and store; [] for a scenario whose runs are the matrix's own points."""
         return []
+
+    def estimated_steps(self, scenario: Any, reference: Mapping[str, Any],
+                        timestep_s: float | None) -> float:
+        """Rough integration steps of one run (what its timeout and the time-left estimate
+        scale with: :func:`impactbench.cluster.run_estimate_s`): :func:`contact_steps`."""
+        return contact_steps(reference, timestep_s)
 
     def kept_history(self, record: Any, run: Mapping[str, Any], scenario: Any
                      ) -> dict[str, Any]:

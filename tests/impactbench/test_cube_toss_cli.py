@@ -454,3 +454,21 @@ def test_a_report_replays_beside_the_matrix_and_draws_what_the_replays_kept(
     a = first.results[first.results.metric.isin(same)].value.tolist()
     b = second.results[second.results.metric.isin(same)].value.tolist()
     assert a == b
+
+
+def test_a_replays_estimate_counts_its_samples_and_its_timeout_allows_them() -> None:
+    """A replay's steps are every sample of its tosses, ``substeps`` each (the measurement's
+    count: 10,071 samples in the 89 test tosses), weighted by the spec's step cost in its
+    time estimate: its timeout is then 20 × that, above the 60 s floor a replay of the slow
+    engines could pass on a busy machine (DART injected: 16 s here alone, 48 s loaded)."""
+    from impactbench import cluster
+    from impactbench.evaluate import reference_metrics
+    from impactbench.matrix import estimated_steps, plan
+
+    (job, *_) = [j for j in plan(config.load()) if j.study == "real_tosses"]
+    ref = reference_metrics(job.build_scenario())
+    steps = estimated_steps(job, ref)
+    assert steps == ref["samples"] * job.build_scenario().substeps
+    assert ref["samples"] == 10071 and ref["tosses"] == 89
+    estimate = cluster.run_estimate_s(steps * job.spec.step_cost)
+    assert cluster.default_timeout(estimate) > 3 * 60.0
