@@ -223,19 +223,42 @@ def write_table(table, path) -> None:
 def progress_bar(total: int, unit: str = "run"):
     """Progress of ``total`` items on stderr; returns (update, close).
 
-    On a terminal a tqdm bar (with its estimate of the time left); elsewhere (CI logs, pipes)
-    a line at the first item done, then one at most every :data:`PROGRESS_EVERY_S` seconds
-    (``update(0)``, a heartbeat, prints one even when nothing finished) and a last one at the
-    end, so a long run is never silent. From :data:`ETA_AFTER_S` on, a line adds the time left
-    at the rate of the items done since the first update (what a store served at once does
-    not count; the longest runs go first, so early estimates err long).
+    On a terminal a tqdm bar; elsewhere (CI logs, pipes) a line at the first item done, then
+    one at most every :data:`PROGRESS_EVERY_S` seconds (``update(0)``, a heartbeat, prints
+    one even when nothing finished) and a last one at the end, so a long run is never silent.
+    Each line says the time left: the work's own estimate where the caller gives one,
+    ``update.left(seconds)`` (a run matrix's, :class:`impactbench.matrix.TimeLeft`: each
+    run's estimated cost, learnt as runs finish, so a line has it from the start), counted
+    down between calls; else, from :data:`ETA_AFTER_S` on, the items not done at the rate of
+    those done since the first update (what a store served at once does not count). On a
+    terminal the caller's estimate is the bar's postfix.
     """
+    import time
+
+    said_left: dict[str, float] = {}
+
+    def left(seconds: float) -> None:
+        """The caller's estimate of the seconds left, now."""
+        said_left.update(seconds=max(0.0, float(seconds)), at=time.monotonic())
+
+    def given(now: float) -> float | None:
+        if not said_left:
+            return None
+        return max(0.0, said_left["seconds"] - (now - said_left["at"]))
+
     if sys.stderr.isatty():
         from tqdm import tqdm
 
         bar = tqdm(total=total, unit=unit, file=sys.stderr)
-        return bar.update, bar.close
-    import time
+
+        def update_bar(n: int) -> None:
+            est = given(time.monotonic())
+            if est is not None:
+                bar.set_postfix_str(f"about {_duration(est)} left", refresh=False)
+            bar.update(n)
+
+        update_bar.left = left  # type: ignore[attr-defined]
+        return update_bar, bar.close
 
     state: dict[str, Any] = {"done": 0, "last": time.monotonic(), "start": time.monotonic(),
                              "said": None, "first": None}
@@ -249,22 +272,30 @@ def progress_bar(total: int, unit: str = "run"):
         if (n and state["said"] is None) or now - state["last"] >= PROGRESS_EVERY_S:
             state["last"] = now
             state["said"] = state["done"]
+            est = given(now)
+            more = (f", about {_duration(est)} left" if est is not None and
+                    state["done"] < total else _left(state, total, now))
             print(f"impactbench: {state['done']} of {total} {unit}s done "
-                  f"({now - state['start']:.0f} s{_left(state, total, now)})",
-                  file=sys.stderr, flush=True)
+                  f"({now - state['start']:.0f} s{more})", file=sys.stderr, flush=True)
 
     def close() -> None:
         if state["said"] is not None:
             print(f"impactbench: {state['done']} of {total} {unit}s done", file=sys.stderr,
                   flush=True)
 
+    update.left = left  # type: ignore[attr-defined]
     return update, close
 
 
 PROGRESS_EVERY_S = 10.0
 ETA_AFTER_S = 10.0
-"""How long a progress line waits before estimating the time left (a rate from fewer seconds
-says little)."""
+"""How long a progress line waits before estimating the time left from its own rate (a rate
+from fewer seconds says little)."""
+
+
+def _duration(seconds: float) -> str:
+    """``37 s`` below two minutes, else ``4 min``."""
+    return f"{seconds:.0f} s" if seconds < 120 else f"{seconds / 60:.0f} min"
 
 
 def _left(state: Mapping[str, Any], total: int, now: float) -> str:
@@ -276,8 +307,7 @@ def _left(state: Mapping[str, Any], total: int, now: float) -> str:
     rate = (state["done"] - at) / (now - since) if now > since else 0.0
     if rate <= 0.0 or state["done"] >= total:
         return ""
-    left = (total - state["done"]) / rate
-    return f", about {left:.0f} s left" if left < 120 else f", about {left / 60:.0f} min left"
+    return f", about {_duration((total - state['done']) / rate)} left"
 
 
 COST_LIMIT = 10_000_000

@@ -129,6 +129,9 @@ class JobResult:
     history: dict[str, np.ndarray] = field(default_factory=dict)
     cached: bool = False
     """True when the run came from the results store instead of an engine."""
+    took_s: float = math.nan
+    """What the job took in its worker (s), scoring included (a batch's time shared out);
+    not stored: the time-left estimate learns from it (:class:`TimeLeft`)."""
 
 
 def job_settings(job: Job):
@@ -211,6 +214,15 @@ def execute_items(items: list[Item]) -> list[JobResult]:
     :meth:`~impactbench.engines.base.Adapter.run_many`: MJX one ``vmap``, Newton one model
     with a world per run), each record the lone run's; should the batch refuse its settings,
     each job alone says which."""
+    t0 = time.perf_counter()
+    out = _execute_items(items)
+    took = (time.perf_counter() - t0) / len(out)
+    for result in out:
+        result.took_s = took
+    return out
+
+
+def _execute_items(items: list[Item]) -> list[JobResult]:
     if len(items) == 1:
         return [execute(*items[0])]
     from impactbench.evaluate import compare_many_records
@@ -469,6 +481,40 @@ def estimated_steps(job: Job, reference: dict[str, Any]) -> float:
                                                  job.timestep_s)
 
 
+class TimeLeft:
+    """The seconds a run of work items has left, learnt as it goes: each item's time estimate
+    (:func:`impactbench.cluster.run_estimate_s` of its steps × its scenario's step cost)
+    scaled, per group of items (engine, batched or not), by what that group's finished items
+    took over their estimate — the median of the groups' ratios for a group with none
+    finished, 1 before any — summed over the items left and shared over the workers."""
+
+    def __init__(self, workers: int) -> None:
+        self.workers = max(1, workers)
+        self.pending: dict[Any, float] = {}
+        self.done: dict[Any, list[float]] = {}
+        """group → [estimate, took] of its finished items."""
+
+    def add(self, group: Any, estimate_s: float) -> None:
+        self.pending[group] = self.pending.get(group, 0.0) + estimate_s
+
+    def finished(self, group: Any, estimate_s: float, took_s: float) -> None:
+        self.pending[group] = max(0.0, self.pending.get(group, 0.0) - estimate_s)
+        if math.isfinite(took_s):
+            got = self.done.setdefault(group, [0.0, 0.0])
+            got[0] += estimate_s
+            got[1] += took_s
+
+    def ratio(self, group: Any) -> float:
+        """What ``group``'s items take over their estimate."""
+        ratios = {g: took / est for g, (est, took) in self.done.items() if est > 0.0}
+        if group in ratios:
+            return ratios[group]
+        return float(np.median(list(ratios.values()))) if ratios else 1.0
+
+    def seconds(self) -> float:
+        return sum(est * self.ratio(g) for g, est in self.pending.items()) / self.workers
+
+
 DISPATCH_MIN_S = 1.0
 """Runs estimated (:func:`impactbench.cluster.run_estimate_s`) below this in all run in this
 process under the default placement: a local cluster's start (~1.5 s on two cores) would cost
@@ -570,9 +616,20 @@ def run_jobs(jobs: list[Job], workers: int | None = None,
         unstored.clear()
         last_flush = time.monotonic()
 
+    estimates: dict[str, tuple[Any, float]] = {}
+    left = getattr(progress, "left", None)
+
+    def say_left(clock: TimeLeft) -> None:
+        if left is not None:
+            left(clock.seconds())
+
     def finished(result: JobResult) -> None:
         unstored.append(result)  # first: a result counted below is one the flush writes
         results[result.job.id] = result
+        if result.job.id in estimates:
+            group, share = estimates[result.job.id]
+            clock.finished(group, share, result.took_s)
+            say_left(clock)
         group = twins[keys.get(result.job.id, result.job.id)]
         for twin in group[1:]:
             results[twin.id] = JobResult(twin, dict(result.run),
@@ -597,6 +654,13 @@ def run_jobs(jobs: list[Job], workers: int | None = None,
             # given --workers N, or a scheduler, always sends it to the workers)
             floor = DISPATCH_MIN_S if workers is None and scheduler is None else 0.0
             items = work_items(pending, settings, references)
+            clock = TimeLeft(1)
+            for item in items:
+                group = (item[0][0].engine, item[0][0].scenario, len(item) > 1)
+                for job, _, _ in item:
+                    share = cluster.run_estimate_s(steps[job.id] * job.spec.step_cost)
+                    clock.add(group, share)
+                    estimates[job.id] = (group, share)
 
             def failed(item: list[Item], why: str, status: str = "crashed") -> None:
                 more = f" (one of a batch of {len(item)} runs)" if len(item) > 1 else ""
@@ -604,6 +668,8 @@ def run_jobs(jobs: list[Job], workers: int | None = None,
                     finished(_crashed(job, why + more, reference, status))
 
             with cluster.Runner(workers, scheduler, min_dispatch_s=floor) as runner:
+                clock.workers = 1 if estimate < runner.min_dispatch_s else runner.size
+                say_left(clock)
                 try:
                     runner.run(execute_items, items, estimate_s=estimate,
                                on_result=lambda _item, got: [finished(r) for r in got],

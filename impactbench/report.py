@@ -150,9 +150,8 @@ def _figures(ctx: ReportContext) -> None:
         how = f"{modes_text(runs)}; {timestep_text(runs)}"
         title = point_title(spec, point)
         unit, label = spec.history_unit
-        path = plots.force_time(hist, ref, title, how,
-                                fig_dir / f"report_force_{spec.figure_name(point)}.png",
-                                unit, label)
+        path = ctx.draw(plots.force_time, hist, ref, title, how,
+                        fig_dir / f"report_force_{spec.figure_name(point)}.png", unit, label)
         ctx.add_figure(path, f"F(t), {title}; {how}", f"history:{scenario}")
         loops.setdefault(scenario, []).append((title, how, point, hist, ref))
     for spec in scenarios.specs():
@@ -162,7 +161,7 @@ def _figures(ctx: ReportContext) -> None:
             continue
         how = f"{points_text(spec, runs)}; {modes_text(runs)}; {timestep_text(runs)}"
         name = f"report_error_heatmap_{spec.name.replace('-', '_')}.png"
-        path = plots.error_heatmap(df, spec, how, fig_dir / name)
+        path = ctx.draw(plots.error_heatmap, df, spec, how, fig_dir / name)
         ctx.add_figure(path, f"|relative error| per engine and mode, {spec.title}; {how}",
                        f"heatmap:{spec.name}")
     studied = [r for r in ctx.results if r.job.study == "work_precision"]
@@ -174,8 +173,8 @@ def _figures(ctx: ReportContext) -> None:
         if name == scenarios.for_study("work_precision").name:
             vs = ", ".join(f"{v:g}" for v in sorted({r.job.velocity_m_s for r in wp}))
             how = f"{spec.velocity_symbol} = {vs} m/s; {modes_text(wp)}; {timestep_text(wp)}"
-            path = plots.work_precision(df[df.scenario == name], spec.headline, how,
-                                        fig_dir / "report_work_precision.png")
+            path = ctx.draw(plots.work_precision, df[df.scenario == name], spec.headline, how,
+                            fig_dir / "report_work_precision.png")
         else:
             where = "; ".join(
                 _axis_format(a.column).replace("{:g}", ", ".join(
@@ -183,16 +182,16 @@ def _figures(ctx: ReportContext) -> None:
                 for a in numeric)
             how = f"{where}; {modes_text(wp)}; {timestep_text(wp)}"
             stem = spec.figure_stem or name.replace("-", "_")
-            path = plots.work_precision(df[df.scenario == name], spec.headline, how,
-                                        fig_dir / f"report_work_precision_{stem}.png",
-                                        panels=panels, title=spec.title.lower())
+            path = ctx.draw(plots.work_precision, df[df.scenario == name], spec.headline, how,
+                            fig_dir / f"report_work_precision_{stem}.png", panels=panels,
+                            title=spec.title.lower())
         ctx.add_figure(path, f"Work–precision, {spec.title.lower()}; {how}", "work_precision")
     pr = [r for r in ctx.results if r.job.study == "practical"]
     if pr:
         spec = scenarios.get(pr[0].job.scenario)
         b = cfg_parameter(cfg, spec.name, "damping_s_per_m")
         how = f"{modes_text(pr)}; {timestep_text(pr)}"
-        path = practical.plot(df, b, how, fig_dir / "report_practical_restitution.png")
+        path = ctx.draw(practical.plot, df, b, how, fig_dir / "report_practical_restitution.png")
         ctx.add_figure(path, f"Restitution at practical timesteps, {spec.title.lower()}; "
                        f"{how}", "practical")
 
@@ -222,7 +221,8 @@ def cfg_parameter(cfg: config_mod.ReportConfig, scenario: str, name: str) -> Any
 
 def render(out_dir: Path, cfg: config_mod.ReportConfig, df: pd.DataFrame,
            meta: dict[str, Any], results: list[JobResult], *,
-           show_progress: bool = False, store: Any = None) -> list[Path]:
+           show_progress: bool = False, store: Any = None,
+           workers: int | None = None) -> list[Path]:
     """Write the plots, ``README.md`` and ``index.html`` of a report into ``out_dir``.
 
     ``df`` is the tidy results table, ``meta`` what ``metadata.json`` holds, ``results`` the
@@ -231,18 +231,24 @@ def render(out_dir: Path, cfg: config_mod.ReportConfig, df: pd.DataFrame,
     report's :class:`~impactbench.report_store.KeepWhatFits`) when theirs is the same file.
     Figures already in
     ``out_dir/figures`` that the report does not draw (the papers', the tuning plots) are
-    indexed and linked. Returns the paths written."""
+    indexed and linked. The figures are drawn in worker processes meanwhile
+    (:class:`~impactbench.report_render.FigurePool`: ``workers`` of them, default one per
+    core; 0 draws here). Returns the paths written."""
     fig_dir = out_dir / "figures"
     fig_dir.mkdir(parents=True, exist_ok=True)
     for old in fig_dir.glob("report_*.png"):
         old.unlink()
-    ctx = ReportContext(cfg, df, meta, out_dir, results, show_progress=show_progress,
-                        store=store)
-    _figures(ctx)
-    engines = ", ".join(f"{k} {v}" for k, v in meta.get("engines", {}).items())
-    intro = (f"Generated by `impactbench report` at commit `{meta.get('commit', 'unknown')}` "
-             f"from {meta.get('config') or 'an inline config'}. Engines: {engines}.")
-    docs = render_documents(ctx, sections(), cfg.title, intro)
+    from impactbench.report_render import FigurePool
+
+    with FigurePool(workers) as pool:  # the figures draw in worker processes meanwhile
+        ctx = ReportContext(cfg, df, meta, out_dir, results, show_progress=show_progress,
+                            store=store, pool=pool)
+        _figures(ctx)
+        engines = ", ".join(f"{k} {v}" for k, v in meta.get("engines", {}).items())
+        intro = (f"Generated by `impactbench report` at commit "
+                 f"`{meta.get('commit', 'unknown')}` from "
+                 f"{meta.get('config') or 'an inline config'}. Engines: {engines}.")
+        docs = render_documents(ctx, sections(), cfg.title, intro)
     paths = [out_dir / "README.md", out_dir / "index.html"]
     paths[0].write_text(docs["md"])
     paths[1].write_text(docs["html"])
@@ -324,6 +330,7 @@ def build(cfg: config_mod.ReportConfig, out_dir: Path, *, engines: list[str] | N
             with publish.staged(out_dir, owned_by_report) as stage:
                 rep = _write(cfg, stage, results, engines, commit, t0, previous=out_dir,
                              keep_unchanged=keep_unchanged, show_progress=show_progress,
+                             workers=None if scheduler else workers,
                              store=store)
         except KeyboardInterrupt:  # every run is stored; only the rendering is lost
             raise Interrupted(len(results), len(jobs), store is not None) from None
@@ -388,7 +395,8 @@ def _same(previous: Path, name: str, key: str) -> bool:
 def _write(cfg: config_mod.ReportConfig, out_dir: Path, results: list[JobResult],
            engines: list[str] | None, commit: str, t0: float,
            previous: Path | None = None, keep_unchanged: bool = False,
-           show_progress: bool = False, store: Any = None) -> Report:
+           show_progress: bool = False, store: Any = None,
+           workers: int | None = None) -> Report:
     """Write results.csv/.parquet, metadata.json and the rendered report into ``out_dir``.
 
     When ``previous`` (the folder being replaced) was rendered from the same inputs
@@ -451,5 +459,6 @@ def _write(cfg: config_mod.ReportConfig, out_dir: Path, results: list[JobResult]
     (out_dir / "metadata.json").write_text(json.dumps(meta, indent=2, default=str) + "\n")
     files += [out_dir / "metadata.json",
               *render(out_dir, cfg, df, meta, results, show_progress=show_progress,
+                      workers=workers,
                       store=store)]
     return Report(out_dir, df, files, time.perf_counter() - t0)

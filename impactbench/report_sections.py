@@ -504,7 +504,7 @@ def contact_models(ctx: ReportContext) -> dict[str, Any] | None:
     columns = [c for c in wide.columns if c != "model"]
     rows = [[Cell(f"`{r['model']}`"), Cell(MODEL_CITATIONS[r["model"]], wrap=True),
              *(Cell(f"{r[c]:.4f}") for c in columns)] for _, r in wide.iterrows()]
-    path = zoo.figure(ctx.fig_dir / "report_zoo_restitution.png")
+    path = ctx.draw(zoo.figure, ctx.fig_dir / "report_zoo_restitution.png")
     fig = ctx.add_figure(path, "Effective against nominal restitution of every contact "
                          "model (exact)", group="contact_models")
     model = params.get("model", "hunt-crossley")

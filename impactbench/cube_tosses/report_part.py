@@ -189,7 +189,8 @@ def report_part(ctx: ReportContext, spec: scenarios.ScenarioSpec, sm: Any) -> di
     figures, trajs = [], []
     stem = spec.figure_stem or spec.name.replace("-", "_")
     if cdf:
-        path = toss_plots.error_cdf(cdf, how, ctx.fig_dir / f"report_{stem}_error_cdf.png")
+        path = ctx.draw(toss_plots.error_cdf, cdf, how,
+                        ctx.fig_dir / f"report_{stem}_error_cdf.png")
         figures.append(ctx.add_figure(path, f"Cumulative distribution of the errors across "
                                       f"tosses, {spec.title.lower()}; {how}",
                                       f"real_tosses:{spec.name}"))
@@ -210,8 +211,8 @@ def report_part(ctx: ReportContext, spec: scenarios.ScenarioSpec, sm: Any) -> di
                                    tuned=out.get("params") if mode == "tuned" else None)
         name = "_".join(x for x in (stem, engine, mode, param_set) if x)
         title = f"Measured and simulated, {label}"
-        path = toss_plots.trajectories(got, [p for p, _ in chosen], engine, title, how,
-                                       ctx.fig_dir / f"report_{name}_trajectories.png")
+        path = ctx.draw(toss_plots.trajectories, got, [p for p, _ in chosen], engine, title,
+                        how, ctx.fig_dir / f"report_{name}_trajectories.png")
         trajs.append(ctx.add_figure(path, f"{title}: the best, median and worst toss by "
                                     f"position error; {how}", f"real_tosses:{spec.name}"))
     columns = ["engine", "mode", "parameter set", "tosses ok",

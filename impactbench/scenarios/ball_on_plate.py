@@ -156,7 +156,7 @@ class BallOnPlateSpec(ScenarioSpec):
 
         for title, how, point, hist, ref in loops:
             name = f"report_hysteresis_{spec.figure_name(point)}.png"
-            path = plots.hysteresis(hist, ref, title, how, ctx.fig_dir / name)
+            path = ctx.draw(plots.hysteresis, hist, ref, title, how, ctx.fig_dir / name)
             ctx.add_figure(path, f"F–x loop, {title}; {how}", f"history:{spec.name}")
         if not runs:
             return
@@ -165,9 +165,8 @@ class BallOnPlateSpec(ScenarioSpec):
         b = cfg_parameter(ctx.cfg, spec.name, "damping_s_per_m")
         sm = next((s for s in ctx.cfg.scenarios if s.name == spec.name), None)
         model = spec.build(parameters=sm.parameters if sm is not None else {})
-        path = plots.restitution_vs_velocity(ctx.df, b, how,
-                                             ctx.fig_dir / "report_restitution_vs_velocity.png",
-                                             scenario=model)
+        path = ctx.draw(plots.restitution_vs_velocity, ctx.df, b, how,
+                        ctx.fig_dir / "report_restitution_vs_velocity.png", scenario=model)
         ctx.add_figure(path, f"Restitution against V0, ball on plate; {how}", f"extra:{spec.name}")
 
 

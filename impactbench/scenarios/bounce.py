@@ -271,8 +271,8 @@ class BounceSpec(ScenarioSpec):
             at = [r for r in runs if float(r.job.get("height_m")) == h]
             scenario = self.build((("height_m", h),), params)
             how = f"{modes_text(at)}; {timestep_text(at)}"
-            path = apex_figure(at, self.reference_metrics(scenario), scenario,
-                               ctx.fig_dir / f"report_bounce_apexes_h{h:g}.png", how)
+            path = ctx.draw(apex_figure, at, self.reference_metrics(scenario), scenario,
+                            ctx.fig_dir / f"report_bounce_apexes_h{h:g}.png", how)
             ctx.add_figure(path, f"Apex height against bounce number, dropped from h = {h:g} m "
                            f"(log scale; the reference in black); {how}",
                            f"extra:{self.name}")

@@ -215,7 +215,8 @@ class ObliqueSpec(ScenarioSpec):
             at = [r for r in runs if r.job.velocity_m_s == v]
             scenario = spec.build((("angle_deg", 0.0), ("velocity_m_s", v)), params)
             how = f"{modes_text(at)}; {timestep_text(at)}"
-            path = angle_figure(ctx.df, scenario, ctx.fig_dir / f"report_oblique_v{v:g}.png", how)
+            path = ctx.draw(angle_figure, ctx.df, scenario,
+                            ctx.fig_dir / f"report_oblique_v{v:g}.png", how)
             ctx.add_figure(path, f"Rebound angle, spin and tangential restitution against "
                            f"incidence angle, V = {v:g} m/s; {how}", f"extra:{spec.name}")
 

@@ -118,3 +118,31 @@ def test_figure_index_links_the_papers_figures(tmp_path: Path) -> None:
     assert data["paper_count"] == len(written) == 7
     assert data["paper"][0] == ("[Borovin et al. Fig. 1: phase trajectories V(x) for V0 = "
                                 "0.5…5 m/s (ball on plate, reference)](figures/hc_fig1_phase.png)")
+
+
+def _no_figure(path: Path) -> Path:
+    raise RuntimeError(f"cannot draw {path.name}")
+
+
+def test_the_figure_pool_draws_the_same_bytes_in_its_processes(tmp_path: Path,
+                                                              monkeypatch) -> None:
+    """A figure drawn by the pool's spawned processes is byte for byte the one drawn here;
+    a small report's figures (fewer than MIN_PARALLEL) are drawn here, at close; workers = 0
+    draws here; an error a figure raises is raised at close."""
+    from impactbench.figures import zoo
+    from impactbench.report_render import FigurePool
+
+    here = zoo.figure(tmp_path / "here.png")
+    monkeypatch.setattr(FigurePool, "MIN_PARALLEL", 1)
+    with FigurePool(2) as pool:
+        got = pool.submit(zoo.figure, tmp_path / "there.png")
+        assert got == tmp_path / "there.png" and pool._executor is not None
+    assert got.read_bytes() == here.read_bytes()
+    monkeypatch.setattr(FigurePool, "MIN_PARALLEL", 8)
+    with FigurePool(2) as pool:
+        pool.submit(zoo.figure, path=tmp_path / "queued.png")
+        assert pool._executor is None and not (tmp_path / "queued.png").exists()
+    assert (tmp_path / "queued.png").read_bytes() == here.read_bytes()
+    assert FigurePool(0).workers == 0
+    with pytest.raises(RuntimeError, match="cannot draw x.png"), FigurePool(2) as pool:
+        pool.submit(_no_figure, tmp_path / "x.png")
