@@ -1,7 +1,10 @@
-"""``python -m benchmarks [NAME…]``: run every ``bench_*`` module's ``main()``, or the named ones.
+"""``python -m benchmarks [NAME…] [--OPTION …]``: run every ``bench_*`` module's ``main()``, or
+the named ones.
 
 A NAME is a module name with or without its ``bench_`` prefix (``reference_ball`` or
-``bench_reference_ball``). Exit 2 on an unknown name.
+``bench_reference_ball``). Exit 2 on an unknown name. Everything from the first ``--``
+argument on is the benchmark's own options, in its ``sys.argv[1:]`` (``python -m benchmarks
+report --rounds 3``).
 """
 
 from __future__ import annotations
@@ -21,6 +24,8 @@ def main(argv: list[str]) -> int:
         print(__doc__.strip())
         print("\nbenchmarks: " + ", ".join(n.removeprefix("bench_") for n in names))
         return 0
+    cut = next((i for i, a in enumerate(argv) if a.startswith("--")), len(argv))
+    argv, options = argv[:cut], argv[cut:]
     chosen = []
     for arg in argv:
         name = arg if arg.startswith("bench_") else f"bench_{arg}"
@@ -31,6 +36,7 @@ def main(argv: list[str]) -> int:
         chosen.append(name)
     for name in chosen or names:
         print(f"== {name} ==", flush=True)
+        sys.argv = [name, *options]
         importlib.import_module(f"benchmarks.{name}").main()
         print(flush=True)
     return 0

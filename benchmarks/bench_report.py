@@ -1,29 +1,38 @@
-"""A fresh default report (the README's ``make report``, install excluded), timed in phases.
+"""A fresh default report (the README's ``make report``, install excluded), timed in phases,
+beside the previous layout's.
 
-The packaged default config is built in this process, as ``impactbench report`` builds it,
-into a temporary folder with a new, empty results store (``fresh``: nothing is served; the
-real-tosses replays, which use the default store, get it through ``$IMPACTBENCH_STORE``), on
-a local cluster of one worker per core. The phases, each the wall time of the report's own
-step (the step's function is wrapped with a timer; nothing else changes):
+Each build runs in a fresh process, as ``impactbench report`` would: the packaged default
+config into a temporary folder with a new, empty results store (``fresh``; the store the
+sections use too, ``$IMPACTBENCH_STORE``), on a local cluster of one worker per core. The
+phases, each the wall time of the report's own step (the step's function is wrapped with a
+timer; nothing else changes):
 
 - ``imports``: ``python -c "import impactbench.report"`` against ``python -c pass``, as
   subprocesses, alternated, medians of :data:`IMPORT_ROUNDS`;
-- ``runs``: the run matrix (:func:`impactbench.matrix.run_jobs` of the report's jobs);
-  under it, per scenario × engine, the runs' own wall times summed (engine time: on Dask
-  the runs overlap, so these add up to more than the phase);
-- ``tosses``: the real-tosses replays (the measured scenario's report part, its
-  ``run_jobs`` call);
-- ``figures``: the report's figures;
-- ``rendering``: the documents, the tosses' replays taken out;
-- ``report``: the whole build, and the peak RSS of this process (the workers' apart).
+- ``runs``: the report's run (:func:`impactbench.matrix.run_jobs` of its plan; in this
+  layout the matrix, the studies and the cube-toss replays together); under it, per
+  scenario × engine, the runs' own wall times summed (engine time: on Dask the runs overlap,
+  so these add up to more than the phase);
+- ``section runs``: runs a report section starts itself (the previous layout replayed the
+  cube tosses there, in the main process, one after another);
+- ``rendering``: the figures and the documents (:func:`impactbench.report.render`), the
+  section runs taken out;
+- ``report``: the whole build, and the peak RSS of its process (the workers' apart).
+
+The previous layout (:data:`PREVIOUS`, the last landing before issue #32's work; ``--against
+REV`` another) is checked out into a temporary git worktree and built the same way, its
+packages imported from there (:data:`BOOTSTRAP`), the two alternated round by round (A B A B …,
+:data:`ROUNDS`, ``--rounds N``): the ratio printed per phase is the median of the per-round
+ratios new / previous. Where the revision is not in the repository (a shallow clone), only
+this layout is timed. ``--only`` times this layout alone.
 
 Compile caches (MJX's on disk, warp's kernels) are as they are on this machine: warm after a
-first run. ``IMPACTBENCH_BENCH_COLD=1`` runs the build in a subprocess whose caches point at
-an empty folder (``XDG_CACHE_HOME``, ``WARP_CACHE_PATH``): the first report of a fresh
-machine, install excluded. No earlier layout of this benchmark exists, so no ratio against
-one is printed; the numbers are the baseline for #32's work.
+first run. ``IMPACTBENCH_BENCH_COLD=1`` gives every build caches in an empty folder
+(``XDG_CACHE_HOME``, ``WARP_CACHE_PATH``): the first report of a fresh machine, install
+excluded.
 
-Run: ``python -m benchmarks report``.
+Run: ``python -m benchmarks report [--rounds N] [--against REV | --only]`` (≈ 4–8 min a build
+on 2 cores).
 """
 
 from __future__ import annotations
@@ -31,135 +40,209 @@ from __future__ import annotations
 import contextlib
 import json
 import os
-import resource
 import statistics
 import subprocess
 import sys
 import tempfile
-import time
-from collections import defaultdict
 from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
-from benchmarks.alternate import alternate
+from benchmarks.alternate import alternate, median_ratio
 
 IMPORT_ROUNDS = 5
+ROUNDS = 1
 COLD_ENV = "IMPACTBENCH_BENCH_COLD"
-CHILD_ENV = "IMPACTBENCH_BENCH_REPORT_CHILD"
+PREVIOUS = "fb1ce0e"
+"""The last landing before issue #32's work (a first report in two minutes): the layout the
+ratios are against."""
+ROOT = Path(__file__).resolve().parents[1]
 
+TREE_ENV = "IMPACTBENCH_BENCH_TREE"
+FINDER = r'''
+import importlib.util, os, sys
+from pathlib import Path
 
-@contextlib.contextmanager
-def timed(owner: Any, name: str, into: list[float],
-          returns: list[Any] | None = None) -> Iterator[None]:
-    """Within the block, every call of ``owner.name`` adds its wall time (s) to ``into`` (and
-    its return value to ``returns``)."""
+_root = os.environ.get("IMPACTBENCH_BENCH_TREE")
+if _root:  # this process imports the packages from that tree, not from the install
+    _folders = {"impactbench": "impactbench", "impactbench.reference": "reference",
+                "impactbench.engines": "engines"}
+
+    class _Tree:
+        @staticmethod
+        def find_spec(name, path=None, target=None):
+            if name in _folders:
+                where = Path(_root) / _folders[name]
+                return importlib.util.spec_from_file_location(
+                    name, where / "__init__.py", submodule_search_locations=[str(where)])
+            return None
+
+    sys.meta_path.insert(0, _Tree)
+'''
+"""A ``sitecustomize`` for the builds of another layout: with :data:`TREE_ENV` set, every
+process — the build's and its Dask workers', spawned interpreters that unpickle their work by
+module name — imports impactbench from that tree."""
+
+BOOTSTRAP = r'''
+import json, resource, sys, tempfile, time
+from collections import defaultdict
+from pathlib import Path
+
+from impactbench import config, matrix, report
+from impactbench.store import Store
+
+phases = defaultdict(float)
+results = []
+
+def timed(owner, name, key, keep=False):
     original = getattr(owner, name)
-
-    def wrapper(*args: Any, **kwargs: Any) -> Any:
+    def wrapper(*args, **kwargs):
         t0 = time.perf_counter()
         try:
             out = original(*args, **kwargs)
         finally:
-            into.append(time.perf_counter() - t0)
-        if returns is not None:
-            returns.append(out)
+            phases[key] += time.perf_counter() - t0
+        if keep:
+            results.append(out)
         return out
-
     setattr(owner, name, wrapper)
-    try:
-        yield
-    finally:
-        setattr(owner, name, original)
+
+timed(report, "run_jobs", "runs", keep=True)      # the report's own run
+timed(matrix, "run_jobs", "section runs")          # a section's (report.run_jobs is apart)
+timed(report, "render", "render")
+with tempfile.TemporaryDirectory() as tmp:
+    import os
+    os.environ["IMPACTBENCH_STORE"] = str(Path(tmp) / "store.duckdb")
+    t0 = time.perf_counter()
+    report.build(config.load(None), Path(tmp) / "report", store=Store(
+        Path(tmp) / "store.duckdb"), fresh=True, show_progress=False)
+    phases["report"] = time.perf_counter() - t0
+engine_s = defaultdict(float)
+for r in (r for got in results for r in got):
+    wall = float(r.run.get("wall_s", float("nan")))
+    if wall == wall:
+        engine_s[f"{r.job.scenario} × {r.job.engine}"] += wall
+phases["rendering"] = phases.pop("render") - phases["section runs"]
+print(json.dumps({"phases": dict(phases), "runs_total": sum(len(g) for g in results),
+                  "engine_s": dict(engine_s),
+                  "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0}))
+'''
+"""A build in a fresh process; its phases as one JSON line on stdout."""
+PHASES = ("runs", "section runs", "rendering", "report")
 
 
-@contextlib.contextmanager
-def _env(**values: str) -> Iterator[None]:
-    """Environment variables set within the block (the replays' store is the default one,
-    ``$IMPACTBENCH_STORE``: here the fresh store too)."""
-    before = {k: os.environ.get(k) for k in values}
-    os.environ.update(values)
-    try:
-        yield
-    finally:
-        for k, v in before.items():
-            if v is None:
-                os.environ.pop(k, None)
-            else:
-                os.environ[k] = v
+@contextmanager
+def previous_tree(rev: str) -> Iterator[Path | None]:
+    """A temporary git worktree of ``rev`` (None when the repository has no such revision)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        where = Path(tmp) / "previous"
+        made = subprocess.run(["git", "worktree", "add", "--detach", str(where), rev],
+                              cwd=ROOT, capture_output=True, text=True)
+        if made.returncode != 0:
+            yield None
+            return
+        try:
+            yield where
+        finally:
+            subprocess.run(["git", "worktree", "remove", "--force", str(where)], cwd=ROOT,
+                           capture_output=True)
 
 
-def imports() -> tuple[float, float]:
-    """Median wall times (s) of importing the report module and of a bare interpreter."""
-    def run(code: str) -> Callable[[], Any]:
-        return lambda: subprocess.run([sys.executable, "-c", code], check=True)
-
-    times = alternate({"report": run("import impactbench.report"), "bare": run("pass")},
-                      IMPORT_ROUNDS)
-    return statistics.median(times["report"]), statistics.median(times["bare"])
-
-
-def build() -> dict[str, Any]:
-    """Build the default report fresh; the phases' wall times (s) and engine times."""
-    from impactbench import config, matrix, report
-    from impactbench.store import Store
-
-    phases: dict[str, list[float]] = defaultdict(list)
-    engine_s: dict[str, float] = defaultdict(float)
-    matrices: list[list[Any]] = []
-    with tempfile.TemporaryDirectory() as tmp, \
-            _env(IMPACTBENCH_STORE=str(Path(tmp) / "store.duckdb")), \
-            timed(report, "run_jobs", phases["runs"], matrices), \
-            timed(matrix, "run_jobs", phases["tosses"]), \
-            timed(report, "_figures", phases["figures"]), \
-            timed(report, "render_documents", phases["documents"]):
-        t0 = time.perf_counter()
-        report.build(config.load(None), Path(tmp) / "report", store=Store(
-            Path(tmp) / "store.duckdb"), fresh=True, show_progress=False)
-        total = time.perf_counter() - t0
-    runs = [r for results in matrices for r in results]
-    for r in runs:
-        wall = float(r.run.get("wall_s", float("nan")))
-        if wall == wall:  # (not NaN)
-            engine_s[f"{r.job.scenario} × {r.job.engine}"] += wall
-    tosses, documents = sum(phases["tosses"]), sum(phases["documents"])
-    return {"report": total, "runs": sum(phases["runs"]), "tosses": tosses,
-            "figures": sum(phases["figures"]), "rendering": documents - tosses,
-            "runs_total": len(runs), "engine_s": dict(engine_s),
-            "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0}
+@contextmanager
+def layout_env(tree: Path | None) -> Iterator[dict[str, str]]:
+    """The environment of a process (and its children) importing ``tree``'s packages (None:
+    the installed ones): :data:`FINDER` as the ``sitecustomize`` of a folder on PYTHONPATH."""
+    env = {k: v for k, v in os.environ.items() if k != TREE_ENV}
+    if tree is None:
+        yield env
+        return
+    with tempfile.TemporaryDirectory() as site:
+        (Path(site) / "sitecustomize.py").write_text(FINDER)
+        path = os.pathsep.join(x for x in (site, env.get("PYTHONPATH", "")) if x)
+        yield {**env, TREE_ENV: str(tree), "PYTHONPATH": path}
 
 
-def measured() -> dict[str, Any]:
-    """:func:`build` here, or with cold caches in a subprocess (:data:`COLD_ENV`)."""
-    if not os.environ.get(COLD_ENV) or os.environ.get(CHILD_ENV):
-        return build()
-    with tempfile.TemporaryDirectory() as caches:
-        env = {**os.environ, CHILD_ENV: "1", "XDG_CACHE_HOME": caches,
-               "WARP_CACHE_PATH": str(Path(caches) / "warp")}
-        out = subprocess.run([sys.executable, "-c", "import json; from benchmarks import "
-                              "bench_report as b; print(json.dumps(b.build()))"],
-                             env=env, check=True, capture_output=True, text=True)
+def build_in(tree: Path | None, caches: str | None) -> dict[str, Any]:
+    """One fresh build in a new process, from ``tree``'s packages (None: the installed)."""
+    with layout_env(tree) as env:
+        if caches is not None:  # a cold start: compile caches in an empty folder
+            env.update(XDG_CACHE_HOME=caches, WARP_CACHE_PATH=str(Path(caches) / "warp"))
+        out = subprocess.run([sys.executable, "-c", BOOTSTRAP], env=env,
+                             capture_output=True, text=True, cwd=tempfile.gettempdir())
+    if out.returncode != 0:
+        raise RuntimeError(f"report build ({tree or 'this layout'}) failed: "
+                           f"{out.stderr[-3000:]}")
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
-def main() -> None:
-    report_s, bare_s = imports()
-    got = measured()
-    caches = "empty" if os.environ.get(COLD_ENV) else "as on this machine (warm after a run)"
-    print(f"Fresh default report ({got['runs_total']} runs, empty results store; compile "
-          f"caches {caches}); {os.cpu_count()} cores")
-    print(f"{'phase':24s} {'wall s':>9s}")
-    print(f"{'imports (report module)':24s} {report_s:9.2f}   (bare python {bare_s:.2f} s, "
-          f"×{report_s / bare_s:.1f})")
-    for phase in ("runs", "tosses", "figures", "rendering", "report"):
-        print(f"{phase:24s} {got[phase]:9.1f}")
-    print(f"peak RSS of the main process: {got['peak_rss_mb']:.0f} MB")
-    print("\nengine time per scenario × engine (the runs' own wall times, summed; on Dask "
-          "they overlap):")
-    ranked = sorted(got["engine_s"].items(), key=lambda kv: -kv[1])
+def imports(trees: dict[str, Path | None]) -> dict[str, float]:
+    """Median wall times (s) of importing each layout's report module, and bare Python."""
+    def run(env: dict[str, str], code: str) -> Callable[[], Any]:
+        return lambda: subprocess.run([sys.executable, "-c", code], check=True, env=env,
+                                      cwd=tempfile.gettempdir())
+
+    with contextlib.ExitStack() as stack:
+        contenders = {name: run(stack.enter_context(layout_env(tree)),
+                                "import impactbench.report") for name, tree in trees.items()}
+        contenders["bare"] = run(dict(os.environ), "pass")
+        times = alternate(contenders, IMPORT_ROUNDS)
+    return {name: statistics.median(t) for name, t in times.items()}
+
+
+def main(argv: list[str] | None = None) -> None:
+    argv = sys.argv[1:] if argv is None else argv
+    rounds = int(argv[argv.index("--rounds") + 1]) if "--rounds" in argv else ROUNDS
+    rev = argv[argv.index("--against") + 1] if "--against" in argv else PREVIOUS
+    cold = bool(os.environ.get(COLD_ENV))
+    with previous_tree(rev) if "--only" not in argv else _none() as old:
+        trees: dict[str, Path | None] = {"this": None}
+        if old is not None:
+            trees["previous"] = old
+        got: dict[str, list[dict[str, Any]]] = {name: [] for name in trees}
+        for _ in range(rounds):
+            for name, tree in trees.items():  # A B A B …: both see the same machine
+                with tempfile.TemporaryDirectory() as caches:
+                    got[name].append(build_in(tree, caches if cold else None))
+        imported = imports(trees)
+    last = got["this"][-1]
+    print(f"Fresh default report ({last['runs_total']} runs, empty results store; compile "
+          f"caches {'empty' if cold else 'as on this machine (warm after a run)'}); "
+          f"{os.cpu_count()} cores; {rounds} round(s)"
+          + (f"; previous layout: {rev}" if "previous" in got else ""))
+    head = f"{'phase':24s} {'this (s)':>9s}"
+    if "previous" in got:
+        head += f" {'previous (s)':>12s} {'this/previous':>14s}"
+    print(head)
+    line = f"{'imports (report module)':24s} {imported['this']:9.2f}"
+    if "previous" in got:
+        line += f" {imported['previous']:12.2f} {imported['this'] / imported['previous']:14.2f}"
+    print(line + f"   (bare python {imported['bare']:.2f} s)")
+    for phase in PHASES:
+        this = [g["phases"].get(phase, 0.0) for g in got["this"]]
+        line = f"{phase:24s} {statistics.median(this):9.1f}"
+        if "previous" in got:
+            prev = [g["phases"].get(phase, 0.0) for g in got["previous"]]
+            ratio = (f"{median_ratio(this, prev):14.2f}" if min(prev) > 0.5 else f"{'—':>14s}")
+            line += f" {statistics.median(prev):12.1f} {ratio}"
+        print(line)
+    rss = [g["peak_rss_mb"] for g in got["this"]]
+    line = f"{'peak RSS, main (MB)':24s} {statistics.median(rss):9.0f}"
+    if "previous" in got:
+        prev = [g["peak_rss_mb"] for g in got["previous"]]
+        line += f" {statistics.median(prev):12.0f} {median_ratio(rss, prev):14.2f}"
+    print(line)
+    print("\nengine time per scenario × engine, this layout (the runs' own wall times, summed; "
+          "on Dask they overlap):")
+    ranked = sorted(last["engine_s"].items(), key=lambda kv: -kv[1])
     total = sum(v for _, v in ranked) or 1.0
     for key, seconds in ranked[:15]:
         print(f"  {key:36s} {seconds:8.1f} s  {100 * seconds / total:5.1f} %")
+
+
+@contextmanager
+def _none() -> Iterator[None]:
+    yield None
 
 
 if __name__ == "__main__":
