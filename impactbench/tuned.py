@@ -19,6 +19,7 @@ but its axes).
 
 from __future__ import annotations
 
+import copy
 import json
 import math
 import re
@@ -57,20 +58,34 @@ def load_tuned(engine: str, scenario: str, path: Path | None = None) -> dict[str
 
 
 def load_tuned_file(path: Path | str) -> dict[str, Any] | None:
-    """All tables of a tuned file (``[parameters]`` checked); None when it does not exist."""
+    """All tables of a tuned file (``[parameters]`` checked); None when it does not exist.
+    A file is parsed once while it is unchanged (its size and modification time: a report
+    plans a thousand runs over a few dozen files); each call gets its own copy."""
     path = Path(path)
+    try:
+        st = path.stat()
+    except OSError:
+        return None
     if not path.is_file():
         return None
-    try:
-        data = tomllib.loads(path.read_text())
-    except UnicodeDecodeError:
-        raise ValueError(f"tuned = {str(path)!r}: not a tuned file (not UTF-8 text)") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise ValueError(f"{path}: not valid TOML ({exc})") from None
-    params = data.get("parameters")
-    if not isinstance(params, dict):
-        raise ValueError(f"{path}: [parameters] table is missing")
-    return data
+    key = (str(path.resolve()), st.st_size, st.st_mtime_ns)
+    if key not in _PARSED:
+        try:
+            data = tomllib.loads(path.read_text())
+        except UnicodeDecodeError:
+            raise ValueError(f"tuned = {str(path)!r}: not a tuned file (not UTF-8 text)"
+                             ) from None
+        except tomllib.TOMLDecodeError as exc:
+            raise ValueError(f"{path}: not valid TOML ({exc})") from None
+        params = data.get("parameters")
+        if not isinstance(params, dict):
+            raise ValueError(f"{path}: [parameters] table is missing")
+        _PARSED[key] = data
+    return copy.deepcopy(_PARSED[key])
+
+
+_PARSED: dict[tuple[str, int, int], dict[str, Any]] = {}
+"""Tuned files parsed, by (resolved path, size, modification time in ns)."""
 
 
 @cache
