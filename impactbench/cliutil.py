@@ -1,16 +1,27 @@
-"""Small helpers shared by the CLI subcommands: number parsing, JSON and table output."""
+"""Small helpers shared by the CLI subcommands: number parsing, JSON and table output.
+
+Every parser imports this module (:class:`impactbench.cli.Parser` reads
+:data:`NEGATIVE_NUMBER`), ``impactbench --help`` too, so it imports only what is already
+loaded at start-up or costs little; the rest (JSON, the engine registry) on first use."""
 
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import re
 import sys
 from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
-from impactbench.engines.registry import stdout_to_stderr  # noqa: F401  (re-exported)
+
+def __getattr__(name: str) -> Any:
+    """``stdout_to_stderr``: re-exported from :mod:`impactbench.engines.registry` on first use
+    (importing the registry costs ~10 ms of the start-up budget)."""
+    if name == "stdout_to_stderr":
+        from impactbench.engines.registry import stdout_to_stderr
+
+        return stdout_to_stderr
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|infinity|nan)$",
                              re.IGNORECASE)
@@ -78,6 +89,8 @@ def _jsonable(value: Any) -> Any:
 
 def print_json(obj: Any) -> None:
     """Print ``obj`` as JSON (NaN/inf become null, so the output is strict JSON)."""
+    import json
+
     json.dump(_jsonable(obj), sys.stdout, indent=2)
     sys.stdout.write("\n")
 
@@ -229,9 +242,9 @@ def progress_bar(total: int, unit: str = "run"):
     Each line says the time left: the work's own estimate where the caller gives one,
     ``update.left(seconds)`` (a run matrix's, :class:`impactbench.matrix.TimeLeft`: each
     run's estimated cost, learnt as runs finish, so a line has it from the start), counted
-    down between calls; else, from :data:`ETA_AFTER_S` on, the items not done at the rate of
-    those done since the first update (what a store served at once does not count). On a
-    terminal the caller's estimate is the bar's postfix.
+    down between calls (to a fifth of it at most); else, from :data:`ETA_AFTER_S` on, the
+    items not done at the rate of those done since the first update (what a store served at
+    once does not count). On a terminal the caller's estimate is the bar's postfix.
     """
     import time
 
@@ -242,9 +255,11 @@ def progress_bar(total: int, unit: str = "run"):
         said_left.update(seconds=max(0.0, float(seconds)), at=time.monotonic())
 
     def given(now: float) -> float | None:
+        # counted down since it was given, to no less than a fifth of it (a run that takes
+        # longer than estimated leaves its time left there until the next estimate)
         if not said_left:
             return None
-        return max(0.0, said_left["seconds"] - (now - said_left["at"]))
+        return max(0.2 * said_left["seconds"], said_left["seconds"] - (now - said_left["at"]))
 
     if sys.stderr.isatty():
         from tqdm import tqdm

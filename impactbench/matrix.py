@@ -484,32 +484,39 @@ def estimated_steps(job: Job, reference: dict[str, Any]) -> float:
 class TimeLeft:
     """The seconds a run of work items has left, learnt as it goes: each item's time estimate
     (:func:`impactbench.cluster.run_estimate_s` of its steps × its scenario's step cost)
-    scaled, per group of items (engine, batched or not), by what that group's finished items
-    took over their estimate — the median of the groups' ratios for a group with none
-    finished, 1 before any — summed over the items left and shared over the workers."""
+    scaled by what finished items took over their estimate — per group of items
+    ``(engine, scenario, batched)``; for a group with none finished yet, the median over the
+    finished groups of its scenario (batched alike), else of its engine, else of all; 1 before
+    any — summed over the items left and shared over the workers."""
 
     def __init__(self, workers: int) -> None:
         self.workers = max(1, workers)
-        self.pending: dict[Any, float] = {}
-        self.done: dict[Any, list[float]] = {}
+        self.pending: dict[tuple, float] = {}
+        self.done: dict[tuple, list[float]] = {}
         """group → [estimate, took] of its finished items."""
 
-    def add(self, group: Any, estimate_s: float) -> None:
+    def add(self, group: tuple, estimate_s: float) -> None:
         self.pending[group] = self.pending.get(group, 0.0) + estimate_s
 
-    def finished(self, group: Any, estimate_s: float, took_s: float) -> None:
+    def finished(self, group: tuple, estimate_s: float, took_s: float) -> None:
         self.pending[group] = max(0.0, self.pending.get(group, 0.0) - estimate_s)
         if math.isfinite(took_s):
             got = self.done.setdefault(group, [0.0, 0.0])
             got[0] += estimate_s
             got[1] += took_s
 
-    def ratio(self, group: Any) -> float:
+    def ratio(self, group: tuple) -> float:
         """What ``group``'s items take over their estimate."""
         ratios = {g: took / est for g, (est, took) in self.done.items() if est > 0.0}
         if group in ratios:
             return ratios[group]
-        return float(np.median(list(ratios.values()))) if ratios else 1.0
+        engine, scenario, batched = group
+        for alike in (lambda g: g[1:] == (scenario, batched), lambda g: g[0] == engine,
+                      lambda g: True):
+            near = [r for g, r in ratios.items() if alike(g)]
+            if near:
+                return float(np.median(near))
+        return 1.0
 
     def seconds(self) -> float:
         return sum(est * self.ratio(g) for g, est in self.pending.items()) / self.workers

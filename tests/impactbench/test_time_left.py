@@ -13,16 +13,23 @@ from impactbench.matrix import TimeLeft
 
 def test_the_estimate_learns_each_groups_ratio_and_shares_the_rest_over_the_workers() -> None:
     clock = TimeLeft(2)
-    clock.add("slow", 10.0)   # two runs estimated 5 s each
-    clock.add("fast", 30.0)   # three runs estimated 10 s each
+    slow, fast = ("drake", "cube-toss", False), ("mujoco", "ball-on-plate", False)
+    clock.add(slow, 10.0)   # two runs estimated 5 s each
+    clock.add(fast, 30.0)   # three runs estimated 10 s each
     assert clock.seconds() == pytest.approx(40.0 / 2)  # the prior: the estimates as they are
-    clock.finished("slow", 5.0, 15.0)  # took 3 × its estimate
-    # slow: 5 s left × 3; fast: none finished, the median ratio (3) of the groups'
+    clock.finished(slow, 5.0, 15.0)  # took 3 × its estimate
+    # slow: 5 s left × 3; fast: none of its scenario or engine finished, the median of all (3)
     assert clock.seconds() == pytest.approx((5.0 * 3 + 30.0 * 3) / 2)
-    clock.finished("fast", 10.0, 1.0)  # 0.1 × its estimate
+    clock.finished(fast, 10.0, 1.0)  # 0.1 × its estimate
     assert clock.seconds() == pytest.approx((5.0 * 3 + 20.0 * 0.1) / 2)
-    clock.finished("fast", 10.0, float("nan"))  # a crashed run: gone, nothing learnt
+    clock.finished(fast, 10.0, float("nan"))  # a crashed run: gone, nothing learnt
     assert clock.seconds() == pytest.approx((5.0 * 3 + 10.0 * 0.1) / 2)
+    # a new group takes the ratio of its scenario's others before its engine's
+    other = ("pybullet", "ball-on-plate", False)
+    clock.add(other, 4.0)
+    assert clock.seconds() == pytest.approx((5.0 * 3 + 10.0 * 0.1 + 4.0 * 0.1) / 2)
+    clock.add(("drake", "oblique", False), 2.0)  # no oblique finished: drake's (3)
+    assert clock.seconds() == pytest.approx((5.0 * 3 + 10.0 * 0.1 + 4.0 * 0.1 + 2.0 * 3) / 2)
 
 
 def test_a_progress_line_says_the_callers_estimate_from_the_first_line(capsys,
