@@ -177,6 +177,25 @@ def _reap(pids: set[int]) -> None:
                 child.join(1)
 
 
+def _refused(address: str) -> str:
+    """Why a ``tcp://host:port`` scheduler address refuses a connection outright (nothing
+    listens on the port: the machine answers at once), "" when it does not, or cannot be
+    told in a second (another protocol, a slow or filtered host: Dask's own connect decides)."""
+    import socket
+    from urllib.parse import urlsplit
+
+    try:
+        parts = urlsplit(address if "://" in address else f"tcp://{address}")
+        if parts.scheme != "tcp" or not parts.hostname or not parts.port:
+            return ""
+        with socket.create_connection((parts.hostname, parts.port), timeout=1.0):
+            return ""
+    except ConnectionRefusedError:
+        return "connection refused: nothing listens on that port"
+    except (OSError, ValueError):
+        return ""
+
+
 @contextlib.contextmanager
 def client(workers: int | None = None, scheduler: str | None = None) -> Iterator[Any]:
     """A Dask client: on ``scheduler`` when given (or ``$IMPACTBENCH_SCHEDULER``), else on
@@ -188,6 +207,9 @@ def client(workers: int | None = None, scheduler: str | None = None) -> Iterator
     scheduler = scheduler or os.environ.get(SCHEDULER_ENV) or None
     with dask.config.set(DASK_CONFIG):
         if scheduler:
+            refused = _refused(scheduler)
+            if refused:  # nothing listens there: say so now, not after Dask's 10 s of retries
+                raise ValueError(f"scheduler = {scheduler!r}: cannot connect ({refused})")
             try:
                 c = Client(scheduler, timeout="10s")
             except OSError as exc:
