@@ -13,6 +13,15 @@ Ctrl-C, SIGTERM and SIGHUP all stop a command the same way: what finished is kep
 runs are stored), one line ``impactbench: interrupted; N of M runs stored; rerun to resume``
 is printed and the exit code is 128 + the signal (130, 143, 129). Further SIGTERMs and SIGHUPs
 while it stops are ignored, so the cleanup finishes.
+
+The parser :func:`main` uses is lazy (:func:`lazy_parser`): the top level lists the commands
+from the static table :data:`COMMANDS` (names and one-line helps), and a command's own parser
+is built — its module imported and registered as in :func:`build_parser` — only when that
+command is chosen, so ``impactbench --help`` (and a bare ``impactbench``) imports no command,
+no scenario and no entry point. A command word the table lacks (a plug-in's own top-level
+command, or a typo) is parsed again with the full tree (:func:`build_parser`), so it works, or
+is refused, exactly as before. ``tests/impactbench/test_cli_lazy.py`` checks that every help
+page of the lazy tree is the eager tree's, byte for byte.
 """
 
 from __future__ import annotations
@@ -46,6 +55,40 @@ COMMAND_MODULES: tuple[str, ...] = (
 GROUPS: dict[str, str] = {
     "reference": "solve a scenario with the reference solver (the ground truth)",
     "sweep": "sweep one parameter of a scenario with the reference solver into a table",
+}
+
+GROUP_MODULES: tuple[str, ...] = (
+    # the modules of COMMAND_MODULES that add the packaged scenarios' ``reference NAME`` and
+    # ``sweep NAME`` (the groups' subcommands; a plug-in's come from its spec)
+    "impactbench.commands.ball_on_plate",
+    "impactbench.commands.bounce",
+    "impactbench.commands.cube_toss",
+    "impactbench.commands.oblique",
+    "impactbench.commands.rigid_flexible",
+)
+
+COMMANDS: dict[str, tuple[str, str | None]] = {
+    # every top-level command in the order the full tree lists it (the groups, then
+    # COMMAND_MODULES' order): name → (its one-line help, as its module registers it; its
+    # module, None for a group). The lazy parser's top level is built from this table alone
+    # (tests/impactbench/test_cli_lazy.py checks it against the modules).
+    **{name: (help_text, None) for name, help_text in GROUPS.items()},
+    "advise": ("the best contact settings for an engine at your step, for your body",
+               "impactbench.commands.advise"),
+    "calibrate": ("fit a contact model's damping (and stiffness) to measured impacts, with "
+                  "intervals", "impactbench.commands.calibrate"),
+    "figures": ("write the reference papers' figures (PNG) into a directory",
+                "impactbench.commands.figures"),
+    "gate": ("check engines against the reference with the tolerances of a gate file (CI)",
+             "impactbench.commands.gate"),
+    "history": ("show each metric's error across engine and impactbench versions held in the "
+                "store", "impactbench.commands.history"),
+    "report": ("run the comparison matrix and write the report (tables, plots, CSV/Parquet)",
+               "impactbench.commands.report"),
+    "run": ("run one scenario in one engine and compare it with the reference",
+            "impactbench.commands.run"),
+    "tune": ("fit an engine's native contact parameters to the reference (Hunt–Crossley, or "
+             "any --model)", "impactbench.commands.tune"),
 }
 
 
@@ -111,17 +154,98 @@ def add_commands(parser: argparse.ArgumentParser
     return top, groups
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = Parser(prog="impactbench", description=DESCRIPTION)
+def _top_parser(parser_class: type[Parser] = Parser) -> Parser:
+    """The bare top level: ``impactbench [-h] [--version]`` and its description."""
+    parser = parser_class(prog="impactbench", description=DESCRIPTION)
     parser.add_argument("--version", action=_VersionAction)
-    top, groups = add_commands(parser)
-    from impactbench import scenarios
-
-    for spec in scenarios.specs():  # each scenario's own subcommands (reference NAME, …)
-        spec.register_commands(top, groups)
-    for module in COMMAND_MODULES:
-        importlib.import_module(module).register(top, groups)
     return parser
+
+
+def _register(modules: Sequence[str], plugins: bool = True
+              ) -> tuple[Parser, argparse._SubParsersAction]:
+    """A full-tree top level with ``modules`` registered (and, with ``plugins``, first every
+    scenario's own subcommands: plug-ins' ``reference NAME`` …): (parser, its COMMAND
+    action)."""
+    parser = _top_parser()
+    top, groups = add_commands(parser)
+    if plugins:
+        from impactbench import scenarios
+
+        for spec in scenarios.specs():  # each scenario's own subcommands (reference NAME, …)
+            spec.register_commands(top, groups)
+    for module in modules:
+        importlib.import_module(module).register(top, groups)
+    return parser, top
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The full parser tree: every command's parser built now (scenario plug-ins included).
+    :func:`main` uses :func:`lazy_parser`, which gives the same help and parse."""
+    return _register(COMMAND_MODULES)[0]
+
+
+def command_parser(name: str) -> argparse.ArgumentParser:
+    """The parser of the top-level command ``name`` of :data:`COMMANDS`, built as
+    :func:`build_parser` builds it: a group (``reference``, ``sweep``) with every scenario's
+    subcommands, else its module's. The plug-ins are looked up as the full tree does (the
+    scenarios' and the engines' entry points), so a broken one is still named on stderr
+    (one line) whichever command runs."""
+    module = COMMANDS[name][1]
+    top = _register(GROUP_MODULES if module is None else (module,))[1]
+    from impactbench.engines.registry import engine_names
+
+    engine_names()  # what `run`'s --engine choices load in the full tree
+    return top.choices[name]
+
+
+class _NotInTable(Exception):
+    """A command word :data:`COMMANDS` lacks: parse again with the full tree."""
+
+
+class _LazyCommands(argparse._SubParsersAction):
+    """The top-level COMMAND: its names and helps from :data:`COMMANDS` (what the top-level
+    help and a refused word's message list), the chosen command's parser built when argparse
+    reaches it (:func:`command_parser`)."""
+
+    def __init__(self, *args, **kwargs) -> None:  # type: ignore[no-untyped-def]
+        super().__init__(*args, **kwargs)
+        for name, (help_text, _module) in COMMANDS.items():
+            self._name_parser_map[name] = None  # built when chosen
+            self._choices_actions.append(self._ChoicesPseudoAction(name, (), help_text))
+
+    def __call__(self, parser, namespace, values, option_string=None) -> None:  # type: ignore[no-untyped-def]
+        name = values[0]
+        if self._name_parser_map.get(name) is None:
+            self._name_parser_map[name] = command_parser(name)
+        super().__call__(parser, namespace, values, option_string)
+
+
+class _LazyTop(Parser):
+    """The lazy top level: a word not in :data:`COMMANDS` raises :class:`_NotInTable` (the
+    full tree, plug-ins loaded, then parses it: their own command, or the refusal naming
+    every choice)."""
+
+    def _check_value(self, action, value) -> None:  # type: ignore[no-untyped-def]
+        if isinstance(action, _LazyCommands) and value not in action.choices:
+            raise _NotInTable(value)
+        super()._check_value(action, value)
+
+
+def lazy_parser() -> argparse.ArgumentParser:
+    """The parser :func:`main` uses: the top level from :data:`COMMANDS` alone, each command's
+    parser built only when chosen (``impactbench --help`` imports no command module)."""
+    parser = _top_parser(_LazyTop)
+    parser.add_subparsers(dest="command", required=True, parser_class=Parser,
+                          metavar="COMMAND", action=_LazyCommands)
+    return parser
+
+
+def parse(argv: Sequence[str]) -> argparse.Namespace:
+    """``argv`` parsed as the full tree would (:func:`build_parser`), through the lazy one."""
+    try:
+        return lazy_parser().parse_args(argv)
+    except _NotInTable:
+        return build_parser().parse_args(argv)
 
 
 STOP_SIGNALS = (signal.SIGTERM, signal.SIGHUP)
@@ -171,10 +295,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the console script; returns the exit code."""
     previous = _install_stop_handlers()
     try:
-        from impactbench.commands.run import scenario_first
+        argv = list(sys.argv[1:] if argv is None else argv)
+        if argv[:1] == ["run"]:
+            from impactbench.commands.run import scenario_first
 
-        argv = scenario_first(sys.argv[1:] if argv is None else argv)
-        args = build_parser().parse_args(argv)
+            argv = scenario_first(argv)
+        args = parse(argv)
         if getattr(args, "store_reset", False):
             from impactbench import store
 
