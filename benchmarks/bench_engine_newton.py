@@ -33,14 +33,28 @@ the adapter's overhead over a bare Featherstone loop.
    reading and recording nothing; the set-up times (model, collision pipeline, capture) of
    both beside.
 
-Run: ``python -m benchmarks bench_engine_newton``.
+4. The report's runs (printed first; ``--report`` alone, ``--rounds N``): for each scenario
+   the default report's Newton runs (:func:`report_items`: every job of the default config's
+   plan, a phased job once per phase) through one :func:`impactbench.evaluate.compare_many`
+   (each scenario's batch: a world per run) against :func:`impactbench.evaluate.compare`
+   one after another, alternated, medians and the median per-round ratio; the objects are
+   checked equal first (NaN = NaN: failed runs' metrics).
+
+5. Cold start (``--cold`` alone): a fresh process with warp's kernel cache empty (a
+   temporary ``WARP_CACHE_PATH``), then again with it filled: the import and the first
+   native run of each scenario in turn.
+
+Run: ``python -m benchmarks bench_engine_newton`` (``-- --report``, ``-- --cold``).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import importlib.util
+import math
 import os
+import shutil
 import statistics
 import subprocess
 import sys
@@ -68,6 +82,7 @@ from impactbench.engines.newton_adapter import (
 )
 from impactbench.reference.scenarios import BallOnPlate
 
+from benchmarks.alternate import alternate, median_ratio
 from benchmarks.overhead import CASES
 
 REPEATS = 5  # the before side runs ~10³ steps/s: five repeats of every case take minutes
@@ -265,6 +280,126 @@ def overhead(repeats: int = REPEATS) -> list[dict[str, Any]]:
     return rows
 
 
+# --------------------------------------------------------------------------- the report's runs
+
+REPORT_SCENARIOS = ("ball-on-plate", "rigid-flexible", "oblique", "bounce")
+REPORT_ROUNDS = 3
+
+
+def report_items(scenario: str) -> list[tuple[Any, str, RunSettings, dict[str, Any]]]:
+    """The default report's Newton runs of ``scenario`` as :func:`impactbench.evaluate.
+    compare_many` items ``(scenario, mode, settings, reference)``: every job of
+    :func:`impactbench.matrix.plan` (the default config), a phased job once per phase
+    (:func:`impactbench.phases.offsets`)."""
+    from impactbench import config, evaluate, phases
+    from impactbench.matrix import job_settings, plan
+
+    items = []
+    for job in plan(config.load(None), engines=["newton"]):
+        if job.engine != "newton" or job.scenario != scenario:
+            continue
+        built, settings = job.build_scenario(), job_settings(job)
+        ref = evaluate.reference_metrics(built)
+        for phase in (phases.offsets(job.phases) if job.phases > 1 else (None,)):
+            run = settings if phase is None else dataclasses.replace(settings, phase=phase)
+            items.append((built, job.mode, run, ref))
+    return items
+
+
+def same_result(a: Any, b: Any) -> bool:
+    """Two :func:`~impactbench.evaluate.compare` objects equal to the last bit, NaN equal to
+    NaN (a failed run's metrics), ``wall_s`` aside."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        return a.keys() == b.keys() and all(same_result(a[k], b[k]) for k in a
+                                            if k != "wall_s")
+    if isinstance(a, float) and isinstance(b, float):
+        return (math.isnan(a) and math.isnan(b)) or (
+            a == b and math.copysign(1.0, a) == math.copysign(1.0, b))
+    if isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):
+        return len(a) == len(b) and all(same_result(x, y) for x, y in zip(a, b, strict=True))
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        return bool(np.array_equal(a, b, equal_nan=True))
+    return type(a) is type(b) and a == b
+
+
+def report_batches(rounds: int = REPORT_ROUNDS) -> list[dict[str, Any]]:
+    """One row per scenario: the default report's Newton runs of it
+    (:func:`report_items`) through one :func:`~impactbench.evaluate.compare_many` call (the
+    scenario's batch: a world per run) against :func:`~impactbench.evaluate.compare` one
+    after another, alternated (medians over ``rounds``), after a warm-up of both whose
+    objects are checked equal (:func:`same_result`)."""
+    from impactbench import evaluate
+
+    rows = []
+    for scenario in REPORT_SCENARIOS:
+        items = report_items(scenario)
+
+        def one_by_one(items: list = items) -> list[dict[str, Any]]:
+            return [evaluate.compare("newton", *item)[0] for item in items]
+
+        def many(items: list = items) -> list[dict[str, Any]]:
+            return evaluate.compare_many("newton", items)
+
+        alone, batched = one_by_one(), many()
+        equal = sum(same_result(a, b) for a, b in zip(alone, batched, strict=True))
+        times = alternate({"one by one": one_by_one, "compare_many": many}, rounds)
+        rows.append({"scenario": scenario, "runs": len(items),
+                     "equal": f"{equal}/{len(items)}",
+                     "one by one s": statistics.median(times["one by one"]),
+                     "compare_many s": statistics.median(times["compare_many"]),
+                     "new/old": median_ratio(times["compare_many"], times["one by one"])})
+    return rows
+
+
+# --------------------------------------------------------------------------- cold start
+
+COLD_RUNS = {
+    "ball-on-plate": "BallOnPlate(velocity_m_s=1.0)",
+    "rigid-flexible": "RigidFlexible(velocity_m_s=2.0)",
+    "oblique": "Oblique(angle_deg=45.0)",
+    "bounce": "Bounce()",
+}
+"""One native run of each scenario (its default step), as the cold-start process builds it."""
+COLD_SCRIPT = """
+import sys, time
+t0 = time.perf_counter()
+from impactbench.engines.base import get_adapter
+from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
+from impactbench.reference.oblique_scenario import Oblique
+from impactbench.reference.bounce_scenario import Bounce
+adapter = get_adapter("newton")
+adapter.version()
+print("import", time.perf_counter() - t0, "", sep="\\t")
+for name in sys.argv[1:]:
+    t0 = time.perf_counter()
+    rec = adapter.run(eval(name), "native")
+    print(name, time.perf_counter() - t0, rec.status, sep="\\t")
+"""
+
+
+def cold_start() -> list[dict[str, Any]]:
+    """Newton's first runs in a fresh process, warp's kernel cache empty (a temporary
+    ``WARP_CACHE_PATH``: every kernel module compiled) and then warm (the same cache, now
+    filled): the import and the first native run of each scenario in turn (s; each run
+    compiles, or loads, what the runs before it have not)."""
+    cache = tempfile.mkdtemp(prefix="warp_cold_")
+    rows: dict[str, dict[str, Any]] = {}
+    try:
+        for side in ("cold", "warm"):
+            out = subprocess.run([sys.executable, "-c", COLD_SCRIPT, *COLD_RUNS.values()],
+                                 env={**os.environ, "WARP_CACHE_PATH": cache},
+                                 capture_output=True, text=True, check=True).stdout
+            for line in out.splitlines():
+                parts = line.split("\t")
+                if len(parts) == 3:
+                    row = rows.setdefault(parts[0], {"first": parts[0]})
+                    row[f"{side} s"] = float(parts[1])
+                    row["status"] = parts[2]
+    finally:
+        shutil.rmtree(cache, ignore_errors=True)
+    return list(rows.values())
+
+
 def _table(rows: list[dict[str, Any]]) -> str:
     from tabulate import tabulate
 
@@ -272,9 +407,26 @@ def _table(rows: list[dict[str, Any]]) -> str:
 
 
 def main() -> None:
+    """All sections; ``--report`` (the report's runs, batched against one by one; ``--rounds
+    N``) or ``--cold`` (the cold start) alone."""
     from benchmarks.generation import generation
 
+    args = sys.argv[1:]
     version = get_adapter("newton").version()
+    if "--report" in args or not {"--report", "--cold"} & set(args):
+        rounds = int(args[args.index("--rounds") + 1]) if "--rounds" in args else REPORT_ROUNDS
+        print(f"Newton {version}: the default report's Newton runs of each scenario, "
+              f"compare_many (a world per run) against compare one by one (alternated, "
+              f"medians of {rounds}; 'equal': objects equal to the last bit, NaN = NaN)")
+        print(_table(report_batches(rounds)))
+        print()
+    if "--cold" in args or not {"--report", "--cold"} & set(args):
+        print(f"Newton {version}: first runs in a fresh process, warp's kernel cache empty "
+              f"(cold) and filled (warm), s")
+        print(_table(cold_start()))
+        print()
+    if {"--report", "--cold"} & set(args):
+        return
     print(f"Newton {version} vs MuJoCo {get_adapter('mujoco').version()}: per-step cost, "
           f"before and after device-side stepping (medians of {REPEATS}, sides alternating)")
     print(_table(compare()))

@@ -84,6 +84,20 @@ CPU state arrays (one ``tolist`` per step), evaluates the law in Python (its mem
 writes ke into the shapes' ``shape_material_ke`` view before the step's graph launch. Each
 record equals the step-by-step path's (``graphs=False``: the same kernels launched eagerly)
 and the former Python-loop adapter's bit for bit (measured on the default report's runs).
+
+Batches (``Adapter.run_many``: each scenario's ``Builder.batch``, :func:`run_ball_batch`,
+:func:`run_rigid_flexible_batch`, :func:`run_oblique_batch`, :func:`run_bounce_batch`): the
+runs at one step and gravity become the worlds of one model (:func:`worlds_model`: each
+world its lone model's plane, bodies and shapes; worlds do not collide), stepped together in
+one :class:`NewtonSim`, one graph launch a step for them all; each world is driven by its
+lone run's plan and end rule (:func:`~impactbench.engines.mujoco_adapter.drive_many`, the
+bounce's recording) and given exactly its lone run's steps, its force formed from its own
+columns; an injected world's law is evaluated in Python between the steps on its own start
+state and written into its own shapes' ke until its run ends (:class:`Injection`). Each
+record equals the lone run's bit for bit (tested, and measured on every Newton run of the
+default report). Most of a lone run's wall time is its set-up (the model, Newton's collision
+pipeline generating its narrow-phase kernels, the graph capture: 0.2–0.4 s), which a batch
+pays once.
 Warp compiles each kernel module on first use (18–40 s per solver on this machine kind) into
 its kernel cache (``warp.config.kernel_cache_dir``, by default under the user's cache
 directory), so later processes load them in well under a second; Newton's collision pipeline
@@ -94,14 +108,15 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Callable
-from dataclasses import dataclass, field
-from typing import Any
+from collections.abc import Callable, Generator
+from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from impactbench.engines import oblique_common, oblique_tuned
 from impactbench.engines.base import (
     Adapter,
+    Builder,
     EngineUnavailable,
     RunSettings,
     ball_gap_m,
@@ -126,6 +141,7 @@ from impactbench.engines.mujoco_adapter import (
     driving,
     face_radius_m,
     hertz_duration_s,
+    rigid_flexible_end_finder,
     rigid_flexible_record,
 )
 from impactbench.reference import validation as check
@@ -134,6 +150,9 @@ from impactbench.reference.oblique_scenario import Oblique
 from impactbench.reference.record import ImpactRecord
 from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
 from scipy import optimize
+
+if TYPE_CHECKING:
+    from impactbench.engines.mujoco_adapter import EndFinder, _Outcome
 
 BALL_TIMESTEP_S = 1e-6
 RIGID_FLEXIBLE_TIMESTEP_S = 1e-5
@@ -265,18 +284,6 @@ def ball_model(s: BallOnPlate, values: dict[str, float]) -> Any:
     return b.finalize(device="cpu")
 
 
-def ball_worlds(balls: list[tuple[BallOnPlate, dict[str, float]]]) -> Any:
-    """One world per (ball, contact values) — :func:`ball_model`'s plane and ball each —
-    in one model (the gravity of the first); joint k is world k's ball."""
-    _, newton = _newton()
-    b = newton.ModelBuilder(gravity=(0.0, 0.0, -balls[0][0].gravity_m_s2))
-    for s, values in balls:
-        b.begin_world()
-        _add_ball(b, s, values)
-        b.end_world()
-    return b.finalize(device="cpu")
-
-
 def _add_ball(b: Any, s: BallOnPlate, values: dict[str, float]) -> None:
     wp, newton = _newton()
     cfg = _shape_config(newton, values)
@@ -292,8 +299,14 @@ def _add_ball(b: Any, s: BallOnPlate, values: dict[str, float]) -> None:
 
 def rigid_flexible_model(s: RigidFlexible, values: dict[str, float]) -> Any:
     """Two spheres on x prismatic joints touching at q = 0; joint 2's stiffness is k2."""
-    wp, newton = _newton()
+    _, newton = _newton()
     b = newton.ModelBuilder(gravity=(0.0, 0.0, 0.0))
+    _add_pair(b, s, values)
+    return b.finalize(device="cpu")
+
+
+def _add_pair(b: Any, s: RigidFlexible, values: dict[str, float]) -> None:
+    wp, newton = _newton()
     cfg = _shape_config(newton, values)
     r = face_radius_m(s)
     joints = []
@@ -305,7 +318,23 @@ def rigid_flexible_model(s: RigidFlexible, values: dict[str, float]) -> Any:
         b.add_shape_sphere(body, xform=wp.transform((side * r, 0.0, 0.0), wp.quat_identity()),
                            radius=r, cfg=cfg)
     b.add_articulation(joints)
-    return b.finalize(device="cpu")
+
+
+def worlds_model(gravity: tuple[float, float, float], adders: list[Callable[[Any], None]]
+                 ) -> tuple[Any, list[slice]]:
+    """One model with a world per ``adders[k]`` (it adds run k's plane, bodies, joints and
+    shapes, as its lone model has them), ``gravity`` the acceleration (m/s²); and each world's
+    shapes (a slice of the model's shape indices). Worlds do not collide with each other."""
+    _, newton = _newton()
+    b = newton.ModelBuilder(gravity=gravity)
+    shapes = []
+    for add in adders:
+        first = b.shape_count
+        b.begin_world()
+        add(b)
+        b.end_world()
+        shapes.append(slice(first, b.shape_count))
+    return b.finalize(device="cpu"), shapes
 
 
 # --------------------------------------------------------------------------- stepping
@@ -328,15 +357,16 @@ RECORD_CAPACITY = 8192
 def _record_kernel() -> Any:
     """The per-step kernel run before the solver: records the step's start state into row
     ``count[0]`` of the record arrays (and advances ``count``) and, with ``cubic`` set, writes
-    the softening term β·q[1]³ into ``joint_f[1]`` (float64, as Python's ``beta * q ** 3``:
-    the same libm ``pow``, then rounded to float32 as a numpy assignment would)."""
+    the softening term β_j·q[j]³ into ``joint_f[j]`` of every joint coordinate j whose
+    ``beta[j]`` ≠ 0 (N; float64, as Python's ``beta * q ** 3``: the same libm ``pow``, then
+    rounded to float32 as a numpy assignment would)."""
     wp = _newton()[0]
 
     @wp.kernel
     def record_step(joint_q: wp.array(dtype=wp.float32), joint_qd: wp.array(dtype=wp.float32),
-                    beta: wp.float64, cubic: wp.int32, joint_f: wp.array(dtype=wp.float32),
-                    rec_q: wp.array2d(dtype=wp.float32), rec_qd: wp.array2d(dtype=wp.float32),
-                    count: wp.array(dtype=wp.int32)):
+                    beta: wp.array(dtype=wp.float64), cubic: wp.int32,
+                    joint_f: wp.array(dtype=wp.float32), rec_q: wp.array2d(dtype=wp.float32),
+                    rec_qd: wp.array2d(dtype=wp.float32), count: wp.array(dtype=wp.int32)):
         i = count[0]
         for j in range(joint_q.shape[0]):
             rec_q[i, j] = joint_q[j]
@@ -344,9 +374,31 @@ def _record_kernel() -> Any:
             rec_qd[i, j] = joint_qd[j]
         count[0] = i + 1
         if cubic != 0:
-            joint_f[1] = wp.float32(beta * wp.pow(wp.float64(joint_q[1]), wp.float64(3.0)))
+            for j in range(joint_q.shape[0]):
+                b = beta[j]
+                if b != wp.float64(0.0):
+                    joint_f[j] = wp.float32(b * wp.pow(wp.float64(joint_q[j]), wp.float64(3.0)))
 
     return record_step
+
+
+INJECTED_STEPPING = " (contact ke from the law in Python)"
+"""What an injected run's ``meta["stepping"]`` adds: its contact stiffness is set in Python
+before every step."""
+
+
+@dataclass
+class Injection:
+    """One injected run's part of a :class:`NewtonSim`: before each step its shapes'
+    ``shape_material_ke`` (N/m) is set to ``secant(q, qd)`` of its joint coordinates ``q``
+    (the start state, Python floats) and after the step ``commit(q)`` updates the law's
+    memory; ``active`` False (its run has ended) skips both."""
+
+    q: slice
+    shapes: slice
+    secant: Callable[[list[float], list[float]], float]
+    commit: Callable[[list[float]], None] | None = None
+    active: bool = True
 
 
 @dataclass
@@ -362,12 +414,13 @@ class NewtonSim:
     chunk (at most :data:`RECORD_CAPACITY` steps).
 
     ``beta`` ≠ 0 adds the cubic joint force β·q[1]³ on joint 1 (body 2's x2) on the device
-    (softening).
+    (softening); ``joint_beta``, one β per joint coordinate (a batch's), replaces it.
     ``secant(q, qd) → ke`` (injected) is called in Python at each step's start, on the start
     state read from the state arrays (zero-copy views of the CPU memory), and its value goes
     into every shape's ``shape_material_ke``; ``commit(q)`` runs after the step (a law's
-    memory). ``force(q, qd, qd_next)`` turns a chunk's samples (arrays, one row per step)
-    into the recorded contact forces.
+    memory). ``injections`` (a batch's): one :class:`Injection` per injected world, the same
+    for its coordinates and shapes only. ``force(q, qd, qd_next)`` turns a chunk's samples
+    (arrays, one row per step) into the recorded contact forces.
     """
 
     model: Any
@@ -379,6 +432,8 @@ class NewtonSim:
     commit: Any = None
     beta: float = 0.0
     graphs: bool = True
+    injections: list[Injection] = field(default_factory=list)
+    joint_beta: tuple[float, ...] = ()
     steps: int = 0
     chunks: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = field(default_factory=list)
 
@@ -401,7 +456,13 @@ class NewtonSim:
         rec_q = wp.zeros((RECORD_CAPACITY, len(self.q0)), dtype=wp.float32, device="cpu")
         rec_qd = wp.zeros((RECORD_CAPACITY, len(self.qd0)), dtype=wp.float32, device="cpu")
         count = wp.zeros(1, dtype=wp.int32, device="cpu")
-        beta, cubic, dt = float(self.beta), int(self.beta != 0.0), self.dt
+        betas = np.zeros(len(self.q0), dtype=np.float64)
+        if self.joint_beta:
+            betas[:] = self.joint_beta
+        elif self.beta != 0.0:
+            betas[1] = self.beta
+        beta = wp.array(betas, dtype=wp.float64, device="cpu")
+        cubic, dt = int(np.any(betas != 0.0)), self.dt
 
         def advance(a: Any, b: Any) -> None:
             """One step from state ``a`` into ``b``, all on the device."""
@@ -412,7 +473,7 @@ class NewtonSim:
             pipeline.collide(a, contacts)
             solver.step(a, b, control, contacts, dt)
 
-        self._keep = (states, control, solver, pipeline, contacts, rec_q, rec_qd, count)
+        self._keep = (states, control, solver, pipeline, contacts, rec_q, rec_qd, count, beta)
         # views on the CPU device's memory: reads see what the kernels wrote, writes land in
         # what they read
         self._views = tuple((s.joint_q.numpy(), s.joint_qd.numpy()) for s in states)
@@ -433,7 +494,8 @@ class NewtonSim:
             self._steps = (lambda: advance(states[0], states[1]),
                            lambda: advance(states[1], states[0]))
         if self.secant is not None:
-            self.stepping += " (contact ke from the law in Python)"
+            self.injections = [Injection(slice(None), slice(None), self.secant, self.commit)]
+            self.stepping += INJECTED_STEPPING
 
     def _run(self, n: int) -> None:
         """``n`` steps from the current state, recorded from row 0."""
@@ -444,14 +506,15 @@ class NewtonSim:
                              (self._steps[p], self._steps[1 - p]))
         else:
             first, second = self._steps[p], self._steps[1 - p]
-        if self.secant is None:
+        active = [j for j in self.injections if j.active]
+        if not active:
             for _ in range(n >> 1):
                 first()
                 second()
             if n & 1:
                 first()
-        else:
-            secant, commit, ke = self.secant, self.commit, self.ke
+        elif len(active) == 1 and active[0].q == slice(None):  # a lone injected run
+            secant, commit, ke = active[0].secant, active[0].commit, self.ke
             views = (self._views[p], self._views[1 - p])
             calls = (first, second)
             for i in range(n):
@@ -461,6 +524,20 @@ class NewtonSim:
                 calls[i & 1]()
                 if commit is not None:
                     commit(q)
+        else:
+            ke = self.ke
+            views = (self._views[p], self._views[1 - p])
+            calls = (first, second)
+            sets = [(j.q, j.shapes, j.secant) for j in active]
+            commits = [(j.q, j.commit) for j in active if j.commit is not None]
+            for i in range(n):
+                q_view, qd_view = views[i & 1]
+                q, qd = q_view.tolist(), qd_view.tolist()
+                for cols, shapes, secant in sets:
+                    ke[shapes] = secant(q[cols], qd[cols])
+                calls[i & 1]()
+                for cols, commit in commits:
+                    commit(q[cols])
         self._parity = p ^ (n & 1)
 
     def step_chunk(self, n: int) -> None:
@@ -506,6 +583,119 @@ def _capture(wp: Any, step: Any) -> Any:
 # --------------------------------------------------------------------------- scenarios
 
 
+@dataclass
+class _Setup:
+    """A run ready to step: alone, in a model of its own (:func:`_run_alone`), or as one
+    world of a batch (:func:`_run_batch`).
+
+    ``add(builder)`` adds the run's plane, bodies, joints and shapes to a ``ModelBuilder``;
+    ``gravity`` (m/s², the model's); the step ``dt`` (s); the start state ``q0``, ``qd0`` (its
+    joint coordinates and rates); ``force(q, qd, qd_next)`` its recorded normal force from a
+    chunk of its samples; ``plan`` (the step cap, the first step the end is looked for at, the
+    chunk) and ``find_end`` for :func:`~impactbench.engines.mujoco_adapter.driving`;
+    ``finish(outcome, steps, stepping, model, shapes)`` the record from the driven outcome
+    (``shapes``: the run's shapes in ``model``); ``secant``/``commit`` an injected law
+    (:class:`Injection`); ``beta`` the cubic force on its joint 1 (N/m³, the pair's
+    softening); ``lone_drive(sim)`` how a lone run is driven where not by ``plan`` (the
+    pair's :func:`~impactbench.engines.mujoco_adapter.drive_pair`)."""
+
+    add: Callable[[Any], None]
+    gravity: tuple[float, float, float]
+    dt: float
+    q0: tuple[float, ...]
+    qd0: tuple[float, ...]
+    force: Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]
+    plan: tuple[int, int, int]
+    find_end: EndFinder
+    finish: Callable[[_Outcome, int, str, Any, slice], ImpactRecord]
+    secant: Callable[[list[float], list[float]], float] | None = None
+    commit: Callable[[list[float]], None] | None = None
+    beta: float = 0.0
+    lone_drive: Callable[[NewtonSim], _Outcome] | None = None
+
+
+def _run_alone(st: _Setup, graphs: bool = True) -> ImpactRecord:
+    """A set-up run in a model of its own (its plane, bodies and shapes only)."""
+    _, newton = _newton()
+    b = newton.ModelBuilder(gravity=st.gravity)
+    st.add(b)
+    model = b.finalize(device="cpu")
+    sim = NewtonSim(model, st.dt, st.q0, st.qd0, st.force, secant=st.secant,
+                    commit=st.commit, beta=st.beta, graphs=graphs)
+    out = (st.lone_drive(sim) if st.lone_drive is not None
+           else drive(sim, *st.plan, st.find_end))
+    return st.finish(out, sim.steps, sim.stepping, model, slice(None))
+
+
+def _run_batch(setups: list[_Setup]) -> list[ImpactRecord]:
+    """Set-up runs, those at one step and gravity as the worlds of one model
+    (:func:`_run_worlds`), each record its lone run's (:func:`_run_alone`) bit for bit; a
+    run with no other at its step and gravity runs alone."""
+    out: list[ImpactRecord | None] = [None] * len(setups)
+    groups: dict[tuple[float, tuple[float, float, float]], list[int]] = {}
+    for i, st in enumerate(setups):
+        groups.setdefault((st.dt, st.gravity), []).append(i)
+    for group in groups.values():
+        recs = ([_run_alone(setups[group[0]])] if len(group) == 1
+                else _run_worlds([setups[i] for i in group]))
+        for i, rec in zip(group, recs, strict=True):
+            out[i] = rec
+    return [r for r in out if r is not None]
+
+
+def _run_worlds(setups: list[_Setup]) -> list[ImpactRecord]:
+    """Runs at one step and gravity as the worlds of one model (:func:`worlds_model`),
+    stepped together in one :class:`NewtonSim` (one graph launch a step for them all), each
+    world driven by its lone run's plan and end rule (:func:`drive_many`: every world is
+    given exactly the steps its lone drive takes) and its force formed by its lone run's
+    ``force`` on its own columns; an injected world's law is evaluated in Python between
+    the steps on its own start state and written into its own shapes' ke
+    (:class:`Injection`), until its run ends. Worlds do not interact (Featherstone steps
+    each articulation alone, the contact pairs are each world's own), so each record is the
+    lone run's bit for bit (tested)."""
+    model, shapes = worlds_model(setups[0].gravity, [st.add for st in setups])
+    cols, at = [], 0
+    for st in setups:
+        cols.append(slice(at, at + len(st.q0)))
+        at += len(st.q0)
+    injections = {k: Injection(cols[k], shapes[k], st.secant, st.commit)
+                  for k, st in enumerate(setups) if st.secant is not None}
+    joint_beta = tuple(b for st in setups
+                       for b in ((0.0, st.beta) + (0.0,) * (len(st.q0) - 2) if st.beta
+                                 else (0.0,) * len(st.q0)))
+
+    def force(q: np.ndarray, qd: np.ndarray, qd_next: np.ndarray) -> np.ndarray:
+        return np.column_stack([st.force(q[:, c], qd[:, c], qd_next[:, c])
+                                for st, c in zip(setups, cols, strict=True)])
+
+    sim = NewtonSim(model, setups[0].dt, tuple(v for st in setups for v in st.q0),
+                    tuple(v for st in setups for v in st.qd0), force,
+                    injections=list(injections.values()), joint_beta=joint_beta)
+
+    def step(n: int) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        sim.chunks.clear()
+        sim.step_chunk(n)
+        q, qd, f = sim.arrays()
+        return [(q[:, c], qd[:, c], f[:, k]) for k, c in enumerate(cols)]
+
+    def plan(k: int) -> Callable[[Any], Generator[int, None, _Outcome]]:
+        def drive_world(world: Any) -> Generator[int, None, _Outcome]:
+            try:
+                return (yield from driving(world, *setups[k].plan, setups[k].find_end))
+            finally:  # its run has ended: its law is no longer evaluated
+                if k in injections:
+                    injections[k].active = False
+
+        return drive_world
+
+    recs = []
+    for k, (world, outcome) in enumerate(drive_many([plan(k) for k in range(len(setups))],
+                                                    step)):
+        stepping = sim.stepping + (INJECTED_STEPPING if k in injections else "")
+        recs.append(setups[k].finish(outcome, world.steps, stepping, model, shapes[k]))
+    return recs
+
+
 def _ball_secant(law: Any) -> Callable[[list[float], list[float]], float]:
     """The injected contact's ke at the step's start state (q[0] = the gap, so x = −q[0]):
     the law's secant F(x, ẋ)/x (N/m), kd = 0; 0 out of contact."""
@@ -520,87 +710,38 @@ def run_ball(s: BallOnPlate, mode: str, settings: RunSettings, *,
              graphs: bool = True) -> ImpactRecord:
     """Ball-on-plate in Newton; see the module docstring. ``graphs=False``: the step-by-step
     reference path (eager launches, see :class:`NewtonSim`)."""
-    return _run_alone(s, _ball_setup(s, mode, settings), graphs)
-
-
-def _run_alone(s: BallOnPlate, st: _BallSetup, graphs: bool = True) -> ImpactRecord:
-    """A set-up ball run (:func:`_ball_setup`) in a model of its own."""
-    sim = NewtonSim(ball_model(s, st.values), st.dt, (st.gap,), (-s.velocity_m_s,), st.force,
-                    secant=st.secant, graphs=graphs)
-    out = drive(sim, *st.plan, ball_end_finder())
-    st.meta.update(steps=sim.steps, stepping=sim.stepping)
-    return ball_outcome_record(s, out, st.dt, st.gap, st.meta)
+    return _run_alone(_ball_setup(s, mode, settings), graphs)
 
 
 def run_ball_batch(items: list[tuple[BallOnPlate, str, RunSettings]]) -> list[ImpactRecord]:
     """Many ball runs in one Newton model, one world per run (a tuner's generation of
-    contact parameters, at any velocities): runs at one step and gravity step together, each
-    world driven by its lone run's plan and end rule (:func:`drive_many`), so each record is
-    the one :func:`run_ball` gives, bit for bit (tested); ``injected`` runs (their contact
-    stiffness set in Python every step) run alone."""
-    out: list[ImpactRecord | None] = [None] * len(items)
-    groups: dict[tuple[float, float], list[int]] = {}
-    setups = [_ball_setup(*item) for item in items]
-    for i, ((s, _, _), st) in enumerate(zip(items, setups, strict=True)):
-        if st.secant is not None:
-            out[i] = _run_alone(s, st)  # (its set-up, not made twice)
-        else:
-            groups.setdefault((st.dt, s.gravity_m_s2), []).append(i)
-    for (dt, g), group in groups.items():
-        balls = [items[i][0] for i in group]
-        masses = np.array([s.mass_kg for s in balls])
-
-        def force(q: np.ndarray, qd: np.ndarray, qd_next: np.ndarray,
-                  masses: np.ndarray = masses, dt: float = dt, g: float = g) -> np.ndarray:
-            return np.where(q < 0.0, masses * ((qd_next - qd) / dt + g), 0.0)
-
-        sim = NewtonSim(ball_worlds([(s, setups[i].values) for s, i in zip(balls, group,
-                                                                          strict=True)]),
-                        dt, tuple(setups[i].gap for i in group),
-                        tuple(-s.velocity_m_s for s in balls), force)
-
-        def step(n: int, sim: NewtonSim = sim) -> list[tuple[np.ndarray, ...]]:
-            sim.chunks.clear()
-            sim.step_chunk(n)
-            q, qd, f = sim.arrays()
-            return [(q[:, [k]], qd[:, [k]], f[:, k]) for k in range(q.shape[1])]
-
-        plans = [functools.partial(_ball_plan, setups[i]) for i in group]
-        for i, (world, outcome) in zip(group, drive_many(plans, step), strict=True):
-            st = setups[i]
-            st.meta.update(steps=world.steps, stepping=sim.stepping)
-            out[i] = ball_outcome_record(items[i][0], outcome, st.dt, st.gap, st.meta)
-    return [r for r in out if r is not None]
+    contact parameters, a report's runs at any velocities, phases and modes): runs at one
+    step and gravity step together, each world driven by its lone run's plan and end rule
+    (:func:`_run_batch`), so each record is the one :func:`run_ball` gives, bit for bit
+    (tested); an ``injected`` world's contact stiffness is set in Python every step."""
+    return _run_batch([_ball_setup(*item) for item in items])
 
 
-def _ball_plan(st: _BallSetup, world: Any) -> Any:
-    return driving(world, *st.plan, ball_end_finder())
-
-
-@dataclass
-class _BallSetup:
-    """A ball run's contact values, recorder and drive plan (:func:`_ball_setup`)."""
-
-    values: dict[str, float]
-    meta: dict[str, Any]
-    dt: float
-    gap: float
-    plan: tuple[int, int, int]
-    force: Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]
-    secant: Callable[[list[float], list[float]], float] | None
-
-
-def _ball_setup(s: BallOnPlate, mode: str, settings: RunSettings) -> _BallSetup:
-    """The contact values, meta, start gap (m: :func:`~impactbench.engines.base.ball_gap_m`
-    at ``settings.phase``), drive plan and force recorder of a ball run."""
+def _ball_setup(s: BallOnPlate, mode: str, settings: RunSettings) -> _Setup:
+    """A ball run set up (:class:`_Setup`): the contact values and meta of ``mode``, the
+    start gap (m: :func:`~impactbench.engines.base.ball_gap_m` at ``settings.phase``) at
+    −V0, the drive plan and end rule, the force recorder and the record."""
     dt = float(settings.timestep_s or BALL_TIMESTEP_S)
     v0 = s.velocity_m_s
     contact = _ball_contact(s, mode, settings)
     gap = ball_gap_m(v0, dt, settings.phase)
-    contact.meta["phase"] = ball_phase(settings.phase)
-    return _BallSetup(contact.values, contact.meta, dt, gap,
-                      drive_plan(settings, dt, gap / v0, contact.t_est, 8),
-                      _ball_force(s, dt), contact.secant)
+    meta = contact.meta
+    meta["phase"] = ball_phase(settings.phase)
+
+    def finish(out: _Outcome, steps: int, stepping: str, model: Any, shapes: slice
+               ) -> ImpactRecord:
+        meta.update(steps=steps, stepping=stepping)
+        return ball_outcome_record(s, out, dt, gap, meta)
+
+    return _Setup(functools.partial(_add_ball, s=s, values=contact.values),
+                  (0.0, 0.0, -s.gravity_m_s2), dt, (gap,), (-v0,), _ball_force(s, dt),
+                  drive_plan(settings, dt, gap / v0, contact.t_est, 8), ball_end_finder(),
+                  finish, secant=contact.secant)
 
 
 @dataclass
@@ -660,6 +801,36 @@ def run_rigid_flexible(s: RigidFlexible, mode: str, settings: RunSettings, *,
                        graphs: bool = True) -> ImpactRecord:
     """Rigid–flexible 2-DOF impact in Newton; see the module docstring. ``graphs=False``: the
     step-by-step reference path (eager launches, see :class:`NewtonSim`)."""
+    return _run_alone(_pair_setup(s, mode, settings), graphs)
+
+
+def run_rigid_flexible_batch(items: list[tuple[RigidFlexible, str, RunSettings]]
+                             ) -> list[ImpactRecord]:
+    """Many rigid–flexible runs, those at one step as the worlds of one model (a pair per
+    world, :func:`_run_batch`), each world driven by its lone run's plan and end rule, so
+    each record is the one :func:`run_rigid_flexible` gives, bit for bit (tested); an
+    ``injected`` world's local law (and its memory) is evaluated in Python every step."""
+    return _run_batch([_pair_setup(*item) for item in items])
+
+
+def pair_plan(s: RigidFlexible, dt: float, max_time_s: float | None, softening: bool
+              ) -> tuple[int, int, int]:
+    """The drive plan of a 2-DOF run, :func:`~impactbench.engines.mujoco_adapter.drive_pair`'s
+    (a lone run is driven by it; a batch's worlds by this, the same numbers, tested): the
+    step cap, the first step the end is looked for at, the chunk."""
+    m_eff = s.m1_kg * s.m2_kg / (s.m1_kg + s.m2_kg)
+    t_contact = math.pi * math.sqrt(m_eff / min(s.k1_n_per_m, s.k2_n_per_m))
+    n_max = math.ceil((max_time_s or s.max_time_s) / dt)
+    chunk = max(64, math.ceil(0.1 * t_contact / dt))
+    first = chunk if softening else math.ceil(GAP_STEPS) + math.ceil(2.0 * t_contact / dt)
+    return n_max, first, chunk
+
+
+def _pair_setup(s: RigidFlexible, mode: str, settings: RunSettings) -> _Setup:
+    """A rigid–flexible run set up (:class:`_Setup`): the contact values and meta of
+    ``mode`` (injected: the local law's secant and memory), the start (body 1 GAP_STEPS
+    steps of flight from body 2 at rest), the drive plan and end rule, the force recorder
+    (−m1·Δu1/dt where in contact) and the record (with the collapse marks)."""
     dt = float(settings.timestep_s or RIGID_FLEXIBLE_TIMESTEP_S)
     structure = s.structural_law()
     beta = s.beta_n_per_m3 if s.structure == "softening" else 0.0
@@ -692,12 +863,24 @@ def run_rigid_flexible(s: RigidFlexible, mode: str, settings: RunSettings, *,
 
     v1 = s.velocity_m_s
     gap = GAP_STEPS * v1 * dt
+    collapsed: list[int] = []
+
+    def lone_drive(sim: NewtonSim) -> _Outcome:
+        out, marks = drive_pair(sim, s, structure, dt, settings.max_time_s, bool(beta))
+        collapsed.extend(marks)
+        return out
+
+    def finish(out: _Outcome, steps: int, stepping: str, model: Any, shapes: slice
+               ) -> ImpactRecord:
+        meta.update(steps=steps, stepping=stepping)
+        return rigid_flexible_record(s, structure, out, dt, gap, meta, collapsed)
+
     # the softening term β·q2³ goes into control.joint_f on the device (the record kernel)
-    sim = NewtonSim(rigid_flexible_model(s, values), dt, (-gap, 0.0), (v1, 0.0), force,
-                    secant=secant, commit=commit, beta=beta, graphs=graphs)
-    out, collapsed = drive_pair(sim, s, structure, dt, settings.max_time_s, bool(beta))
-    meta.update(steps=sim.steps, stepping=sim.stepping)
-    return rigid_flexible_record(s, structure, out, dt, gap, meta, collapsed)
+    return _Setup(functools.partial(_add_pair, s=s, values=values), (0.0, 0.0, 0.0), dt,
+                  (-gap, 0.0), (v1, 0.0), force,
+                  pair_plan(s, dt, settings.max_time_s, bool(beta)),
+                  rigid_flexible_end_finder(s, structure, collapsed), finish,
+                  secant=secant, commit=commit, beta=beta, lone_drive=lone_drive)
 
 
 # --------------------------------------------------------------------------- oblique impact
@@ -722,8 +905,14 @@ def oblique_model(s: Oblique, values: dict[str, float]) -> Any:
     """Plane at z = 0 and the ball on a D6 joint whose frame sits at the ball's centre at
     first touch: q = (z of the centre − R, x, rotation about +y = n × t), so the
     penetration is −q[0] and q[2]'s rate is the spin."""
-    wp, newton = _newton()
+    _, newton = _newton()
     b = newton.ModelBuilder(gravity=(0.0, 0.0, 0.0))
+    _add_oblique(b, s, values)
+    return b.finalize(device="cpu")
+
+
+def _add_oblique(b: Any, s: Oblique, values: dict[str, float]) -> None:
+    wp, newton = _newton()
     cfg = _shape_config(newton, values)
     b.add_ground_plane(cfg=cfg)
     r, m = s.radius_m, s.mass_kg
@@ -736,7 +925,6 @@ def oblique_model(s: Oblique, values: dict[str, float]) -> Any:
                            parent_xform=wp.transform((0.0, 0.0, r), wp.quat_identity()))
     b.add_articulation([joint])
     b.add_shape_sphere(body, radius=r, cfg=cfg)
-    return b.finalize(device="cpu")
 
 
 def oblique_parameters(s: Oblique, mode: str, settings: RunSettings, dt: float
@@ -779,6 +967,23 @@ def run_oblique(s: Oblique, mode: str, settings: RunSettings, *,
     friction with mu = μ and the deadbeat kf (:func:`deadbeat_kf`), which is ideal Coulomb
     for the step. Forces: m·Δv/dt of the ball where in contact, normal and tangential (Newton
     reports no contact force)."""
+    return _run_alone(_oblique_setup(s, mode, settings), graphs)
+
+
+def run_oblique_batch(items: list[tuple[Oblique, str, RunSettings]]) -> list[ImpactRecord]:
+    """Many oblique runs, those at one step as the worlds of one model (a plane and a ball
+    per world, :func:`_run_batch`), each world driven by its lone run's plan and end rule, so
+    each record is the one :func:`run_oblique` gives, bit for bit (tested); an ``injected``
+    world's normal law is evaluated in Python every step."""
+    return _run_batch([_oblique_setup(*item) for item in items])
+
+
+def _oblique_setup(s: Oblique, mode: str, settings: RunSettings) -> _Setup:
+    """An oblique run set up (:class:`_Setup`): the contact and friction values and meta of
+    ``mode``, the start (the ball GAP_STEPS steps of flight above the plane at (−V_n, V_t)
+    and its spin), the drive plan and end rule, the normal force recorder and the record
+    (tangential force m·Δv_t/dt where in contact; ``tuned``: the shapes' mu and kf read back
+    from the finalized model)."""
     dt = float(settings.timestep_s or BALL_TIMESTEP_S)
     v0, v_t, m = s.normal_velocity_m_s, s.tangential_velocity_m_s, s.mass_kg
     meta: dict[str, Any] = {"solver": SOLVER, "float": "float32",
@@ -808,25 +1013,29 @@ def run_oblique(s: Oblique, mode: str, settings: RunSettings, *,
         return np.where(q[:, 0] < 0.0, m * (qd_next[:, 0] - qd[:, 0]) / dt, 0.0)
 
     gap = GAP_STEPS * v0 * dt
-    built = oblique_model(s, values)
-    if mode == "tuned":  # what the finalized model holds (both shapes)
-        meta["engine_defaults"].update(
-            shape_material_mu=[float(v) for v in built.shape_material_mu.numpy()],
-            shape_material_kf=[float(v) for v in built.shape_material_kf.numpy()])
-    sim = NewtonSim(built, dt, (gap, 0.0, 0.0), (-v0, v_t, s.spin_rad_s),
-                    force, secant=secant, graphs=graphs)
-    out = drive(sim, *drive_plan(settings, dt, gap / v0, t_est, 8), ball_end_finder())
-    x, rate = -out.qpos[:, 0], -out.qvel[:, 0]
-    vt, spin = out.qvel[:, 1], out.qvel[:, 2]
-    ft = np.zeros_like(x)
-    if x.size > 1:
-        ft[:-1] = np.where(x[:-1] > 0.0, m * np.diff(vt) / dt, 0.0)
-    t = np.arange(x.size) * dt - gap / v0
-    meta.update(steps=sim.steps, stepping=sim.stepping)
-    rec = oblique_common.record(s, t, x, rate, out.force_n, vt, spin, ft, meta)
-    return oblique_common.finish(rec, s, tunneled=bool(x.size and x[-1] > s.radius_m
-                                                       and rate[-1] >= 0.0),
-                                 timed_out=out.timed_out)
+
+    def finish(out: _Outcome, steps: int, stepping: str, model: Any, shapes: slice
+               ) -> ImpactRecord:
+        if mode == "tuned":  # what the finalized model holds (both shapes)
+            meta["engine_defaults"].update(
+                shape_material_mu=[float(v) for v in model.shape_material_mu.numpy()[shapes]],
+                shape_material_kf=[float(v) for v in model.shape_material_kf.numpy()[shapes]])
+        x, rate = -out.qpos[:, 0], -out.qvel[:, 0]
+        vt, spin = out.qvel[:, 1], out.qvel[:, 2]
+        ft = np.zeros_like(x)
+        if x.size > 1:
+            ft[:-1] = np.where(x[:-1] > 0.0, m * np.diff(vt) / dt, 0.0)
+        t = np.arange(x.size) * dt - gap / v0
+        meta.update(steps=steps, stepping=stepping)
+        rec = oblique_common.record(s, t, x, rate, out.force_n, vt, spin, ft, meta)
+        return oblique_common.finish(rec, s, tunneled=bool(x.size and x[-1] > s.radius_m
+                                                           and rate[-1] >= 0.0),
+                                     timed_out=out.timed_out)
+
+    return _Setup(functools.partial(_add_oblique, s=s, values=values), (0.0, 0.0, 0.0), dt,
+                  (gap, 0.0, 0.0), (-v0, v_t, s.spin_rad_s), force,
+                  drive_plan(settings, dt, gap / v0, t_est, 8), ball_end_finder(), finish,
+                  secant=secant)
 
 
 # --------------------------------------------------------------------------- bounce to rest
@@ -855,48 +1064,145 @@ def run_bounce(scenario: Bounce, mode: str, settings: RunSettings, *,
     (tunnelled: the centre R below the surface, as the ball's). Featherstone's penalty
     contact has no restitution velocity threshold (the material ``restitution`` is read by
     XPBD only), so no ``bounce_threshold_m_s``."""
-    ball = scenario.ball()
-    dt = float(settings.timestep_s or BOUNCE_TIMESTEP_S)
-    contact = _ball_contact(ball, mode, settings)
-    sim = NewtonSim(ball_model(ball, contact.values), dt, (scenario.height_m,), (0.0,),
-                    _ball_force(ball, dt), secant=contact.secant, graphs=graphs)
-    end = BounceEnd(scenario, dt, settings.max_time_s, ball.radius_m)
-    rec, steps, v_end = _bounce_steps(sim, end, dt)
-    contact.meta.update(steps=steps, stepping=sim.stepping)
-    return end.finish(rec, scenario, v_end, **contact.meta)
+    run = _BounceRun(scenario, mode, settings)
+    sim = NewtonSim(ball_model(run.ball, run.contact.values), run.dt, (scenario.height_m,),
+                    (0.0,), _ball_force(run.ball, run.dt), secant=run.contact.secant,
+                    graphs=graphs)
+    record = run.recording(*sim.state())
+    try:
+        n = next(record)
+        while True:
+            sim.chunks.clear()
+            sim.step_chunk(n)
+            n = record.send((*sim.arrays(), *sim.state()))
+    except StopIteration as done:
+        return run.finish(*done.value, sim.stepping)
 
 
-def _bounce_steps(sim: NewtonSim, end: BounceEnd, dt: float) -> tuple[Recorder, int, float]:
-    """Step ``sim`` in chunks and record each step — its start state (x, ẋ) and force —
-    until ``end`` says so after a step or its step cap; then the state the last step ended
-    in (force 0). Returns the recorder, the steps recorded and the final ẋ (m/s)."""
-    rec = Recorder()
-    append, ended = rec.append, end.ended
-    chunk = max(1, min(RECORD_CAPACITY, math.ceil(BOUNCE_CHUNK_S / dt)))
+def run_bounce_batch(items: list[tuple[Bounce, str, RunSettings]]) -> list[ImpactRecord]:
+    """Many bounce runs, those at one step and gravity as the worlds of one model (a plane
+    and a ball per world), stepped together chunk by chunk: each world's samples go through
+    its lone run's recording and end rule (:meth:`_BounceRun.recording`, every step in
+    order) until it ends, each round as many steps as the unfinished world that wants the
+    fewest asks for, so each record is the one :func:`run_bounce` gives, bit for bit
+    (tested); an ``injected`` world's law is evaluated in Python every step."""
+    runs = [_BounceRun(*item) for item in items]
+    out: list[ImpactRecord | None] = [None] * len(runs)
+    groups: dict[tuple[float, float], list[int]] = {}
+    for i, run in enumerate(runs):
+        groups.setdefault((run.dt, run.ball.gravity_m_s2), []).append(i)
+    for group in groups.values():
+        if len(group) == 1:
+            out[group[0]] = run_bounce(*items[group[0]])
+            continue
+        for i, rec in zip(group, _bounce_worlds([runs[i] for i in group]), strict=True):
+            out[i] = rec
+    return [r for r in out if r is not None]
+
+
+def _bounce_worlds(runs: list[_BounceRun]) -> list[ImpactRecord]:
+    """Bounce runs at one step and gravity as the worlds of one model (see
+    :func:`run_bounce_batch`)."""
+    model, shapes = worlds_model(
+        (0.0, 0.0, -runs[0].ball.gravity_m_s2),
+        [functools.partial(_add_ball, s=r.ball, values=r.contact.values) for r in runs])
+    injections = {k: Injection(slice(k, k + 1), shapes[k], r.contact.secant)
+                  for k, r in enumerate(runs) if r.contact.secant is not None}
+    forces = [_ball_force(r.ball, r.dt) for r in runs]
+
+    def force(q: np.ndarray, qd: np.ndarray, qd_next: np.ndarray) -> np.ndarray:
+        return np.column_stack([f(q[:, [k]], qd[:, [k]], qd_next[:, [k]])
+                                for k, f in enumerate(forces)])
+
+    sim = NewtonSim(model, runs[0].dt, tuple(r.scenario.height_m for r in runs),
+                    (0.0,) * len(runs), force, injections=list(injections.values()))
     q_end, qd_end = sim.state()
-    x, v = -q_end[0], -qd_end[0]
-    k, done = 0, False
-    while not done and k < end.n_max:
+    records = [r.recording([q_end[k]], [qd_end[k]]) for k, r in enumerate(runs)]
+    wants: list[int | None] = [next(record) for record in records]
+    done: list[tuple[Recorder, int, float] | None] = [None] * len(runs)
+    while any(w is not None for w in wants):
+        n = min(w for w in wants if w is not None)
         sim.chunks.clear()
-        sim.step_chunk(min(chunk, end.n_max - k))
-        q, qd, f = sim.chunks[0]
+        sim.step_chunk(n)
+        q, qd, f = sim.arrays()
         q_end, qd_end = sim.state()
-        xs = (-q[1:, 0]).tolist()
-        xs.append(-q_end[0])
-        vs = (-qd[1:, 0]).tolist()
-        vs.append(-qd_end[0])
-        for f_k, x_next, v_next in zip(f.tolist(), xs, vs, strict=True):
-            append(k * dt, x, v, f_k, v)
-            x, v = x_next, v_next
-            k += 1
-            if ended(x, v, f_k):
-                done = True
-                break
-    append(k * dt, x, v, 0.0, v)
-    return rec, k, v
+        for k, record in enumerate(records):
+            if wants[k] is None:
+                continue
+            try:
+                wants[k] = record.send((q[:, [k]], qd[:, [k]], f[:, k], [q_end[k]],
+                                        [qd_end[k]]))
+            except StopIteration as end:
+                done[k], wants[k] = end.value, None
+                if k in injections:
+                    injections[k].active = False
+    return [r.finish(*d, sim.stepping + (INJECTED_STEPPING if k in injections else ""))
+            for k, (r, d) in enumerate(zip(runs, done, strict=True)) if d is not None]
+
+
+class _BounceRun:
+    """A bounce run's ball, contact for ``mode`` (:func:`_ball_contact`), step (s) and end
+    rule; its recording (:meth:`recording`) and record (:meth:`finish`)."""
+
+    def __init__(self, scenario: Bounce, mode: str, settings: RunSettings) -> None:
+        self.scenario = scenario
+        self.ball = scenario.ball()
+        self.dt = float(settings.timestep_s or BOUNCE_TIMESTEP_S)
+        self.contact = _ball_contact(self.ball, mode, settings)
+        self.end = BounceEnd(scenario, self.dt, settings.max_time_s, self.ball.radius_m)
+
+    def recording(self, q0: list[float], qd0: list[float]
+                  ) -> Generator[int, tuple[Any, ...], tuple[Recorder, int, float]]:
+        """Record each step — its start state (x, ẋ) and force — until the end rule says so
+        after a step or its step cap; then the state the last step ended in (force 0). A
+        generator from the start state (``q0``, ``qd0``: the ball's joint coordinate and
+        rate): it yields the steps it wants next (a chunk, at most :data:`RECORD_CAPACITY`),
+        is sent ``(q, qd, f, q_end, qd_end)`` — the samples of the steps taken (as many or
+        fewer), one row each, and the state after the last — and returns the recorder, the
+        steps recorded and the final ẋ (m/s)."""
+        dt, end = self.dt, self.end
+        rec = Recorder()
+        append, ended = rec.append, end.ended
+        chunk = max(1, min(RECORD_CAPACITY, math.ceil(BOUNCE_CHUNK_S / dt)))
+        x, v = -q0[0], -qd0[0]
+        k, done = 0, False
+        while not done and k < end.n_max:
+            q, qd, f, q_end, qd_end = yield min(chunk, end.n_max - k)
+            xs = (-q[1:, 0]).tolist()
+            xs.append(-q_end[0])
+            vs = (-qd[1:, 0]).tolist()
+            vs.append(-qd_end[0])
+            for f_k, x_next, v_next in zip(f.tolist(), xs, vs, strict=True):
+                append(k * dt, x, v, f_k, v)
+                x, v = x_next, v_next
+                k += 1
+                if ended(x, v, f_k):
+                    done = True
+                    break
+        append(k * dt, x, v, 0.0, v)
+        return rec, k, v
+
+    def finish(self, rec: Recorder, steps: int, v_end: float, stepping: str) -> ImpactRecord:
+        self.contact.meta.update(steps=steps, stepping=stepping)
+        return self.end.finish(rec, self.scenario, v_end, **self.contact.meta)
 
 
 # --------------------------------------------------------------------------- the adapter
+
+BATCHES = {"rigid-flexible": "run_rigid_flexible_batch", "oblique": "run_oblique_batch",
+           "bounce": "run_bounce_batch"}
+"""The :attr:`~impactbench.engines.base.Builder.batch` methods of the scenarios beside the
+ball's (``scenario_builders(ball_batch=...)``): many runs as the worlds of one model."""
+
+
+def newton_builders() -> dict[str, Builder]:
+    """Newton's :attr:`~impactbench.engines.base.Adapter.builders`: the suite's scenarios at
+    its customary steps, each head-on, 2-DOF, oblique and bounce builder with its batch."""
+    built = scenario_builders(
+        ball_s=BALL_TIMESTEP_S, pair_s=RIGID_FLEXIBLE_TIMESTEP_S, oblique_s=BALL_TIMESTEP_S,
+        oblique_tuned_check=oblique_tuned.refused, engine_3d="newton",
+        ball_batch="run_ball_batch", bounce_s=BOUNCE_TIMESTEP_S)
+    return {name: replace(b, batch=BATCHES.get(name, b.batch)) for name, b in built.items()}
 
 
 class NewtonAdapter(Adapter):
@@ -912,16 +1218,16 @@ class NewtonAdapter(Adapter):
     modes = ("native", "injected", "tuned", "default", "custom")
     parameter_keys = PARAMETER_KEYS
     tuned_parameters = "ke, optional kd"
-    builders = scenario_builders(
-        ball_s=BALL_TIMESTEP_S, pair_s=RIGID_FLEXIBLE_TIMESTEP_S, oblique_s=BALL_TIMESTEP_S,
-        oblique_tuned_check=oblique_tuned.refused, engine_3d="newton",
-        ball_batch="run_ball_batch", bounce_s=BOUNCE_TIMESTEP_S)
+    builders = newton_builders()
     # builders only build (Adapter.run has checked the mode, the keys and the tuned file)
     run_ball = staticmethod(run_ball)
     run_ball_batch = staticmethod(run_ball_batch)
     run_rigid_flexible = staticmethod(run_rigid_flexible)
+    run_rigid_flexible_batch = staticmethod(run_rigid_flexible_batch)
     run_oblique = staticmethod(run_oblique)
+    run_oblique_batch = staticmethod(run_oblique_batch)
     run_bounce = staticmethod(run_bounce)
+    run_bounce_batch = staticmethod(run_bounce_batch)
 
     def version(self) -> str:
         wp, newton = _newton()

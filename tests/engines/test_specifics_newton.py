@@ -237,7 +237,9 @@ def test_run_many_is_run_bit_for_bit() -> None:
     """A tuner's generation as one Newton model, a world per run (Adapter.run_many →
     run_ball_batch): every world's record is its lone run's to the last bit — soft and stiff
     contacts at two velocities, worlds that end at different steps, and an injected run among
-    them (it runs alone). Measured: 21 runs, no difference, 4.4x faster than one by one."""
+    them (a world whose ke is set in Python every step; the other scenarios' batches and the
+    report's mix: test_newton_batches.py). Measured: 21 runs, no difference, 4.4x faster
+    than one by one."""
     adapter = get_adapter("newton")
     items = [(BallOnPlate(velocity_m_s=v), "tuned", RunSettings(tuned={"ke": ke, "kd": kd}))
              for v in (0.5, 3.0) for ke, kd in ((1e4, 1.0), (1e6, 30.0), (1e8, 300.0))]
