@@ -155,24 +155,26 @@ class CubeEngine:
                              f"{self.step_s!r} s")
         self._reset(start)
         advance = self._advance if self._wrench is None else self._advance_injected
+        pose = self._pose
         n = len(start.record_steps)
         p = np.empty((n, 3))
         q = np.empty((n, 4))
         done = 0
-        for i, k in enumerate(start.record_steps):
+        for i, k in enumerate(np.asarray(start.record_steps).tolist()):
             if k > done:
                 advance(int(k) - done)
                 done = int(k)
-            p[i], q[i] = self._pose()
+            p[i], q[i] = pose()
         return p, q
 
     def _advance_injected(self, steps: int) -> None:
         """``steps`` steps with the model's corner forces at each step's start state applied
-        as an external force at the centre and a torque (board frame) for that step."""
-        wrench, state, push = self._wrench, self._state, self._push_step
+        as an external force at the centre and a torque (board frame) for that step (plain
+        floats from the engine's state to its force input:
+        :meth:`~impactbench.reference.box_contact.CornerWrench.values`)."""
+        wrench, state, push = self._wrench.values, self._state_values, self._push_values
         for _ in range(steps):
-            force, torque = wrench(*state())
-            push(force, torque)
+            push(wrench(*state()))
 
     def injected_setup(self) -> dict[str, Any]:
         """What injected mode did to the engine (empty in the other modes)."""
@@ -201,15 +203,17 @@ class CubeEngine:
     def _advance(self, steps: int) -> None:
         raise NotImplementedError
 
-    def _pose(self) -> tuple[np.ndarray, np.ndarray]:
+    def _pose(self) -> tuple[Any, Any]:
+        """The centre (m, 3 numbers) and the quaternion (w, x, y, z) now."""
         raise NotImplementedError
 
-    def _state(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """(p, q wxyz, v, ω in the board's frame): injected mode's input."""
+    def _state_values(self) -> tuple[float, ...]:
+        """(p, q wxyz, v, ω in the board's frame) as 13 floats: injected mode's input."""
         raise NotImplementedError
 
-    def _push_step(self, force: np.ndarray, torque: np.ndarray) -> None:
-        """Apply ``force`` at the centre and ``torque`` (board frame) and take one step."""
+    def _push_values(self, wrench: tuple[float, ...]) -> None:
+        """Apply the force ``wrench[:3]`` (N) at the centre and the torque ``wrench[3:]``
+        (N·m), both in the board's frame, and take one step."""
         raise NotImplementedError
 
 
@@ -301,23 +305,24 @@ class PyBulletCube(CubeEngine):
         for _ in range(steps):
             step(physicsClientId=c)
 
-    def _pose(self) -> tuple[np.ndarray, np.ndarray]:
+    def _pose(self) -> tuple[Any, Any]:
         pos, (x, y, z, w) = self._pb.getBasePositionAndOrientation(self._cube,
                                                                    physicsClientId=self._client)
-        return np.array(pos), np.array([w, x, y, z])
+        return pos, (w, x, y, z)
 
-    def _state(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        p, q = self._pose()
-        v, w = self._pb.getBaseVelocity(self._cube, physicsClientId=self._client)
-        return p, q, np.array(v), np.array(w)
-
-    def _push_step(self, force: np.ndarray, torque: np.ndarray) -> None:
+    def _state_values(self) -> tuple[float, ...]:
         pb, c = self._pb, self._client
-        if force[0] or force[1] or force[2] or torque[0] or torque[1] or torque[2]:
-            pos, _ = pb.getBasePositionAndOrientation(self._cube, physicsClientId=c)
-            pb.applyExternalForce(self._cube, -1, force.tolist(), pos, pb.WORLD_FRAME,
+        pos, (x, y, z, w) = pb.getBasePositionAndOrientation(self._cube, physicsClientId=c)
+        v, om = pb.getBaseVelocity(self._cube, physicsClientId=c)
+        self._pos = pos   # the force's point in _push_values (no step in between)
+        return (*pos, w, x, y, z, *v, *om)
+
+    def _push_values(self, wrench: tuple[float, ...]) -> None:
+        pb, c = self._pb, self._client
+        if any(wrench):
+            pb.applyExternalForce(self._cube, -1, list(wrench[:3]), self._pos, pb.WORLD_FRAME,
                                   physicsClientId=c)
-            pb.applyExternalTorque(self._cube, -1, torque.tolist(), pb.WORLD_FRAME,
+            pb.applyExternalTorque(self._cube, -1, list(wrench[3:]), pb.WORLD_FRAME,
                                    physicsClientId=c)
         pb.stepSimulation(physicsClientId=c)
 
@@ -435,29 +440,20 @@ class MujocoCube(CubeEngine):
         mj.mj_forward(m, d)
 
     def _advance(self, steps: int) -> None:
-        step, m, d = self._mj.mj_step, self._model, self._data
-        for _ in range(steps):
-            step(m, d)
+        self._mj.mj_step(self._model, self._data, nstep=steps)   # mj_step ``steps`` times, in C
 
-    def _pose(self) -> tuple[np.ndarray, np.ndarray]:
-        return self._data.qpos[:3].copy(), self._data.qpos[3:7].copy()
+    def _pose(self) -> tuple[Any, Any]:
+        return self._data.qpos[:3], self._data.qpos[3:7]   # copied by the caller
 
-    def _state(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    def _state_values(self) -> tuple[float, ...]:
         d = self._data
-        q = d.qpos[3:7].copy()
-        # a free joint's angular velocity is in the body frame
-        return (d.qpos[:3].copy(), q, d.qvel[:3].copy(),
-                self._mj_rotation(q) @ d.qvel[3:6])
+        # a free joint's angular velocity is in the body frame: ω = R(q)·ω_body (BLAS gemv)
+        om = quat_matrix(d.qpos[3:7]).dot(d.qvel[3:6]).tolist()
+        return (*d.qpos[:7].tolist(), *d.qvel[:3].tolist(), *om)
 
-    @staticmethod
-    def _mj_rotation(q: np.ndarray) -> np.ndarray:
-
-        return quat_matrix(q)
-
-    def _push_step(self, force: np.ndarray, torque: np.ndarray) -> None:
+    def _push_values(self, wrench: tuple[float, ...]) -> None:
         d = self._data
-        d.xfrc_applied[self._cube_body, :3] = force   # world frame, at the body's centre
-        d.xfrc_applied[self._cube_body, 3:] = torque
+        d.xfrc_applied[self._cube_body] = wrench   # world frame, at the body's centre
         self._mj.mj_step(self._model, d)
 
     def describe(self) -> dict[str, Any]:
@@ -599,6 +595,16 @@ class DrakeCube(CubeEngine):
         self._context = self._sim.get_mutable_context()
         self._plant_context = plant.GetMyMutableContextFromRoot(self._context)
         self._time = 0.0
+        if self.law is not None:   # injected: one applied force, its value set every step
+            from pydrake.multibody.math import SpatialForce
+            from pydrake.multibody.plant import ExternallyAppliedSpatialForce
+
+            self._spatial_force = SpatialForce
+            self._applied = ExternallyAppliedSpatialForce()
+            self._applied.body_index = self._body.index()
+            self._applied.p_BoBq_B = np.zeros(3)   # at the body origin (its centre)
+            self._fixed = plant.get_applied_spatial_force_input_port().FixValue(
+                self._plant_context, [self._applied])
 
     def _reset(self, start: Start) -> None:
         from pydrake.common.eigen_geometry import Quaternion
@@ -619,25 +625,22 @@ class DrakeCube(CubeEngine):
         self._steps += steps
         self._sim.AdvanceTo((self._steps + 0.25) * self.step_s)
 
-    def _pose(self) -> tuple[np.ndarray, np.ndarray]:
+    def _pose(self) -> tuple[Any, Any]:
         x = self._plant.GetFreeBodyPose(self._plant_context, self._body)
-        return np.array(x.translation()), np.array(x.rotation().ToQuaternion().wxyz())
+        return x.translation(), x.rotation().ToQuaternion().wxyz()
 
-    def _state(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        p, q = self._pose()
-        v = self._plant.EvalBodySpatialVelocityInWorld(self._plant_context, self._body)
-        return p, q, np.array(v.translational()), np.array(v.rotational())
+    def _state_values(self) -> tuple[float, ...]:
+        plant, ctx = self._plant, self._plant_context
+        x = plant.GetFreeBodyPose(ctx, self._body)
+        v = plant.EvalBodySpatialVelocityInWorld(ctx, self._body)
+        return (*x.translation().tolist(), *x.rotation().ToQuaternion().wxyz().tolist(),
+                *v.translational().tolist(), *v.rotational().tolist())
 
-    def _push_step(self, force: np.ndarray, torque: np.ndarray) -> None:
-        from pydrake.multibody.math import SpatialForce
-        from pydrake.multibody.plant import ExternallyAppliedSpatialForce
-
-        applied = ExternallyAppliedSpatialForce()
-        applied.body_index = self._body.index()
-        applied.p_BoBq_B = np.zeros(3)              # at the body origin (its centre)
-        applied.F_Bq_W = SpatialForce(torque, force)   # board (world) frame
-        self._plant.get_applied_spatial_force_input_port().FixValue(self._plant_context,
-                                                                     [applied])
+    def _push_values(self, wrench: tuple[float, ...]) -> None:
+        applied = self._applied
+        applied.F_Bq_W = self._spatial_force(wrench[3:], wrench[:3])   # board (world) frame
+        # the port's fixed value replaced in place (GetMutableData tells its dependents)
+        self._fixed.GetMutableData().set_value([applied])
         self._steps += 1
         self._sim.AdvanceTo((self._steps + 0.25) * self.step_s)
 

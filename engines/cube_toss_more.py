@@ -52,9 +52,12 @@ MJX (MuJoCo XLA, jax CPU, float64)
     ``cube.`` + ``solref``, ``solimp``, ``friction``, ``condim``, ``priority``, ``solmix``;
     ``option.`` + an ``<option>`` attribute). **Batched**: :meth:`MjxCube.run_many` runs every
     toss in ``jax.vmap`` over the initial states, a ``lax.scan`` over the samples of a
-    ``fori_loop`` over the substeps, in fixed-length chunks (one compilation per batch size;
-    jax's persistent cache keeps it across processes). Tosses are sorted by length and run in
-    batches of :data:`MJX_BATCH` (``batch=None``: all in one call, padded to the longest).
+    ``fori_loop`` over the substeps, in fixed-length chunks (one compilation per batch size
+    and static model structure — MuJoCo's ``opt.cone``: default mode's pyramidal cone
+    compiles apart from tuned and native modes' elliptic one, which share theirs; jax's
+    persistent cache keeps it across processes). Tosses are sorted by length and run in
+    :data:`MJX_BATCH` world slots, a slot taking the next toss when its toss ends
+    (``batch=None``: all in one call).
 pymunk, Box2D
     :data:`UNSUPPORTED`: two-dimensional engines; a tumbling cube in 3D cannot be expressed.
 """
@@ -72,11 +75,74 @@ from impactbench.reference.validation import InvalidValue
 
 ENGINES = ("sapien", "dart", "newton", "mjx")
 
-def _quat_from_matrix(r: np.ndarray) -> np.ndarray:
-    from scipy.spatial.transform import Rotation
+GRAMIAN_MARGIN = 0.5
+"""How far inside scipy's orthogonality test (the Gramian R·Rᵀ ``np.isclose`` to I at
+``atol=1e-12``, rtol 1e-5) a matrix must be for :func:`quat_from_matrix`'s own arithmetic:
+a fraction of each tolerance, so that the few ulps by which our Gramian may differ from
+numpy's (BLAS) cannot put a matrix on the other side of it."""
 
-    x, y, z, w = Rotation.from_matrix(np.asarray(r, dtype=float)).as_quat()
-    return np.array([w, x, y, z])
+
+def quat_from_matrix(r: Sequence[Sequence[float]]) -> tuple[float, float, float, float]:
+    """The unit quaternion (w, x, y, z) of the rotation matrix ``r`` (3 × 3, nested rows),
+    equal bit for bit to ``scipy.spatial.transform.Rotation.from_matrix(r).as_quat()``
+    (x, y, z, w) reordered.
+
+    For an orthonormal matrix (well inside scipy's test: :data:`GRAMIAN_MARGIN`) scipy's
+    Cython conversion operation for operation in Python floats (scipy 1.17
+    ``_rotation_cy._from_matrix_orthogonal``: Shepperd's choice of the largest of the
+    diagonal and the trace, then the normalisation sqrt(((a² + b²) + c²) + d²) and a division
+    per component); any other matrix goes to scipy itself (it re-orthogonalises by SVD, or
+    raises on a non-positive determinant)."""
+    (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = r
+    off = 1e-12 * GRAMIAN_MARGIN
+    diag = (1e-12 + 1e-5) * GRAMIAN_MARGIN
+    if not (abs(m00 * m10 + m01 * m11 + m02 * m12) <= off
+            and abs(m00 * m20 + m01 * m21 + m02 * m22) <= off
+            and abs(m10 * m20 + m11 * m21 + m12 * m22) <= off
+            and abs(m00 * m00 + m01 * m01 + m02 * m02 - 1.0) <= diag
+            and abs(m10 * m10 + m11 * m11 + m12 * m12 - 1.0) <= diag
+            and abs(m20 * m20 + m21 * m21 + m22 * m22 - 1.0) <= diag
+            and m00 * (m11 * m22 - m12 * m21) - m01 * (m10 * m22 - m12 * m20)
+            + m02 * (m10 * m21 - m11 * m20) > 0.5):
+        from scipy.spatial.transform import Rotation
+
+        x, y, z, w = Rotation.from_matrix(np.asarray(r, dtype=float)).as_quat().tolist()
+        return w, x, y, z
+    trace = m00 + m11 + m22
+    choice, top = 0, m00               # scipy's argmax: the first of equal maxima
+    if m11 > top:
+        choice, top = 1, m11
+    if m22 > top:
+        choice, top = 2, m22
+    if trace > top:
+        choice = 3
+    if choice == 0:                    # i, j, k = 0, 1, 2
+        a = 1 - trace + 2 * m00
+        b = m10 + m01
+        c = m20 + m02
+        d = m21 - m12
+    elif choice == 1:                  # i, j, k = 1, 2, 0
+        b = 1 - trace + 2 * m11
+        c = m21 + m12
+        a = m01 + m10
+        d = m02 - m20
+    elif choice == 2:                  # i, j, k = 2, 0, 1
+        c = 1 - trace + 2 * m22
+        a = m02 + m20
+        b = m12 + m21
+        d = m10 - m01
+    else:
+        a = m21 - m12
+        b = m02 - m20
+        c = m10 - m01
+        d = 1 + trace
+    norm = math.sqrt(a * a + b * b + c * c + d * d)
+    return d / norm, a / norm, b / norm, c / norm
+
+
+def _quat_from_matrix(r: np.ndarray) -> np.ndarray:
+    """:func:`quat_from_matrix` of an array, as an array (w, x, y, z)."""
+    return np.array(quat_from_matrix(np.asarray(r, dtype=float).tolist()))
 
 
 # ------------------------------------------------------------------------------ SAPIEN
@@ -201,19 +267,20 @@ class SapienCube(CubeEngine):
         for _ in range(steps):
             step()
 
-    def _pose(self) -> tuple[np.ndarray, np.ndarray]:
+    def _pose(self) -> tuple[Any, Any]:
         pose = self._body.entity_pose
-        return np.asarray(pose.p, dtype=float), np.asarray(pose.q, dtype=float)
+        return pose.p, pose.q   # float32, widened exactly where the caller stores them
 
-    def _state(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        p, q = self._pose()
+    def _state_values(self) -> tuple[float, ...]:
         b = self._body
-        return (p, q, np.asarray(b.linear_velocity, dtype=float),
-                np.asarray(b.angular_velocity, dtype=float))   # world frame
+        pose = b.entity_pose
+        return (*pose.p.tolist(), *pose.q.tolist(), *b.linear_velocity.tolist(),
+                *b.angular_velocity.tolist())   # world frame
 
-    def _push_step(self, force: np.ndarray, torque: np.ndarray) -> None:
+    def _push_values(self, wrench: tuple[float, ...]) -> None:
         # a force for one step at the centre of mass (PhysX clears it after the step)
-        self._body.add_force_torque(force.astype(np.float32), torque.astype(np.float32))
+        w = np.array(wrench, dtype=np.float32)
+        self._body.add_force_torque(w[:3], w[3:])
         self._scene.step()
 
     def describe(self) -> dict[str, Any]:
@@ -312,6 +379,7 @@ class DartCube(CubeEngine):
         self._node.setInertia(inertia)
         world.addSkeleton(cube)
         self._world, self._cube = world, cube
+        self._origin = np.zeros(3)
 
     def _reset(self, start: Start) -> None:
 
@@ -331,20 +399,20 @@ class DartCube(CubeEngine):
         for _ in range(steps):
             step()
 
-    def _pose(self) -> tuple[np.ndarray, np.ndarray]:
+    def _pose(self) -> tuple[Any, Any]:
         tf = self._node.getWorldTransform()
-        return np.array(tf.translation(), dtype=float), _quat_from_matrix(tf.rotation())
+        return tf.translation(), quat_from_matrix(tf.rotation().tolist())
 
-    def _state(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        p, q = self._pose()
+    def _state_values(self) -> tuple[float, ...]:
         n = self._node
-        return (p, q, np.asarray(n.getLinearVelocity(), dtype=float),
-                np.asarray(n.getAngularVelocity(), dtype=float))   # world frame
+        tf = n.getWorldTransform()
+        return (*tf.translation().tolist(), *quat_from_matrix(tf.rotation().tolist()),
+                *n.getLinearVelocity().tolist(), *n.getAngularVelocity().tolist())  # world
 
-    def _push_step(self, force: np.ndarray, torque: np.ndarray) -> None:
+    def _push_values(self, wrench: tuple[float, ...]) -> None:
         n = self._node
-        n.setExtForce(force, np.zeros(3), False, True)   # world force at the body origin
-        n.setExtTorque(torque, False)                     # world frame
+        n.setExtForce(wrench[:3], self._origin, False, True)   # world force at the origin
+        n.setExtTorque(wrench[3:], False)                       # world frame
         self._world.step()
 
     def describe(self) -> dict[str, Any]:
@@ -554,11 +622,16 @@ class MujocoPlaneCube(MujocoCube):
         return out
 
 
-MJX_BATCH = 64
-"""Tosses per vmapped call of :meth:`MjxCube.run_many` (measured on 2 CPU cores: 64 worlds
-~60k world-steps/s, 367 ~24k: the long tail of one padded call dominates)."""
-MJX_CHUNK_RECORDS = 64
-"""Recorded samples per compiled chunk (a scan over samples of ``stride`` substeps each)."""
+MJX_BATCH = 24
+"""World slots of :meth:`MjxCube.run_many`: the tosses stepped together in one vmapped call.
+Each slot replays one toss after another (the longest first), a finished toss's slot taking
+the next at a chunk's end, so that the long tail (5 of the 89 test tosses need 217–373
+samples, the rest 74–113) does not keep the other slots stepping for nothing. Measured on 2
+CPU cores (89 test tosses): a step of 24 worlds costs ~0.4 of one of 64, and 24 slots finish
+the 89 tosses in ~430 samples; 64 worlds in two padded batches took 384 + 128 samples."""
+MJX_CHUNK_RECORDS = 16
+"""Recorded samples per compiled chunk (a scan over samples of ``stride`` substeps each): a
+toss's slot is freed at the first chunk end past its last sample."""
 
 
 def _mjx() -> tuple[Any, Any, Any]:
@@ -572,7 +645,9 @@ _MJX_CHUNKS: dict[tuple[int, int], Any] = {}
 
 def _mjx_chunk(stride: int, records: int) -> Any:
     """``chunk(mx, dx) → (dx, rows)`` for a batch of data ``dx`` (vmapped): ``records``
-    samples of ``stride`` steps, each row the pose (qpos[:7]) after the sample's steps."""
+    samples of ``stride`` steps, each row the pose (qpos[:7]) after the sample's steps. One
+    jitted function per (stride, records) in a process, so that models of equal static
+    structure (the same ``opt.cone``, …) share its compilation."""
     key = (stride, records)
     if key not in _MJX_CHUNKS:
         _, jax, mjx = _mjx()
@@ -586,6 +661,20 @@ def _mjx_chunk(stride: int, records: int) -> Any:
 
         _MJX_CHUNKS[key] = jax.jit(jax.vmap(one, in_axes=(None, 0)))
     return _MJX_CHUNKS[key]
+
+
+_MJX_INIT: list[Any] = []
+
+
+def _mjx_init() -> Any:
+    """``init(mx, dx0, qpos, qvel) → dx``: ``mjx.forward`` of ``dx0`` at each row of the
+    initial states (vmapped); one jitted function in a process (shared by every model)."""
+    if not _MJX_INIT:
+        _, jax, mjx = _mjx()
+        _MJX_INIT.append(jax.jit(jax.vmap(
+            lambda mx, dx, q, v: mjx.forward(mx, dx.replace(qpos=q, qvel=v)),
+            in_axes=(None, None, 0, 0))))
+    return _MJX_INIT[0]
 
 
 class MjxCube(BatchedCube, MujocoPlaneCube):
@@ -612,39 +701,67 @@ class MjxCube(BatchedCube, MujocoPlaneCube):
 
         self._forward = _compiled_forward()
         self._dx0 = self._forward(self._mx, mjx.put_data(self._model, self._data))
-        self._init = jax.jit(jax.vmap(
-            lambda mx, dx, q, v: mjx.forward(mx, dx.replace(qpos=q, qvel=v)),
-            in_axes=(None, None, 0, 0)))
+        self._init = _mjx_init()
 
     def run_many(self, starts: Sequence[Start]
                  ) -> list[tuple[np.ndarray, np.ndarray] | Exception]:
+        """Every toss of ``starts`` in :attr:`batch` world slots (module doc): each toss's
+        initial data from ``mjx.forward`` (``batch`` at a time), then chunks of
+        :data:`MJX_CHUNK_RECORDS` samples over all slots; between chunks a slot whose toss
+        has all its samples takes the next toss's initial data (copied, every field). A
+        world's floats depend on its own data only (vmap; checked bit for bit against
+        separate batches by the tests), so each toss replays as it would alone."""
         if not starts:
             return []
         stride = self._check(starts)
-        jnp = self._jax.numpy
-        lengths = np.array([int(s.record_steps[-1] // stride) for s in starts])
-        order = np.argsort(-lengths, kind="stable")
-        size = len(starts) if self.batch is None else min(self.batch, len(starts))
-        chunk = _mjx_chunk(stride, MJX_CHUNK_RECORDS)
-        out: list[Any] = [None] * len(starts)
-        for first in range(0, len(starts), size):
-            group = [int(i) for i in order[first:first + size]]
+        jax, jnp = self._jax, self._jax.numpy
+        n = len(starts)
+        need = [int(s.record_steps[-1] // stride) for s in starts]
+        order = [int(i) for i in np.argsort(-np.array(need), kind="stable")]
+        size = n if self.batch is None else min(self.batch, n)
+        # the initial data of every toss, `size` at a time (one compiled shape), on the host
+        initial: dict[int, tuple[list[np.ndarray], int]] = {}
+        treedef = None
+        for first in range(0, n, size):
+            group = order[first:first + size]
             members = group + [group[0]] * (size - len(group))   # pad: one compiled shape
             qpos = np.stack([np.concatenate([starts[i].p, starts[i].q]) for i in members])
             qvel = np.stack([np.concatenate([starts[i].v, starts[i].w_body]) for i in members])
             dx = self._init(self._mx, self._dx0, jnp.asarray(qpos), jnp.asarray(qvel))
-            need = int(lengths[group].max())
-            rows = [qpos[:, None, :7]]
-            done = 0
-            while done < need:
-                dx, r = chunk(self._mx, dx)
-                rows.append(np.asarray(r))
-                done += MJX_CHUNK_RECORDS
-            rows = np.concatenate(rows, axis=1)
-            for j, i in enumerate(group):
-                p, q = _gather(starts[i], rows[j], stride)
-                out[i] = ((p, q) if np.all(np.isfinite(p)) and np.all(np.isfinite(q))
-                          else FloatingPointError("non-finite state"))
+            leaves, treedef = jax.tree_util.tree_flatten(dx)
+            host = [np.array(leaf) for leaf in leaves]
+            initial.update((i, (host, j)) for j, i in enumerate(group))
+        rows: dict[int, list[np.ndarray]] = {
+            i: [np.concatenate([starts[i].p, starts[i].q])[None, :7]] for i in range(n)}
+        got = dict.fromkeys(range(n), 0)
+        slots: list[int | None] = list(order[:size])
+        queue = order[size:][::-1]                 # popped from the end: longest first
+        carry = initial[order[0]][0]               # the first group is the slots' start
+        chunk = _mjx_chunk(stride, MJX_CHUNK_RECORDS)
+        while any(i is not None for i in slots):
+            dx, r = chunk(self._mx, jax.tree_util.tree_unflatten(
+                treedef, [jnp.array(a) for a in carry]))
+            r = np.asarray(r)
+            carry = [np.array(leaf) for leaf in jax.tree_util.tree_leaves(dx)]
+            for k, i in enumerate(slots):
+                if i is None:
+                    continue
+                rows[i].append(r[k])
+                got[i] += MJX_CHUNK_RECORDS
+                if got[i] < need[i]:
+                    continue
+                slots[k] = None
+                if queue:                          # the next toss takes the slot
+                    nxt = queue.pop()
+                    host, j = initial[nxt]
+                    for a, b in zip(carry, host, strict=True):
+                        a[k] = b[j]
+                    slots[k] = nxt
+        out: list[Any] = []
+        for i, s in enumerate(starts):
+            p, q = _gather(s, np.concatenate(rows[i], axis=0), stride)
+            out.append((p, q) if np.all(np.isfinite(p)) and np.all(np.isfinite(q))
+                       else FloatingPointError("non-finite state"))
         return out
 
     def describe(self) -> dict[str, Any]:
@@ -652,8 +769,9 @@ class MjxCube(BatchedCube, MujocoPlaneCube):
         out["engine"] = "mjx"
         out["version"] = (f"{_version('mujoco-mjx')} (mujoco {_version('mujoco')}, "
                           f"jax {_version('jax')})")
-        out["batched"] = (f"jax.vmap over tosses, batches of {self.batch or 'all'}, "
-                          f"lax.scan chunks of {MJX_CHUNK_RECORDS} samples")
+        out["batched"] = (f"jax.vmap over tosses in {self.batch or 'all'} world slots (a "
+                          "slot takes the next toss when its toss ends), lax.scan chunks of "
+                          f"{MJX_CHUNK_RECORDS} samples")
         return out
 
 

@@ -205,11 +205,20 @@ class BoxContactParams:
 def quat_matrix(q: np.ndarray) -> np.ndarray:
     """Rotation matrix R (body → board) of the quaternion ``q`` (w, x, y, z; normalised
     here)."""
-    w, x, y, z = np.asarray(q, dtype=float) / math.sqrt(float(np.dot(q, q)))
-    return np.array([
-        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+    # the entries in Python floats: the same IEEE operations as on numpy's scalars, without
+    # their overhead; |q|² stays numpy's dot (BLAS: its summation order is the library's)
+    s = math.sqrt(float(np.dot(q, q)))
+    w, x, y, z = (v / s for v in np.asarray(q, dtype=float).tolist())
+    return _matrix(w, x, y, z)
+
+
+def _matrix(w: float, x: float, y: float, z: float) -> np.ndarray:
+    """R of the unit quaternion (w, x, y, z) as a C-ordered 3 × 3 array (:func:`quat_matrix`'s
+    entries)."""
+    return np.array([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y),
+                     2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
+                     2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]
+                    ).reshape(3, 3)
 
 
 def quat_multiply(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -459,14 +468,24 @@ def integrate_box(params: BoxContactParams, y0: np.ndarray, t_eval: np.ndarray, 
                       model.evaluations, status, message)
 
 
+ZERO_WRENCH = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+""":meth:`CornerWrench.values` when no corner can reach the board (N, N·m)."""
+
+
 class CornerWrench:
     """The model's corner forces on a box as one force at its centre and a torque (both in
     the board's frame): ``wrench(p, q, v, w_world)`` from the centre (m), the quaternion (w, x,
     y, z), the velocity (m/s) and the angular velocity in the board's frame (rad/s).
 
     It evaluates the model's own right-hand side (:meth:`BoxOnBoard.rhs`: the normal law and
-    the regularised friction of every corner below the board) and takes back the force
-    m·(v̇ + g·e_z) and the torque R·(I·ω̇ + ω × I·ω)."""
+    the regularised Coulomb friction of every corner below the board) and takes back the force
+    m·(v̇ + g·e_z) and the torque R·(I·ω̇ + ω × I·ω).
+
+    :meth:`values` is the same computation on plain floats (an injected replay's every step):
+    the 3-vector arithmetic in Python floats — the same IEEE operations as numpy's
+    element-wise ones —, the quaternion's norms and the two rotations by R still numpy's
+    (BLAS: the summation order and fused multiply–adds are the library's, so the floats are
+    the library's too)."""
 
     def __init__(self, params: BoxContactParams, box: Box | None = None, board_z_m: float = 0.0,
                  gravity_m_s2: float = GRAVITY_M_S2) -> None:
@@ -478,24 +497,46 @@ class CornerWrench:
         self.reach = box.half_width_m * math.sqrt(3.0)
         self.m = box.mass_kg
         self.inertia = box.inertia
+        self._inertia = tuple(self.inertia.tolist())
+        self._mg = self.m * self.g
         self.zero = (np.zeros(3), np.zeros(3))
 
     def __call__(self, p: np.ndarray, q: np.ndarray, v: np.ndarray, w_world: np.ndarray
                  ) -> tuple[np.ndarray, np.ndarray]:
         if p[2] - self.reach >= self.board_z:
             return self.zero
-        q = np.asarray(q, dtype=float)
-        q = q / math.sqrt(float(q @ q))
-        rot = quat_matrix(q)
-        w_body = rot.T @ np.asarray(w_world, dtype=float)
-        d = self.model.rhs(0.0, np.concatenate([p, q, v, w_body]))
-        force = self.m * d[7:10]
-        force[2] += self.m * self.g
-        iw = self.inertia * w_body
-        torque_body = self.inertia * d[10:13] + np.cross(w_body, iw)
-        return force, rot @ torque_body
+        out = self.values(*np.asarray(p, dtype=float).tolist(),
+                          *np.asarray(q, dtype=float).tolist(),
+                          *np.asarray(v, dtype=float).tolist(),
+                          *np.asarray(w_world, dtype=float).tolist())
+        return np.array(out[:3]), np.array(out[3:])
+
+    def values(self, px: float, py: float, pz: float, q0: float, q1: float, q2: float,
+               q3: float, vx: float, vy: float, vz: float, wx: float, wy: float, wz: float
+               ) -> tuple[float, float, float, float, float, float]:
+        """(F_x, F_y, F_z, τ_x, τ_y, τ_z) (N, N·m; board frame) at the state p (m), q (w, x,
+        y, z), v (m/s), ω (rad/s, board frame), as plain floats; :data:`ZERO_WRENCH` when no
+        corner can reach the board."""
+        if pz - self.reach >= self.board_z:
+            return ZERO_WRENCH
+        q = np.array((q0, q1, q2, q3))
+        s = math.sqrt(float(q.dot(q)))               # |q| as numpy's dot (BLAS)
+        q0, q1, q2, q3 = q0 / s, q1 / s, q2 / s, q3 / s
+        q = np.array((q0, q1, q2, q3))
+        s = math.sqrt(float(q.dot(q)))               # quat_matrix normalises again
+        rot = _matrix(q0 / s, q1 / s, q2 / s, q3 / s)
+        wb0, wb1, wb2 = rot.T.dot(np.array((wx, wy, wz))).tolist()   # ω, body frame
+        d = self.model.rhs(0.0, np.array((px, py, pz, q0, q1, q2, q3, vx, vy, vz,
+                                          wb0, wb1, wb2))).tolist()
+        m, (ia, ib, ic) = self.m, self._inertia
+        iw0, iw1, iw2 = ia * wb0, ib * wb1, ic * wb2
+        tb = np.array((ia * d[10] + (wb1 * iw2 - wb2 * iw1),     # I·ω̇ + ω × Iω
+                       ib * d[11] + (wb2 * iw0 - wb0 * iw2),
+                       ic * d[12] + (wb0 * iw1 - wb1 * iw0)))
+        t0, t1, t2 = rot.dot(tb).tolist()
+        return (m * d[7], m * d[8], m * d[9] + self._mg, t0, t1, t2)
 
 
-__all__ = ["ATOL", "DAIR_CUBE", "LAWS", "MAX_STEP_S", "METHOD", "RTOL", "Box", "BoxContactParams",
-           "BoxOnBoard", "CornerWrench", "IntegrationBudgetExceeded", "Trajectory", "initial_state",
-           "integrate_box", "quat_matrix", "quat_multiply"]
+__all__ = ["ATOL", "DAIR_CUBE", "LAWS", "MAX_STEP_S", "METHOD", "RTOL", "ZERO_WRENCH", "Box",
+           "BoxContactParams", "BoxOnBoard", "CornerWrench", "IntegrationBudgetExceeded",
+           "Trajectory", "initial_state", "integrate_box", "quat_matrix", "quat_multiply"]
