@@ -15,6 +15,8 @@ n = 3/2, b = 0.1 s/m, V0 = 0.5, 1, 2, 3, 4, 5 m/s (MODELS.md §1). Every curve c
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from concurrent.futures import Executor
 from pathlib import Path
 from typing import Any
 
@@ -26,6 +28,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from scipy import special
 
+from impactbench.figures.pool import IN_PROCESS
 from impactbench.reference import hunt_crossley as hc
 from impactbench.reference.scenarios import PAPER_VELOCITIES_M_S, BallOnPlate
 
@@ -181,8 +184,15 @@ FIGURES = (
 )
 
 
-def write(out_dir: Path) -> list[Path]:
-    """Write the seven PNGs into ``out_dir``; return their paths in figure order."""
+def draw(out_dir: Path, pool: Executor) -> Callable[[], list[Path]]:
+    """Queue the seven PNGs on ``pool``, one task each; returns what waits for them and gives
+    their paths in figure order."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    return [make(out_dir / name) for name, make in FIGURES]
+    futures = [pool.submit(make, out_dir / name) for name, make in FIGURES]
+    return lambda: [f.result() for f in futures]
+
+
+def write(out_dir: Path) -> list[Path]:
+    """Write the seven PNGs into ``out_dir`` (here, in figure order); return their paths."""
+    return draw(out_dir, IN_PROCESS)()

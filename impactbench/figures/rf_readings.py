@@ -24,6 +24,7 @@ reproduces the most (``reports/rigid_flexible.md``); each other reading changes 
 from __future__ import annotations
 
 from collections.abc import Callable
+from concurrent.futures import Executor
 from typing import Any
 
 import numpy as np
@@ -83,13 +84,35 @@ SOLVER_READINGS = ("ode45",)
 """Readings of the solver rather than of the equations (never the default)."""
 
 
+_V1_LATER: dict[str, Any] = {"reg2": None, "reg3": None}
+"""What a reading that leaves the v1 sweep computes with: its ``reg2``/``reg3`` are the default
+reading's, filled in once that one is done (:func:`draw_numbers`)."""
+
+
+def draw_numbers(pool: Executor) -> Callable[[], dict[str, dict[str, Any]]]:
+    """:func:`numbers` of every reading, each a task of ``pool``; returns what waits for them
+    and gives :func:`all_numbers`' mapping (the v1 sweep shared where a reading leaves it:
+    the default's ``reg2`` and ``reg3``)."""
+    futures = {name: pool.submit(numbers, name, name in SOLVER_READINGS,
+                                 None if name in V1_SWEEP_READINGS else _V1_LATER)
+               for name in READINGS}
+
+    def collect() -> dict[str, dict[str, Any]]:
+        out: dict[str, dict[str, Any]] = {}
+        for name, future in futures.items():
+            out[name] = future.result()
+            if name not in V1_SWEEP_READINGS:
+                out[name].update(reg2=out["default"]["reg2"], reg3=out["default"]["reg3"])
+        return out
+
+    return collect
+
+
 def all_numbers() -> dict[str, dict[str, Any]]:
     """:func:`numbers` of every reading; the v1 sweep is shared where a reading leaves it."""
-    out: dict[str, dict[str, Any]] = {}
-    for name in READINGS:
-        shared = None if name in V1_SWEEP_READINGS else out["default"]
-        out[name] = numbers(name, coarse=name in SOLVER_READINGS, v1_from=shared)
-    return out
+    from impactbench.figures.pool import IN_PROCESS
+
+    return draw_numbers(IN_PROCESS)()
 
 
 def _v1_numbers(run: Callable[[RigidFlexible], dict[str, Any]], coarse: bool

@@ -16,6 +16,8 @@ sweeps; :data:`SWEEP_VELOCITY_M_S` = 30 m/s reproduces its stiff/heavy-body perc
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from concurrent.futures import Executor, Future
 from pathlib import Path
 from typing import Any
 
@@ -27,6 +29,7 @@ import numpy as np
 import pandas as pd
 
 from impactbench.figures import rf_readings
+from impactbench.figures.pool import IN_PROCESS
 from impactbench.reference import two_dof
 from impactbench.reference.scenarios import RigidFlexible
 
@@ -137,26 +140,63 @@ def _metric_figure(path: Path, num: int, df: pd.DataFrame, field: str, metric: s
     plt.close(fig)
 
 
+def report_path(out_dir: Path) -> Path:
+    """Where :func:`write` puts the report by default: ``out_dir/../rigid_flexible.md``."""
+    return Path(out_dir).parent / "rigid_flexible.md"
+
+
+def side_files(out_dir: Path) -> list[Path]:
+    """Files written besides the PNGs :func:`write` returns: the report."""
+    return [report_path(out_dir)]
+
+
+METRIC_COLUMNS = ("local", "structure", "status")
+"""The sweep columns a metric figure reads besides its parameter and metric (a task gets only
+these: a smaller pickle, the same curves)."""
+
+
+def draw(out_dir: Path, pool: Executor, report: Path | None = None,
+         execution: dict[str, Any] | None = None) -> Callable[[], list[Path]]:
+    """Queue rf_fig03 … rf_fig18 on ``pool``, one task a figure, and the readings
+    (:func:`impactbench.figures.rf_readings.draw_numbers`); returns what waits for them,
+    writes the report (default :func:`report_path`) and gives the PNG paths in figure order.
+    The force histories and the readings need no sweep: they are queued first, and the
+    sweeps (:func:`sweeps`, ``execution``) are solved here meanwhile; then the metric
+    figures."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    futures: dict[int, tuple[Path, Future]] = {}
+    for num, over, field, _, values, label, scale in SWEEPS:
+        p = out_dir / f"rf_fig{num:02d}_history_{over}.png"
+        futures[num] = p, pool.submit(_history_figure, p, num, over, field, values, label,
+                                      scale)
+    readings = rf_readings.draw_numbers(pool)
+    data = sweeps(execution)
+    for num, over, field, _, _shown, label, scale in SWEEPS:
+        for k, (metric, ylabel, yscale) in enumerate(METRICS, start=1):
+            p = out_dir / f"rf_fig{num + k:02d}_{metric.rsplit('_', 1)[0]}_{over}.png"
+            columns = data[over][[field, metric, *METRIC_COLUMNS]]
+            futures[num + k] = p, pool.submit(_metric_figure, p, num + k, columns, field,
+                                              metric, ylabel, yscale, label, scale)
+
+    def collect() -> list[Path]:
+        paths = []
+        for num in sorted(futures):
+            p, future = futures[num]
+            future.result()
+            paths.append(p)
+        write_report(report or report_path(out_dir), data, paths, readings())
+        return paths
+
+    return collect
+
+
 def write(out_dir: Path, report: Path | None = None,
           execution: dict[str, Any] | None = None) -> list[Path]:
     """Write rf_fig03 … rf_fig18 into ``out_dir`` and the report (default:
     ``out_dir/../rigid_flexible.md``); return the PNG paths. ``execution``: see
     :func:`sweeps`."""
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    data = sweeps(execution)
-    paths: list[Path] = []
-    for num, over, field, _, values, label, scale in SWEEPS:
-        p = out_dir / f"rf_fig{num:02d}_history_{over}.png"
-        _history_figure(p, num, over, field, values, label, scale)
-        paths.append(p)
-        for k, (metric, ylabel, yscale) in enumerate(METRICS, start=1):
-            p = out_dir / f"rf_fig{num + k:02d}_{metric.rsplit('_', 1)[0]}_{over}.png"
-            _metric_figure(p, num + k, data[over], field, metric, ylabel, yscale, label, scale)
-            paths.append(p)
-    readings = rf_readings.all_numbers()
-    write_report(report or out_dir.parent / "rigid_flexible.md", data, paths, readings)
-    return paths
+    return draw(out_dir, IN_PROCESS, report, execution)()
 
 
 def combo(df: pd.DataFrame, local: str, structure: str) -> pd.DataFrame:

@@ -13,6 +13,8 @@ clipped at F ≥ 0. Files:
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from concurrent.futures import Executor
 from pathlib import Path
 
 import matplotlib
@@ -24,6 +26,7 @@ import numpy as np
 import pandas as pd
 from tabulate import tabulate
 
+from impactbench.figures.pool import IN_PROCESS
 from impactbench.reference.models import MODEL_CITATIONS, MODELS
 from impactbench.reference.zoo import restitution_table
 
@@ -69,10 +72,24 @@ def figure(path: Path) -> Path:
     return path
 
 
-def write(out_dir: Path) -> list[Path]:
-    """Write the figure and the table (CSV, Markdown) into ``out_dir``."""
+def tables(out_dir: Path) -> list[Path]:
+    """Write the table as CSV and Markdown into ``out_dir``; their paths."""
     csv = out_dir / "zoo_restitution.csv"
     table().to_csv(csv, index=False, float_format="%.10g")
     md = out_dir / "zoo_restitution.md"
     md.write_text("# Nominal against effective restitution\n\n" + markdown() + "\n")
-    return [figure(out_dir / "zoo_restitution.png"), csv, md]
+    return [csv, md]
+
+
+def draw(out_dir: Path, pool: Executor) -> Callable[[], list[Path]]:
+    """Queue the figure and the tables on ``pool`` (two tasks); returns what waits for them
+    and gives the paths: figure, CSV, Markdown."""
+    out_dir = Path(out_dir)
+    png = pool.submit(figure, out_dir / "zoo_restitution.png")
+    rest = pool.submit(tables, out_dir)
+    return lambda: [png.result(), *rest.result()]
+
+
+def write(out_dir: Path) -> list[Path]:
+    """Write the figure and the table (CSV, Markdown) into ``out_dir``."""
+    return draw(out_dir, IN_PROCESS)()
