@@ -40,11 +40,11 @@ the adapter's overhead over a bare Featherstone loop.
    one after another, alternated, medians and the median per-round ratio; the objects are
    checked equal first (NaN = NaN: failed runs' metrics).
 
-5. Cold start (``--cold`` alone): a fresh process with warp's kernel cache empty (a
-   temporary ``WARP_CACHE_PATH``), then again with it filled: the import and the first
-   native run of each scenario in turn.
+5. Cold start (``--cold`` alone): for each scenario a fresh process with warp's kernel cache
+   empty (a temporary ``WARP_CACHE_PATH`` of its own), then another with it filled: the
+   import and the scenario's first native run (its default step).
 
-Run: ``python -m benchmarks bench_engine_newton`` (``-- --report``, ``-- --cold``).
+Run: ``python -m benchmarks bench_engine_newton`` (``... --report``, ``... --cold``).
 """
 
 from __future__ import annotations
@@ -378,26 +378,28 @@ for name in sys.argv[1:]:
 
 
 def cold_start() -> list[dict[str, Any]]:
-    """Newton's first runs in a fresh process, warp's kernel cache empty (a temporary
-    ``WARP_CACHE_PATH``: every kernel module compiled) and then warm (the same cache, now
-    filled): the import and the first native run of each scenario in turn (s; each run
-    compiles, or loads, what the runs before it have not)."""
-    cache = tempfile.mkdtemp(prefix="warp_cold_")
-    rows: dict[str, dict[str, Any]] = {}
-    try:
-        for side in ("cold", "warm"):
-            out = subprocess.run([sys.executable, "-c", COLD_SCRIPT, *COLD_RUNS.values()],
-                                 env={**os.environ, "WARP_CACHE_PATH": cache},
-                                 capture_output=True, text=True, check=True).stdout
-            for line in out.splitlines():
-                parts = line.split("\t")
-                if len(parts) == 3:
-                    row = rows.setdefault(parts[0], {"first": parts[0]})
-                    row[f"{side} s"] = float(parts[1])
-                    row["status"] = parts[2]
-    finally:
-        shutil.rmtree(cache, ignore_errors=True)
-    return list(rows.values())
+    """Each scenario's first run in a fresh process with warp's kernel cache empty (a
+    temporary ``WARP_CACHE_PATH`` of its own: every kernel module the run needs compiled),
+    then in another with that cache filled (warm); and the import (s)."""
+    rows = []
+    for label, scenario in COLD_RUNS.items():
+        cache = tempfile.mkdtemp(prefix="warp_cold_")
+        row: dict[str, Any] = {"first run": label}
+        try:
+            for side in ("cold", "warm"):
+                out = subprocess.run([sys.executable, "-c", COLD_SCRIPT, scenario],
+                                     env={**os.environ, "WARP_CACHE_PATH": cache},
+                                     capture_output=True, text=True, check=True).stdout
+                for line in out.splitlines():
+                    parts = line.split("\t")
+                    if len(parts) == 3 and parts[0] == "import":
+                        row[f"{side} import s"] = float(parts[1])
+                    elif len(parts) == 3:
+                        row[f"{side} run s"], row["status"] = float(parts[1]), parts[2]
+        finally:
+            shutil.rmtree(cache, ignore_errors=True)
+        rows.append(row)
+    return rows
 
 
 def _table(rows: list[dict[str, Any]]) -> str:
@@ -421,8 +423,8 @@ def main() -> None:
         print(_table(report_batches(rounds)))
         print()
     if "--cold" in args or not {"--report", "--cold"} & set(args):
-        print(f"Newton {version}: first runs in a fresh process, warp's kernel cache empty "
-              f"(cold) and filled (warm), s")
+        print(f"Newton {version}: each scenario's first run in a fresh process, warp's "
+              f"kernel cache empty (cold) and filled (warm), s")
         print(_table(cold_start()))
         print()
     if {"--report", "--cold"} & set(args):

@@ -84,6 +84,12 @@ CPU state arrays (one ``tolist`` per step), evaluates the law in Python (its mem
 writes ke into the shapes' ``shape_material_ke`` view before the step's graph launch. Each
 record equals the step-by-step path's (``graphs=False``: the same kernels launched eagerly)
 and the former Python-loop adapter's bit for bit (measured on the default report's runs).
+Warp compiles each kernel module on first use into its kernel cache
+(``warp.config.kernel_cache_dir``, by default under the user's cache directory; forward
+passes only, :data:`FORWARD_ONLY`): eleven modules, the Featherstone solver's the largest,
+≈ 25–35 s for the first run on a 2-core machine (≈ 65 s with the backward passes), whichever
+scenario it is (they share every module); later processes load them in well under a
+second. Newton's collision pipeline still generates its kernels per model (about 0.1 s).
 
 Batches (``Adapter.run_many``: each scenario's ``Builder.batch``, :func:`run_ball_batch`,
 :func:`run_rigid_flexible_batch`, :func:`run_oblique_batch`, :func:`run_bounce_batch`): the
@@ -98,10 +104,6 @@ record equals the lone run's bit for bit (tested, and measured on every Newton r
 default report). Most of a lone run's wall time is its set-up (the model, Newton's collision
 pipeline generating its narrow-phase kernels, the graph capture: 0.2–0.4 s), which a batch
 pays once.
-Warp compiles each kernel module on first use (18–40 s per solver on this machine kind) into
-its kernel cache (``warp.config.kernel_cache_dir``, by default under the user's cache
-directory), so later processes load them in well under a second; Newton's collision pipeline
-still generates its kernels per model (about 0.1 s a run).
 """
 
 from __future__ import annotations
@@ -159,14 +161,24 @@ RIGID_FLEXIBLE_TIMESTEP_S = 1e-5
 PARAMETER_KEYS: tuple[str, ...] = ("ke", "kd", "kf", "mu")
 """Newton's ShapeConfig contact parameters accepted in ``custom`` mode."""
 SOLVER = "featherstone"
+FORWARD_ONLY = True
+"""Compile warp's kernels without their backward (adjoint) passes (``warp.config.
+enable_backward = False``, set before newton is imported, for the process: no run here takes
+a gradient). The forward code is the same, so every record is too (measured: the default
+report's Newton runs and the cube tosses, bit for bit); a cold first run compiles in about
+half the time (the Featherstone and articulation modules' backward passes were most of it)."""
 
 
 @functools.lru_cache(maxsize=1)
 def _newton() -> tuple[Any, Any]:
-    """(warp, newton), warp quiet and initialised; EngineUnavailable if missing."""
+    """(warp, newton), warp quiet, forward only (:data:`FORWARD_ONLY`) and initialised;
+    EngineUnavailable if missing."""
     try:
-        import newton
         import warp as wp
+
+        if FORWARD_ONLY:  # before newton defines its kernels: a module takes it when made
+            wp.config.enable_backward = False
+        import newton
     except ImportError as exc:
         raise EngineUnavailable("newton", str(exc)) from exc
     wp.config.quiet = True  # no device banner on stdout
