@@ -38,7 +38,9 @@ the adapter's overhead over a bare Featherstone loop.
    plan, a phased job once per phase) through one :func:`impactbench.evaluate.compare_many`
    (each scenario's batch: a world per run) against :func:`impactbench.evaluate.compare`
    one after another, alternated, medians and the median per-round ratio; the objects are
-   checked equal first (NaN = NaN: failed runs' metrics).
+   checked equal first (NaN = NaN: failed runs' metrics). Then the same runs through
+   ``Adapter.run_many`` of the adapter before these batches (git
+   :data:`BATCHES_BEFORE_COMMIT`: the ball's batch only) against now.
 
 5. Cold start (``--cold`` alone): for each scenario a fresh process with warp's kernel cache
    empty (a temporary ``WARP_CACHE_PATH`` of its own), then another with it filled: the
@@ -49,6 +51,7 @@ Run: ``python -m benchmarks bench_engine_newton`` (``... --report``, ``... --col
 
 from __future__ import annotations
 
+import atexit
 import dataclasses
 import functools
 import importlib.util
@@ -96,28 +99,28 @@ Runner = Callable[[Any, str, RunSettings], Any]
 # --------------------------------------------------------------------------- the sides
 
 
-def _load_before() -> tuple[ModuleType | None, str]:
-    """The pre-change adapter module and where it came from (None: not loadable)."""
-    path = os.environ.get(BEFORE_ENV)
-    source = f"${BEFORE_ENV} = {path}"
+def _load_before(commit: str = BEFORE_COMMIT, env: str | None = BEFORE_ENV
+                 ) -> tuple[ModuleType | None, str]:
+    """The adapter module as it was at ``commit`` (or in the file ``$env`` names) and where
+    it came from (None: not loadable)."""
+    path = os.environ.get(env) if env else None
+    source = f"${env} = {path}"
     try:
         if not path:
             repo = Path(__file__).resolve().parent.parent
             text = subprocess.run(
-                ["git", "show", f"{BEFORE_COMMIT}:engines/newton_adapter.py"], cwd=repo,
+                ["git", "show", f"{commit}:engines/newton_adapter.py"], cwd=repo,
                 capture_output=True, text=True, check=True).stdout
             handle = tempfile.NamedTemporaryFile("w", suffix="_newton_before.py", delete=False)
             with handle:
                 handle.write(text)
-            path, source = handle.name, f"git {BEFORE_COMMIT[:7]}"
-        spec = importlib.util.spec_from_file_location("impactbench_newton_before", path)
+            path, source = handle.name, f"git {commit[:7]}"
+        spec = importlib.util.spec_from_file_location(f"impactbench_newton_{commit[:7]}", path)
         module = importlib.util.module_from_spec(spec)
         sys.modules[spec.name] = module  # dataclasses look their module up
-        try:
-            spec.loader.exec_module(module)
-        finally:
-            if source.startswith("git"):
-                Path(path).unlink()
+        if source.startswith("git"):  # warp reads a kernel's source when it is defined
+            atexit.register(Path(path).unlink, missing_ok=True)
+        spec.loader.exec_module(module)
         module.NewtonAdapter().version()
     except Exception as exc:
         return None, f"not loadable ({type(exc).__name__}: {exc})"
@@ -284,6 +287,8 @@ def overhead(repeats: int = REPEATS) -> list[dict[str, Any]]:
 
 REPORT_SCENARIOS = ("ball-on-plate", "rigid-flexible", "oblique", "bounce")
 REPORT_ROUNDS = 3
+BATCHES_BEFORE_COMMIT = "73ac2d797f25cfa96208551218b1e5ba523ae78d"
+"""The last commit whose Newton adapter batched the ball alone (injected runs alone)."""
 
 
 def report_items(scenario: str) -> list[tuple[Any, str, RunSettings, dict[str, Any]]]:
@@ -349,6 +354,52 @@ def report_batches(rounds: int = REPORT_ROUNDS) -> list[dict[str, Any]]:
                      "compare_many s": statistics.median(times["compare_many"]),
                      "new/old": median_ratio(times["compare_many"], times["one by one"])})
     return rows
+
+
+def run_many_before_after(rounds: int = REPORT_ROUNDS) -> list[dict[str, Any]]:
+    """One row per scenario: the report's Newton runs (:func:`report_items`, as
+    :func:`~impactbench.evaluate.compare_many` hands them on) through ``Adapter.run_many`` of
+    the adapter before these batches (:data:`BATCHES_BEFORE_COMMIT`: the ball's batch only,
+    injected runs alone) and of the current one, alternated (medians over ``rounds``), after
+    a warm-up whose records are checked equal (every array, NaN = NaN, and the meta's repr,
+    ``wall_s`` aside)."""
+    from impactbench import evaluate
+
+    before, source = _load_before(BATCHES_BEFORE_COMMIT, None)
+    if before is None:
+        print(f"before batches: {source}")
+        return []
+    old, new = before.NewtonAdapter(), get_adapter("newton")
+    rows = []
+    for scenario in REPORT_SCENARIOS:
+        items = []
+        for built, mode, settings, ref in report_items(scenario):
+            prepared = evaluate._prepared("newton", built, mode, settings, ref)
+            items.append((prepared[0], mode, prepared[1]))
+        equal = sum(_same_record(a, b) for a, b in zip(old.run_many(items),
+                                                       new.run_many(items), strict=True))
+        times = alternate({"before": lambda items=items: old.run_many(items),
+                           "now": lambda items=items: new.run_many(items)}, rounds)
+        rows.append({"scenario": scenario, "runs": len(items),
+                     "equal": f"{equal}/{len(items)}",
+                     f"before ({source}) s": statistics.median(times["before"]),
+                     "now s": statistics.median(times["now"]),
+                     "now/before": median_ratio(times["now"], times["before"])})
+    return rows
+
+
+def _same_record(a: Any, b: Any) -> bool:
+    """Two records equal to the last bit: status, message, every array (NaN = NaN) and the
+    meta's repr (``wall_s`` aside)."""
+    arrays = ("time_s", "penetration_m", "penetration_rate_m_s", "normal_force_n",
+              "velocity_1_m_s", "velocity_2_m_s", "displacement_2_m",
+              "tangential_velocity_m_s", "spin_rad_s", "tangential_force_n")
+    meta = [repr({k: v for k, v in r.meta.items() if k != "wall_s"}) for r in (a, b)]
+    return (a.status, a.message) == (b.status, b.message) and meta[0] == meta[1] and all(
+        (getattr(a, n) is None and getattr(b, n) is None) or (
+            getattr(a, n) is not None and getattr(b, n) is not None
+            and np.array_equal(getattr(a, n), getattr(b, n), equal_nan=True))
+        for n in arrays)
 
 
 # --------------------------------------------------------------------------- cold start
@@ -421,6 +472,10 @@ def main() -> None:
               f"compare_many (a world per run) against compare one by one (alternated, "
               f"medians of {rounds}; 'equal': objects equal to the last bit, NaN = NaN)")
         print(_table(report_batches(rounds)))
+        print()
+        print(f"Newton {version}: the same runs through Adapter.run_many, the adapter before "
+              f"these batches against now (alternated, medians of {rounds})")
+        print(_table(run_many_before_after(rounds)))
         print()
     if "--cold" in args or not {"--report", "--cold"} & set(args):
         print(f"Newton {version}: each scenario's first run in a fresh process, warp's "
