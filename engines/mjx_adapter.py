@@ -55,8 +55,9 @@ contact starts at amplifies it).
 
 from __future__ import annotations
 
+import contextlib
 import functools
-import math
+import io
 import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -99,8 +100,10 @@ from impactbench.engines.mujoco_adapter import (
     measured_diag_a,
     native_or_tuned,
     oblique_end_finder,
+    oblique_mjcf,
     oblique_outcome_record,
     oblique_start,
+    pair_plan,
     prepare_oblique,
     rigid_flexible_end_finder,
     rigid_flexible_mjcf,
@@ -117,10 +120,24 @@ BALL_CHUNK = 512
 """Steps per compiled scan for the ball (one chunk covers a 1 m/s impact at dt = 1e-6 s)."""
 RIGID_FLEXIBLE_CHUNK = 2048
 """Steps per compiled scan for the rigid–flexible model."""
+BATCH_MIN_WORLDS = 16
+"""The fewest worlds :func:`run_ball_batch` steps as one ``vmap``: a smaller group runs one
+by one (a vmapped step costs about 5 lone ball steps besides ~0.25 of one per world on
+this CPU, and its compiled loop is traced anew in each process)."""
+MIN_CHUNK = 64
+"""The fewest steps a run asks for after its first look for the end (the plan's chunk is at
+least this): a compiled call costs about as much as 50 ball steps besides its steps."""
 COMPILE_CACHE_DIR = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) \
     / "impactbench" / "jax"
 """jax's persistent compilation cache, unless ``JAX_COMPILATION_CACHE_DIR`` sets another: the
 2–5 s compile of each scan happens once per machine, not once per process."""
+
+
+WARP_BACKEND = "mujoco.mjx.third_party.mujoco_warp"
+"""MJX's bundled MuJoCo Warp (its ``impl="warp"`` backend, for NVIDIA GPUs): importing
+``mujoco.mjx`` imports it where ``warp`` is installed (Newton's), defining its Warp kernels,
+~4 s of every process's first MJX use; this adapter runs MJX's JAX backend on the CPU, which
+never calls it, so :func:`_mjx` imports MJX without it (unless it is already imported)."""
 
 
 @functools.lru_cache(maxsize=1)
@@ -129,6 +146,7 @@ def _mjx() -> tuple[Any, Any, Any]:
     try:
         import jax
         import mujoco
+        _import_mjx_without_warp()
         from mujoco import mjx
     except ImportError as exc:
         raise EngineUnavailable("mjx", str(exc)) from exc
@@ -136,6 +154,23 @@ def _mjx() -> tuple[Any, Any, Any]:
     if not jax.config.jax_compilation_cache_dir:  # keep compiled scans across processes
         jax.config.update("jax_compilation_cache_dir", str(COMPILE_CACHE_DIR))
     return mujoco, jax, mjx
+
+
+def _import_mjx_without_warp() -> None:
+    """Import ``mujoco.mjx`` with :data:`WARP_BACKEND` held off: MJX catches the ImportError
+    (it prints one line, kept from stdout here) and leaves its Warp backend unset. Nothing
+    is held off where MJX or that module is already imported."""
+    import sys
+
+    if "mujoco.mjx" in sys.modules or WARP_BACKEND in sys.modules:
+        return
+    sys.modules[WARP_BACKEND] = None  # type: ignore[assignment]  # import raises ImportError
+    try:
+        with contextlib.redirect_stdout(io.StringIO()):
+            import mujoco.mjx  # noqa: F401
+    finally:
+        if sys.modules.get(WARP_BACKEND, 0) is None:
+            del sys.modules[WARP_BACKEND]
 
 
 # --------------------------------------------------------------------------- compiled stepping
@@ -158,30 +193,42 @@ def _secant_solref(p: Any, x: Any) -> Any:
     return jnp.stack([-k * a, -d * a])
 
 
-def _secant_control(mx: Any, dx: Any, p: Any) -> tuple[Any, Any]:
-    """The injected law's direct solref (:func:`_secant_solref`) at the step's start on
-    every geom, p = (c, n, b, d0, A) (slide joint: the penetration is −q)."""
+def _ball_control(mx: Any, dx: Any, p: Any) -> tuple[Any, Any]:
+    """The ball's per-step control, p = (on, c, n, b, d0, A): with ``on`` (injected), the
+    law's direct solref (:func:`_secant_solref`) at the step's start on every geom (slide
+    joint: the penetration is −q); without, the model's own solref, untouched (a select
+    of its very values: the other modes' step, bit for bit). One control for every mode,
+    so that one compiled loop serves them all."""
     jnp = _mjx()[1].numpy
-    solref = _secant_solref(p, -dx.qpos[0])
-    return mx.replace(geom_solref=jnp.broadcast_to(solref, mx.geom_solref.shape)), dx
+    secant = jnp.broadcast_to(_secant_solref(p[1:], -dx.qpos[0]), mx.geom_solref.shape)
+    return mx.replace(geom_solref=jnp.where(p[0] > 0.0, secant, mx.geom_solref)), dx
 
 
-def _cubic_control(mx: Any, dx: Any, p: Any) -> tuple[Any, Any]:
-    """The softening structure's cubic term +β·x2³ on joint 2; p = (β,)."""
-    return mx, dx.replace(qfrc_applied=dx.qfrc_applied.at[1].set(p[0] * dx.qpos[1] ** 3))
+def ball_parameters(injected: np.ndarray | None = None) -> np.ndarray:
+    """:func:`_ball_control`'s p: (1, the law's (c, n, b, d0, A)) for injected's
+    (:func:`injected_parameters`), else off (zeros)."""
+    return np.zeros(6) if injected is None else np.append(1.0, injected)
 
 
-CONTROLS = {"none": _no_control, "secant": _secant_control,
-            "cubic": _cubic_control}
+def _pair_control(mx: Any, dx: Any, p: Any) -> tuple[Any, Any]:
+    """The rigid–flexible per-step control, p = (β,): the softening structure's cubic term
+    +β·x2³ on joint 2; with β = 0 (a linear structure) the applied force untouched (a
+    select of its very value), so that one compiled loop serves both structures."""
+    jnp = _mjx()[1].numpy
+    cubic = jnp.where(p[0] != 0.0, p[0] * dx.qpos[1] ** 3, dx.qfrc_applied[1])
+    return mx, dx.replace(qfrc_applied=dx.qfrc_applied.at[1].set(cubic))
+
+
+CONTROLS = {"none": _no_control, "ball": _ball_control, "pair": _pair_control}
 """Per-step changes applied inside the scan before each ``mjx.step``."""
 
 
 @functools.lru_cache(maxsize=2)
 def _compiled_scan(sensor_width: int) -> Any:
-    """``scan(mx, dx, p, length, control) → (dx, (qpos, qvel, force))``, jitted; the force
-    per step is the contact sensor's first value (the normal force), or with
-    ``sensor_width`` its first that many (the oblique impact's force and contact frame,
-    :data:`~impactbench.engines.mujoco_adapter.OBLIQUE_SENSOR_WIDTH`)."""
+    """``scan(mx, dx, p, length, control) → (dx, (qpos, qvel, force))``, jitted, for the raw
+    batch (:func:`ball_batch`); the force per step is the contact sensor's first value (the
+    normal force), or with ``sensor_width`` its first that many. The adapter's runs step in
+    :func:`_stepper`'s calls (the same step, bit for bit: tested)."""
     _, jax, mjx = _mjx()
 
     def scan(mx: Any, dx: Any, p: Any, length: int, control: str) -> Any:
@@ -202,38 +249,239 @@ def _compiled_scan(sensor_width: int) -> Any:
 
 @functools.lru_cache(maxsize=1)
 def _compiled_forward() -> Any:
+    """``mjx.forward``, jitted (on the pytrees)."""
     _, jax, mjx = _mjx()
     return jax.jit(mjx.forward)
 
 
+@functools.lru_cache(maxsize=16)
+def _stepper(mtree: Any, dtree: Any, sensor_width: int, control: str, capacity: int,
+             batched: tuple[int, ...] | None = None) -> Any:
+    """``step(m, d, p, n) → (d, (qpos, qvel, force))``, jitted: ``n`` ≤ ``capacity`` steps
+    (``n`` a run-time count, so one compile serves every count) of ``mjx.step`` with the
+    per-step ``control`` (:data:`CONTROLS`) from the model and data given as the flat leaves
+    of their trees ``mtree``, ``dtree`` (passing the mjx dataclasses to a jitted call costs
+    milliseconds of Python per call; their leaves do not). Sample k is the state at the
+    start of step k and the contact sensor's first value (the normal force) or first
+    ``sensor_width`` values after it, in rows of buffers of ``capacity`` rows (the rows from
+    ``n`` on are zeros). ``batched``: ``vmap``-ed over worlds — each world's data and the
+    model leaves at those indices, ``step(m, m_worlds, d_worlds, p, n)``."""
+    _, jax, mjx = _mjx()
+    jnp = jax.numpy
+    tree = jax.tree_util
+    change = CONTROLS[control]
+
+    def run(m_leaves: Any, d_leaves: Any, p: Any, n: Any) -> Any:
+        mx = tree.tree_unflatten(mtree, m_leaves)
+        dx = tree.tree_unflatten(dtree, d_leaves)
+        width = (sensor_width,) if sensor_width else ()
+        bufs = (jnp.zeros((capacity, *dx.qpos.shape), dx.qpos.dtype),
+                jnp.zeros((capacity, *dx.qvel.shape), dx.qvel.dtype),
+                jnp.zeros((capacity, *width), dx.sensordata.dtype))
+
+        def body(i: Any, carry: Any) -> Any:
+            dx, (qs, vs, fs) = carry
+            mx_k, dx = change(mx, dx, p)
+            q, v = dx.qpos, dx.qvel
+            dx = mjx.step(mx_k, dx)
+            # the contact sensor of the step just taken
+            f = dx.sensordata[:sensor_width] if sensor_width else dx.sensordata[0]
+            return dx, (qs.at[i].set(q), vs.at[i].set(v), fs.at[i].set(f))
+
+        dx, bufs = jax.lax.fori_loop(0, n, body, (dx, bufs))
+        return tree.tree_leaves(dx), bufs
+
+    if batched is None:
+        return jax.jit(run)
+
+    def world(m_leaves: Any, m_world: Any, d_leaves: Any, p: Any, n: Any) -> Any:
+        leaves = list(m_leaves)
+        for i, leaf in zip(batched, m_world, strict=True):
+            leaves[i] = leaf
+        return run(leaves, d_leaves, p, n)
+
+    return jax.jit(jax.vmap(world, in_axes=(None, 0, 0, None, None)))
+
+
+@dataclass
+class _Template:
+    """One MJCF's compiled model in MJX's form, flat (:func:`_template`): the tree of
+    ``mjx.put_model`` (its hfield-only static bound zeroed where the model has no height
+    field, so that models differing only in sizes share one compiled step) and of
+    ``mjx.put_data``, where each model leaf comes from in the MjModel, and the data leaves
+    of a fresh MjData. ``exact`` when rebuilding the leaves from the filling model and its
+    run's data reproduced ``put_model``'s and ``put_data``'s exactly (checked once, when the
+    template is made); otherwise every run goes through ``put_model``/``put_data``."""
+
+    mtree: Any
+    dtree: Any
+    sources: list[tuple[str, ...] | None]
+    """Per model leaf, its attribute path in the MjModel (None: a constant of the MJCF,
+    taken from ``m_leaves``)."""
+    m_leaves: list[Any]
+    d_leaves: list[Any]
+    qpos: int
+    qvel: int
+    widened: list[int] = field(default_factory=list)
+    """The data leaves of :data:`WIDENED`."""
+    exact: bool = True
+
+    def model_leaves(self, model: Any) -> list[Any]:
+        """``model``'s leaves (a model compiled from this template's MJCF, changed since in
+        its leaf fields only: the contact parameters)."""
+        if not self.exact:
+            return _host(_put_model(model)[1])
+        out = []
+        for src, ref in zip(self.sources, self.m_leaves, strict=True):
+            if src is None:
+                out.append(ref)
+                continue
+            obj = model
+            for name in src:
+                obj = getattr(obj, name)
+            out.append(np.array(obj, dtype=ref.dtype).reshape(ref.shape))
+        return out
+
+    def data_leaves(self, model: Any, data: Any) -> list[Any]:
+        """``mjx.put_data(model, data)``'s leaves for a ``data`` reset but for its qpos and
+        qvel (every run's start): the fresh data's with those two."""
+        if not self.exact:
+            return _host(_mjx()[1].tree_util.tree_leaves(_mjx()[2].put_data(model, data)))
+        out = list(self.d_leaves)
+        out[self.qpos] = np.array(data.qpos)
+        out[self.qvel] = np.array(data.qvel)
+        return out
+
+    def initial(self, model: Any, data: Any) -> list[Any]:
+        """The data leaves the first step starts from: ``put_data``'s (:meth:`data_leaves`),
+        the leaves of :data:`WIDENED` 64-bit. No ``mjx.forward`` first: a step's own forward
+        recomputes every derived field from the state before it reads it (the same records
+        bit for bit, tested), and a separate forward would be traced anew in every process
+        (2–3 s each model structure)."""
+        out = self.data_leaves(model, data)
+        for i in self.widened:
+            out[i] = np.asarray(out[i]).astype(np.int64)
+        return out
+
+    def index(self, *path: str) -> int:
+        """The model leaf at attribute ``path``."""
+        return self.sources.index(path)
+
+
+def _put_model(model: Any) -> tuple[Any, list[Any], list[tuple[str, ...] | None]]:
+    """``mjx.put_model(model)`` flat: (tree, leaves, each leaf's attribute path in the
+    MjModel or None), the hfield-only static bound ``geom_rbound_hfield`` zeroed when the
+    model has no height field (MJX reads it for height-field collisions only, at trace
+    time: it is part of the tree, so sphere radii would otherwise each compile anew)."""
+    _, jax, mjx = _mjx()
+    mx = mjx.put_model(model)
+    if model.nhfield == 0:
+        bound = mx._impl.geom_rbound_hfield
+        mx = mx.replace(_impl=mx._impl.replace(geom_rbound_hfield=np.zeros_like(bound)))
+    with_paths, mtree = jax.tree_util.tree_flatten_with_path(mx)
+    sources: list[tuple[str, ...] | None] = []
+    for path, _ in with_paths:
+        names = tuple(getattr(k, "name", None) for k in path)
+        if None in names or names[0] in ("_impl", "_sizes"):
+            sources.append(None)  # derived by put_model: a constant of the MJCF
+        elif names[:2] == ("opt", "_impl"):
+            sources.append(("opt", *names[2:]))  # MjOption's o_margin, o_solref, …
+        else:
+            sources.append(names)
+    return mtree, [leaf for _, leaf in with_paths], sources
+
+
+WIDENED = ("._impl.contact.geom1", "._impl.contact.geom2", "._impl.contact.geom")
+"""The data leaves ``mjx.put_data`` gives as int32 and a step returns as int64 (64-bit
+mode): widened before the first step, so that the loop's carry keeps one type (a step
+overwrites them: the contact's geoms)."""
+_TEMPLATES: dict[str, _Template] = {}
+TEMPLATES_KEPT = 64
+"""How many MJCFs' templates (:func:`_template`) a process keeps."""
+
+
+def _template(model: Any, data: Any, mjcf: str) -> _Template:
+    """The flat MJX form of the models compiled from ``mjcf`` (:class:`_Template`), made from
+    ``model`` and checked against ``put_model``/``put_data`` of it and of ``data`` on first
+    use."""
+    found = _TEMPLATES.get(mjcf)
+    if found is not None:
+        return found
+    mujoco, jax, mjx = _mjx()
+    mtree, m_leaves, sources = _put_model(model)
+    d_paths, dtree = jax.tree_util.tree_flatten_with_path(
+        mjx.put_data(model, mujoco.MjData(model)))
+    names = [jax.tree_util.keystr(p) for p, _ in d_paths]
+    made = _Template(mtree, dtree, sources, _host(m_leaves), _host(leaf for _, leaf in d_paths),
+                     names.index(".qpos"), names.index(".qvel"),
+                     [names.index(n) for n in WIDENED if n in names])
+    want = jax.tree_util.tree_leaves(mjx.put_data(model, data))
+    made.exact = _same_leaves(made.model_leaves(model), m_leaves) and \
+        _same_leaves(made.data_leaves(model, data), want)
+    if len(_TEMPLATES) >= TEMPLATES_KEPT:
+        _TEMPLATES.pop(next(iter(_TEMPLATES)))
+    _TEMPLATES[mjcf] = made
+    return made
+
+
+def _host(leaves: Any) -> list[np.ndarray]:
+    """Leaves as host (numpy) arrays. Every compiled call takes numpy arrays only: jax
+    compiles a call anew for another mix of device and host arguments (their placement is
+    part of the executable's key), so device outputs are brought back before they go in
+    again (on the CPU, no copy of substance)."""
+    return [np.asarray(leaf) for leaf in leaves]
+
+
+def _same_leaves(a: Sequence[Any], b: Sequence[Any]) -> bool:
+    """Leaf lists equal in dtype, shape and every value (NaN equal to NaN)."""
+    return len(a) == len(b) and all(
+        np.asarray(x).dtype == np.asarray(y).dtype and np.asarray(x).shape == np.asarray(y).shape
+        and np.array_equal(np.asarray(x), np.asarray(y), equal_nan=np.asarray(x).dtype.kind
+                           in "fc") for x, y in zip(a, b, strict=True))
+
+
+def step_cap(n_max: int, chunk: int) -> int:
+    """MJX's step cap: ``n_max`` rounded up to whole ``chunk``s. MJX once stepped only whole
+    fixed-length scans (:data:`BALL_CHUNK`, …), looking for the end in every step taken, so
+    its records at the cap ran to the end of the last scan; its runs step exactly the
+    steps asked now, up to this cap, so the records stay what they were."""
+    return -(-n_max // chunk) * chunk
+
+
 @dataclass
 class _MjxSim:
-    """A model and data on the device, stepped in fixed-length compiled scans."""
+    """A model and data on the device, stepped exactly the steps asked, in calls of at most
+    ``length`` steps of one compiled loop (:func:`_stepper`)."""
 
     model: Any
     data: Any
     control: str
     params: np.ndarray
     length: int
+    mjcf: str
     steps: int = 0
     chunks: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = field(default_factory=list)
-
-    def __post_init__(self) -> None:
-        _, _, mjx = _mjx()
-        self.mx = mjx.put_model(self.model)
-        # a jitted forward first gives the data its 64-bit layout (put_data's integer fields
-        # would otherwise differ from the scan's carry)
-        self.dx = _compiled_forward()(self.mx, mjx.put_data(self.model, self.data))
+    calls: int = 0
+    """Compiled calls made (each at most ``length`` steps)."""
 
     sensor_width: ClassVar[int] = 0
-    """How many of the contact sensor's values a step keeps (:func:`_compiled_scan`)."""
+    """How many of the contact sensor's values a step keeps (:func:`_stepper`)."""
+
+    def __post_init__(self) -> None:
+        t = _template(self.model, self.data, self.mjcf)
+        self.m = t.model_leaves(self.model)
+        self.d = t.initial(self.model, self.data)
+        self.step = _stepper(t.mtree, t.dtree, self.sensor_width, self.control, self.length)
 
     def step_chunk(self, n: int) -> None:
-        scan = _compiled_scan(self.sensor_width)
-        for _ in range(max(1, math.ceil(n / self.length))):
-            self.dx, (q, v, f) = scan(self.mx, self.dx, self.params, self.length, self.control)
-            self.chunks.append((np.asarray(q), np.asarray(v), np.asarray(f)))
-            self.steps += self.length
+        while n > 0:
+            k = min(n, self.length)
+            d, (q, v, f) = self.step(self.m, self.d, self.params, k)
+            self.d = _host(d)
+            self.chunks.append((np.asarray(q)[:k], np.asarray(v)[:k], np.asarray(f)[:k]))
+            self.steps += k
+            self.calls += 1
+            n -= k
 
     def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         qs, vs, fs = zip(*self.chunks, strict=True)
@@ -271,7 +519,13 @@ def run_ball(s: BallOnPlate, mode: str, settings: RunSettings) -> ImpactRecord:
     setup = _ball_setup(s, mode, settings)
     if isinstance(setup, ImpactRecord):
         return setup
-    sim = _MjxSim(setup.model, setup.data, setup.control, setup.params, BALL_CHUNK)
+    return _run_ball_setup(s, setup)
+
+
+def _run_ball_setup(s: BallOnPlate, setup: _BallSetup) -> ImpactRecord:
+    """A ball run set up (:func:`_ball_setup`), stepped alone: its record."""
+    sim = _MjxSim(setup.model, setup.data, setup.control, setup.params, BALL_CHUNK,
+                  setup.mjcf)
     out = drive(sim, setup.n_max, setup.first, setup.chunk, ball_end_finder())
     setup.meta.update(steps=sim.steps, stepping="lax.scan")
     return ball_outcome_record(s, out, setup.dt, setup.gap, setup.meta)
@@ -301,10 +555,10 @@ def _ball_setup(s: BallOnPlate, mode: str, settings: RunSettings) -> _BallSetup 
     if isinstance(built, ImpactRecord):
         return built
     gap, n_max, first, chunk = ball_start(s, mode, settings, built.data, dt, built.t_est_s,
-                                          BALL_CHUNK)
+                                          MIN_CHUNK)
     built.meta["phase"] = ball_phase(settings.phase)
     return _BallSetup(built.model, built.data, built.control, built.params, built.meta, dt,
-                      gap, n_max, first, chunk, built.mjcf)
+                      gap, step_cap(n_max, BALL_CHUNK), first, chunk, built.mjcf)
 
 
 @dataclass
@@ -315,7 +569,7 @@ class _BallContact:
     model: Any
     data: Any
     control: str
-    """The scan's per-step control (:data:`CONTROLS`): ``secant`` injected, else ``none``."""
+    """The loop's per-step control (:data:`CONTROLS`): ``ball`` (on for injected)."""
     params: np.ndarray
     meta: dict[str, Any]
     t_est_s: float
@@ -333,7 +587,7 @@ def _ball_contact(s: BallOnPlate, mode: str, settings: RunSettings, dt: float
     integrator = str(user.get("integrator", settings.options.get("integrator", "Euler")))
     model, data, a = _ball_model(s, dt, integrator, out_of_box)
     meta: dict[str, Any] = {"integrator": integrator, "efc_diagA": a, "chunk_steps": BALL_CHUNK}
-    control, params = "none", np.zeros(5)
+    params = ball_parameters()
     if mode == "injected":
         t_est = hertz_duration_s(s, s.velocity_m_s)
         injected = injected_parameters(s.law(), a)
@@ -341,12 +595,12 @@ def _ball_contact(s: BallOnPlate, mode: str, settings: RunSettings, dt: float
             return ImpactRecord.failed(
                 Status.UNSUPPORTED, "mjx: injected needs a power-law or linear contact law "
                 "(an arbitrary elastic function cannot run inside the compiled step)")
-        control, params = "secant", injected
+        params = ball_parameters(injected)
         set_contact(model, (0.0, 0.0), SOLIMP)
         meta.update(law=s.model, solimp=list(SOLIMP))
     else:
         t_est = ball_contact(s, mode, settings, model, dt, a, user, meta)
-    return _BallContact(model, data, control, params, meta, t_est,
+    return _BallContact(model, data, "ball", params, meta, t_est,
                         ball_mjcf(s, dt, integrator, engine_defaults=out_of_box))
 
 
@@ -367,6 +621,10 @@ def run_ball_batch(items: Sequence[tuple[BallOnPlate, str, RunSettings]]) -> lis
             key = (setup.mjcf, setup.control, setup.params.tobytes())
             groups.setdefault(key, []).append((i, setup))
     for group in groups.values():
+        if len(group) < BATCH_MIN_WORLDS:
+            for i, setup in group:
+                out[i] = _run_ball_setup(items[i][0], setup)
+            continue
         sims = _BatchWorlds([setup for _, setup in group]).run()
         for (i, setup), (sim, outcome) in zip(group, sims, strict=True):
             setup.meta.update(steps=sim.steps, stepping="lax.scan")
@@ -375,60 +633,49 @@ def run_ball_batch(items: Sequence[tuple[BallOnPlate, str, RunSettings]]) -> lis
 
 
 class _BatchWorlds:
-    """Worlds of one model but their contact's solref and solimp, stepped together one scan
-    chunk (:data:`BALL_CHUNK` steps) at a time."""
+    """Worlds of one model but their contact's solref and solimp, stepped together in calls
+    of at most :data:`BALL_CHUNK` steps of one compiled loop (:func:`_stepper`, ``vmap``-ed
+    over the worlds' data and those two model leaves)."""
 
     def __init__(self, setups: Sequence[_BallSetup]) -> None:
-        _, jax, mjx = _mjx()
-        jnp = jax.numpy
         self.setups = list(setups)
         first = self.setups[0]
-        self.mx = mjx.put_model(first.model)
-        forward = _compiled_forward()
-        datas = [forward(self.mx, mjx.put_data(st.model, st.data)) for st in self.setups]
-        self.dx = jax.tree_util.tree_map(lambda *xs: jnp.stack(xs), *datas)
-        self.solref = jnp.asarray(np.stack([st.model.geom_solref for st in self.setups]))
-        self.solimp = jnp.asarray(np.stack([st.model.geom_solimp for st in self.setups]))
+        t = _template(first.model, first.data, first.mjcf)
+        self.m = t.model_leaves(first.model)
+        datas = [t.initial(st.model, st.data) for st in self.setups]
+        self.d = [np.stack(leaves) for leaves in zip(*datas, strict=True)]
+        at = (t.index("geom_solref"), t.index("geom_solimp"))
+        self.m_worlds = [np.stack([st.model.geom_solref for st in self.setups]),
+                         np.stack([st.model.geom_solimp for st in self.setups])]
         self.params = first.params
-        self.scan = _batched_chunk(BALL_CHUNK, first.control)
+        self.step_fn = _stepper(t.mtree, t.dtree, 0, first.control, BALL_CHUNK, at)
 
     def step(self, n: int) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
-        """``n`` steps (a multiple of :data:`BALL_CHUNK`) of every world: its samples."""
+        """``n`` steps of every world: its samples."""
         parts = []
-        for _ in range(n // BALL_CHUNK):
-            self.dx, (q, v, f) = self.scan(self.mx, self.dx, self.solref, self.solimp,
-                                           self.params)
-            parts.append((np.asarray(q), np.asarray(v), np.asarray(f)))
+        while n > 0:
+            k = min(n, BALL_CHUNK)
+            d, (q, v, f) = self.step_fn(self.m, self.m_worlds, self.d, self.params, k)
+            self.d = _host(d)
+            parts.append((np.asarray(q)[:, :k], np.asarray(v)[:, :k], np.asarray(f)[:, :k]))
+            n -= k
         qs, vs, fs = (np.concatenate(a, axis=1) for a in zip(*parts, strict=True))
         return [(qs[k], vs[k], fs[k]) for k in range(len(self.setups))]
 
     def run(self) -> list[tuple[Any, Any]]:
-        return drive_many([functools.partial(_plan, st) for st in self.setups], self.step,
-                          BALL_CHUNK)
+        return drive_many([functools.partial(_plan, st) for st in self.setups], self.step)
 
 
 def _plan(setup: _BallSetup, world: Any) -> Any:
     return driving(world, setup.n_max, setup.first, setup.chunk, ball_end_finder())
 
 
-@functools.lru_cache(maxsize=4)
-def _batched_chunk(length: int, control: str) -> Any:
-    """:func:`_compiled_scan`'s chunk of ``length`` steps, ``vmap``-ed over worlds: each
-    world's data and its contact's geom solref and solimp (the model otherwise shared)."""
-    _, jax, _ = _mjx()
-    scan = _compiled_scan(0)
-
-    def one(mx: Any, dx: Any, solref: Any, solimp: Any, p: Any) -> Any:
-        return scan(mx.replace(geom_solref=solref, geom_solimp=solimp), dx, p, length, control)
-
-    return jax.jit(jax.vmap(one, in_axes=(None, 0, 0, 0, None)))
-
-
 def run_rigid_flexible(s: RigidFlexible, mode: str, settings: RunSettings) -> ImpactRecord:
     """Rigid–flexible 2-DOF impact in MJX (native and tuned); see the module docstring."""
     mujoco = _mjx()[0]
     dt = float(settings.timestep_s or RIGID_FLEXIBLE_TIMESTEP_S)
-    model = mujoco.MjModel.from_xml_string(rigid_flexible_mjcf(s, dt))
+    mjcf = rigid_flexible_mjcf(s, dt)
+    model = mujoco.MjModel.from_xml_string(mjcf)
     data = mujoco.MjData(model)
     a = measured_diag_a(model, data, (1e-9, 0.0))
     structure = s.structural_law()
@@ -442,11 +689,11 @@ def run_rigid_flexible(s: RigidFlexible, mode: str, settings: RunSettings) -> Im
     gap = GAP_STEPS * v1 * dt
     data.qpos[:] = (-gap, 0.0)
     data.qvel[:] = (v1, 0.0)
-    n_max = math.ceil((settings.max_time_s or s.max_time_s) / dt)
+    n_max, first, chunk = pair_plan(s, dt, settings.max_time_s, bool(beta))
     collapsed: list[int] = []
-    sim = _MjxSim(model, data, "cubic" if beta else "none", np.array([beta]),
-                  RIGID_FLEXIBLE_CHUNK)
-    out = drive(sim, n_max, RIGID_FLEXIBLE_CHUNK, RIGID_FLEXIBLE_CHUNK,
+    sim = _MjxSim(model, data, "pair", np.array([beta]),
+                  RIGID_FLEXIBLE_CHUNK, mjcf)
+    out = drive(sim, step_cap(n_max, RIGID_FLEXIBLE_CHUNK), first, chunk,
                 rigid_flexible_end_finder(s, structure, collapsed))
     meta.update(steps=sim.steps, stepping="lax.scan")
     return rigid_flexible_record(s, structure, out, dt, gap, meta, collapsed)
@@ -463,8 +710,9 @@ def run_bounce(scenario: Bounce, mode: str, settings: RunSettings) -> ImpactReco
     if isinstance(built, ImpactRecord):
         return built
     end, find_end, n_max, first, chunk = bounce_start(scenario, built.data, dt, settings,
-                                                      BALL_CHUNK)
-    sim = _MjxSim(built.model, built.data, built.control, built.params, BALL_CHUNK)
+                                                      MIN_CHUNK)
+    sim = _MjxSim(built.model, built.data, built.control, built.params, BALL_CHUNK,
+                  built.mjcf)
     out = drive(sim, n_max, first, chunk, find_end)
     built.meta["stepping"] = "lax.scan"
     return bounce_record(scenario, out, end, find_end, dt, built.meta)
@@ -542,7 +790,7 @@ def run_oblique(s: Any, mode: str, settings: RunSettings) -> ImpactRecord:
     mujoco_adapter.prepare_oblique`), stepped in compiled scans; injected writes the law's
     secant into the contact pair's solref inside the scan."""
     dt = float(settings.timestep_s or OBLIQUE_TIMESTEP_S)
-    model, data, meta, _ = prepare_oblique(s, mode, settings, engine="mjx")
+    model, data, meta, contact = prepare_oblique(s, mode, settings, engine="mjx")
     control, params = "none", np.zeros(6)
     if mode == "injected":
         injected = injected_parameters(s.normal_scenario().law(), meta["normal_compliance"])
@@ -552,9 +800,11 @@ def run_oblique(s: Any, mode: str, settings: RunSettings) -> ImpactRecord:
                 "(an arbitrary elastic function cannot run inside the compiled step)")
         control, params = "pair_secant", np.append(injected, s.radius_m)
     meta["chunk_steps"] = OBLIQUE_CHUNK
-    n_max, first, chunk = oblique_start(s, mode, settings, meta, data, dt, OBLIQUE_CHUNK)
-    sim = _MjxObliqueSim(model, data, control, params, OBLIQUE_CHUNK)
-    out = drive(sim, n_max, first, chunk, oblique_end_finder(s.radius_m))
+    n_max, first, chunk = oblique_start(s, mode, settings, meta, data, dt, MIN_CHUNK)
+    sim = _MjxObliqueSim(model, data, control, params, OBLIQUE_CHUNK,
+                         oblique_mjcf(s, dt, meta["integrator"], contact))
+    out = drive(sim, step_cap(n_max, OBLIQUE_CHUNK), first, chunk,
+                oblique_end_finder(s.radius_m))
     meta.update(steps=sim.steps, stepping="lax.scan")
     return oblique_outcome_record(s, out, dt, meta)
 
@@ -595,7 +845,13 @@ class MjxAdapter(Adapter):
     run_bounce = staticmethod(run_bounce)
 
     def version(self) -> str:
-        from importlib.metadata import version
+        return _version()
 
-        mujoco, jax, _ = _mjx()
-        return f"{version('mujoco-mjx')} (mujoco {mujoco.__version__}, jax {jax.__version__})"
+
+@functools.lru_cache(maxsize=1)
+def _version() -> str:
+    """mujoco-mjx's version with mujoco's and jax's (read once: every record carries it)."""
+    from importlib.metadata import version
+
+    mujoco, jax, _ = _mjx()
+    return f"{version('mujoco-mjx')} (mujoco {mujoco.__version__}, jax {jax.__version__})"

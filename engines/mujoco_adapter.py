@@ -960,14 +960,22 @@ def drive_pair(sim: Stepper, s: RigidFlexible, structure: Any, dt: float,
     for a ``softening`` structure: it runs away in finite time after collapse, so it is
     looked at often, and the collapse is seen before MuJoCo's own overflow check resets the
     state."""
+    n_max, first, chunk = pair_plan(s, dt, max_time_s, softening)
+    collapsed: list[int] = []
+    out = drive(sim, n_max, first, chunk, rigid_flexible_end_finder(s, structure, collapsed))
+    return out, collapsed
+
+
+def pair_plan(s: RigidFlexible, dt: float, max_time_s: float | None, softening: bool
+              ) -> tuple[int, int, int]:
+    """:func:`drive_pair`'s plan (MuJoCo's and MJX's): (the step cap, the first step the end
+    is looked for at, the chunk), in steps of ``dt`` (s)."""
     m_eff = s.m1_kg * s.m2_kg / (s.m1_kg + s.m2_kg)
     t_contact = math.pi * math.sqrt(m_eff / min(s.k1_n_per_m, s.k2_n_per_m))
     n_max = math.ceil((max_time_s or s.max_time_s) / dt)
     chunk = max(64, math.ceil(0.1 * t_contact / dt))
     first = chunk if softening else math.ceil(GAP_STEPS) + math.ceil(2.0 * t_contact / dt)
-    collapsed: list[int] = []
-    out = drive(sim, n_max, first, chunk, rigid_flexible_end_finder(s, structure, collapsed))
-    return out, collapsed
+    return n_max, first, chunk
 
 
 def rigid_flexible_record(s: RigidFlexible, structure: Any, out: _Outcome, dt: float,
