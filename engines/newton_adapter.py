@@ -87,7 +87,7 @@ and the former Python-loop adapter's bit for bit (measured on the default report
 Warp compiles each kernel module on first use into its kernel cache
 (``warp.config.kernel_cache_dir``, by default under the user's cache directory; forward
 passes only, :data:`FORWARD_ONLY`): eleven modules, the Featherstone solver's the largest,
-≈ 25–35 s for the first run on a 2-core machine (≈ 65 s with the backward passes), whichever
+≈ 25–40 s for the first run on a 2-core machine (≈ 65 s with the backward passes), whichever
 scenario it is (they share every module); later processes load them in well under a
 second. Newton's collision pipeline still generates its kernels per model (about 0.1 s).
 
