@@ -372,7 +372,8 @@ def render_key(df: pd.DataFrame, results: list[JobResult], meta: dict[str, Any],
         if path.is_file():
             h.update(path.name.encode())
             h.update(path.read_bytes())
-    others = sorted(p.name for p in fig_dir.glob("*") if not p.name.startswith("report_")) \
+    # (the PNGs: what the index links; not ``impactbench figures``' manifest beside them)
+    others = sorted(p.name for p in fig_dir.glob("*.png") if not p.name.startswith("report_")) \
         if fig_dir.is_dir() else []
     h.update("\0".join(others).encode())
     return h.hexdigest()[:16]
