@@ -10,14 +10,26 @@
    (``mj_step`` in a Python loop), MJX in batches of 64 and in one call of all tosses; a
    warm-up call compiles MJX first (compilation excluded, reported apart).
 
-Run: ``python -m benchmarks cube_tosses`` (about two minutes on 2 cores).
+3. The report's replays (:func:`impactbench.cube_tosses.report_part.replay_jobs`: every
+   engine × mode of the default config's measured scenario, ``custom`` once per published
+   set), each through the report's own door (``run_safely``, the adapter's cube-toss
+   builder), all in one process, the jobs alternating over :data:`ROUNDS` rounds: per
+   replay the median of the replay's own time (``meta["replay_s"]``: the tosses, the
+   engine built before) and of the whole run (the build, MJX's tracing), the first round's
+   whole run apart (compilation, imports), and the sums.
+
+Run: ``python -m benchmarks cube_tosses`` (about ten minutes on 2 cores); options:
+``--only engines|mjx|replays`` (one part), ``--rounds N``, ``--engines a,b`` (the replays of
+these engines only), e.g. ``python -m benchmarks cube_tosses --only replays --rounds 5``.
 """
 
 from __future__ import annotations
 
+import argparse
 import statistics
+import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
 from impactbench.engines.cube_toss import make
@@ -79,16 +91,16 @@ def engines() -> None:
 
 
 def mjx_against_mujoco() -> None:
-    from impactbench.engines.cube_toss_more import MjxCube, MujocoPlaneCube
+    from impactbench.engines.cube_toss_more import MJX_BATCH, MjxCube, MujocoPlaneCube
 
     for which in ("test",):
         starts = _starts(which)
         step = starts[0].step_s
         c = MujocoPlaneCube({}, step)
-        batched = MjxCube({}, step, batch=64)
+        batched = MjxCube({}, step, batch=MJX_BATCH)
         whole = MjxCube({}, step, batch=None)
         runners = {"C MuJoCo (plane), per toss": _runner(c, starts),
-                   "MJX vmap, batches of 64": _runner(batched, starts),
+                   f"MJX vmap, {MJX_BATCH} world slots": _runner(batched, starts),
                    f"MJX vmap, one call of {len(starts)}": _runner(whole, starts)}
         warm = {}
         for name, run in runners.items():
@@ -106,9 +118,74 @@ def mjx_against_mujoco() -> None:
                 print(f"  {name}: {statistics.median(r) / base:.3f} × C MuJoCo")
 
 
-def main() -> None:
-    engines()
-    mjx_against_mujoco()
+UNSUPPORTED_REPLAYS = {("mjx", "injected"), ("newton", "injected")}
+"""Replays the report lists that build nothing (refused: MJX and Newton have no injected
+mode; pymunk and Box2D no cube at all, :data:`impactbench.engines.cube_toss_more.
+UNSUPPORTED`)."""
+
+
+def _replay_jobs(only: Sequence[str] | None = None) -> list[Any]:
+    """The report's cube-toss replays of the default config that an engine builds, as
+    (label, job); ``only``: these engines'."""
+    from impactbench.engines.cube_toss import ENGINES as CUBE_ENGINES
+
+    from impactbench import config, scenarios
+    from impactbench.cube_tosses.report_part import replay_jobs
+
+    cfg = config.load(None)
+    sm = next(s for s in cfg.scenarios if scenarios.get(s.name).measured)
+    out = []
+    for job in replay_jobs(cfg, scenarios.get(sm.name), sm):
+        if job.engine not in CUBE_ENGINES or (job.engine, job.mode) in UNSUPPORTED_REPLAYS:
+            continue
+        if only and job.engine not in only:
+            continue
+        label = job.mode if not job.params else f"{job.mode} {dict(job.params)['param_set']}"
+        out.append((f"{job.engine} {label}", job))
+    return out
+
+
+def replays(rounds: int = ROUNDS, only: Sequence[str] | None = None) -> None:
+    """The report's replays, one after another in one process, alternating (module doc)."""
+    from impactbench.engines.base import run_safely
+
+    from impactbench.matrix import job_settings
+
+    jobs = _replay_jobs(only)
+    replay: dict[str, list[float]] = {label: [] for label, _ in jobs}
+    whole: dict[str, list[float]] = {label: [] for label, _ in jobs}
+    for _ in range(rounds):
+        for label, job in jobs:
+            t0 = time.perf_counter()
+            rec = run_safely(job.engine, job.build_scenario(), job.mode, job_settings(job))
+            whole[label].append(time.perf_counter() - t0)
+            if rec.status.value != "ok":
+                raise RuntimeError(f"{label}: {rec.status.value}: {rec.message}")
+            replay[label].append(float(rec.meta["replay_s"]))
+    print(f"\nThe report's {len(jobs)} cube-toss replays (89 test tosses each), s: median of "
+          f"{rounds} alternating rounds in one process")
+    print(f"{'replay':24s} {'replay_s':>9s} {'min–max':>15s} {'whole':>7s} {'1st whole':>10s}")
+    for label, _ in jobs:
+        r, w = replay[label], whole[label]
+        print(f"{label:24s} {statistics.median(r):9.2f} {min(r):7.2f}–{max(r):<7.2f} "
+              f"{statistics.median(w):7.2f} {w[0]:10.2f}")
+    total = [sum(t[i] for t in whole.values()) for i in range(rounds)]
+    print(f"{'sum':24s} {sum(statistics.median(r) for r in replay.values()):9.2f} "
+          f"{'':15s} {statistics.median(total):7.2f} {total[0]:10.2f}")
+
+
+def main(argv: Sequence[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(prog="python -m benchmarks cube_tosses")
+    parser.add_argument("--only", choices=("engines", "mjx", "replays"))
+    parser.add_argument("--rounds", type=int, default=ROUNDS)
+    parser.add_argument("--engines", default="", help="the replays of these engines (a,b)")
+    args = parser.parse_args(sys.argv[1:] if argv is None else argv)
+    if args.only in (None, "engines"):
+        engines()
+    if args.only in (None, "mjx"):
+        mjx_against_mujoco()
+    if args.only in (None, "replays"):
+        replays(args.rounds, [e for e in args.engines.split(",") if e] or None)
 
 
 if __name__ == "__main__":
