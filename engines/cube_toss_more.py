@@ -140,11 +140,6 @@ def quat_from_matrix(r: Sequence[Sequence[float]]) -> tuple[float, float, float,
     return d / norm, a / norm, b / norm, c / norm
 
 
-def _quat_from_matrix(r: np.ndarray) -> np.ndarray:
-    """:func:`quat_from_matrix` of an array, as an array (w, x, y, z)."""
-    return np.array(quat_from_matrix(np.asarray(r, dtype=float).tolist()))
-
-
 # ------------------------------------------------------------------------------ SAPIEN
 
 _SAPIEN_MATERIAL = ("static_friction", "dynamic_friction", "restitution")
