@@ -144,5 +144,5 @@ def test_the_figure_pool_draws_the_same_bytes_in_its_processes(tmp_path: Path,
         assert pool._executor is None and not (tmp_path / "queued.png").exists()
     assert (tmp_path / "queued.png").read_bytes() == here.read_bytes()
     assert FigurePool(0).workers == 0
-    with pytest.raises(RuntimeError, match="cannot draw x.png"), FigurePool(2) as pool:
+    with pytest.raises(RuntimeError, match=r"cannot draw x\.png"), FigurePool(2) as pool:
         pool.submit(_no_figure, tmp_path / "x.png")
