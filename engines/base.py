@@ -177,11 +177,13 @@ def scenario_builders(*, ball_s: float, pair_s: float, oblique_s: float,
                       engine_3d: str | None = None, pair_run: str = "run_rigid_flexible",
                       pair_modes: tuple[str, ...] | None = None,
                       ball_keys: tuple[str, ...] | None = None,
-                      ball_batch: str = "", bounce_s: float | None = None
+                      ball_batch: str = "", bounce_s: float | None = None,
+                      pair_batch: str = "", oblique_batch: str = "", bounce_batch: str = ""
                       ) -> dict[str, Builder]:
     """An adapter's :attr:`Adapter.builders` for the suite's scenarios: the ball on the plate
     (``run_ball`` at the default step ``ball_s``, s; ``ball_keys``: its ``custom`` keys;
-    ``ball_batch``: its :attr:`Builder.batch` method), the
+    ``ball_batch``: its :attr:`Builder.batch` method; ``pair_batch``, ``oblique_batch`` and
+    ``bounce_batch`` the other scenarios'), the
     2-DOF pair (``pair_run`` at ``pair_s``; ``pair_modes``: the modes it runs in, None for
     all) and the oblique impact (``run_oblique`` at ``oblique_s``, its ``tuned`` runs decided
     by ``oblique_tuned_check``, :func:`impactbench.engines.oblique_tuned.refused`); the
@@ -190,11 +192,13 @@ def scenario_builders(*, ball_s: float, pair_s: float, oblique_s: float,
     adds the cube tosses (:func:`cube_toss_builder`)."""
     builders = {
         "ball-on-plate": Builder("run_ball", ball_s, parameter_keys=ball_keys, batch=ball_batch),
-        "rigid-flexible": Builder(pair_run, pair_s, modes=pair_modes),
-        "oblique": Builder("run_oblique", oblique_s, tuned_check=oblique_tuned_check),
+        "rigid-flexible": Builder(pair_run, pair_s, modes=pair_modes, batch=pair_batch),
+        "oblique": Builder("run_oblique", oblique_s, tuned_check=oblique_tuned_check,
+                           batch=oblique_batch),
     }
     if bounce_s is not None:
-        bounce_builders = {"bounce": Builder("run_bounce", bounce_s, parameter_keys=ball_keys)}
+        bounce_builders = {"bounce": Builder("run_bounce", bounce_s, parameter_keys=ball_keys,
+                                              batch=bounce_batch)}
         builders.update(bounce_builders)
     if engine_3d is None:
         return builders

@@ -428,8 +428,7 @@ class Stepper(Protocol):
 def drive(sim: Stepper, n_max: int, first: int, chunk: int, find_end: EndFinder) -> _Outcome:
     """Step in chunks until ``find_end`` returns the last sample to keep, or n_max steps.
 
-    A stepper may advance more steps than asked (MJX scans in fixed-length chunks); only
-    ``sim.steps`` and the arrays count."""
+    A stepper may advance more steps than asked; only ``sim.steps`` and the arrays count."""
     plan = driving(sim, n_max, first, chunk, find_end)
     try:
         n = next(plan)

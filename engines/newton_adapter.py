@@ -111,7 +111,7 @@ from __future__ import annotations
 import functools
 import math
 from collections.abc import Callable, Generator
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -1201,20 +1201,16 @@ class _BounceRun:
 
 # --------------------------------------------------------------------------- the adapter
 
-BATCHES = {"rigid-flexible": "run_rigid_flexible_batch", "oblique": "run_oblique_batch",
-           "bounce": "run_bounce_batch"}
-"""The :attr:`~impactbench.engines.base.Builder.batch` methods of the scenarios beside the
-ball's (``scenario_builders(ball_batch=...)``): many runs as the worlds of one model."""
-
-
 def newton_builders() -> dict[str, Builder]:
     """Newton's :attr:`~impactbench.engines.base.Adapter.builders`: the suite's scenarios at
-    its customary steps, each head-on, 2-DOF, oblique and bounce builder with its batch."""
-    built = scenario_builders(
+    its customary steps, each head-on, 2-DOF, oblique and bounce builder with its batch
+    (many runs as the worlds of one model)."""
+    return scenario_builders(
         ball_s=BALL_TIMESTEP_S, pair_s=RIGID_FLEXIBLE_TIMESTEP_S, oblique_s=BALL_TIMESTEP_S,
         oblique_tuned_check=oblique_tuned.refused, engine_3d="newton",
-        ball_batch="run_ball_batch", bounce_s=BOUNCE_TIMESTEP_S)
-    return {name: replace(b, batch=BATCHES.get(name, b.batch)) for name, b in built.items()}
+        ball_batch="run_ball_batch", pair_batch="run_rigid_flexible_batch",
+        oblique_batch="run_oblique_batch", bounce_s=BOUNCE_TIMESTEP_S,
+        bounce_batch="run_bounce_batch")
 
 
 class NewtonAdapter(Adapter):

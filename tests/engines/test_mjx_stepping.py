@@ -170,3 +170,70 @@ def test_mjx_imports_without_its_warp_backend() -> None:
                           timeout=600, check=False)
     assert done.returncode == 0, done.stderr[-2000:]
     assert done.stdout == ""
+
+
+def _same_records(a, b) -> None:
+    """Two records equal bit for bit in every channel, status, message and meta (wall_s
+    aside)."""
+    assert (a.status, a.message) == (b.status, b.message)
+    for name in ("time_s", "penetration_m", "penetration_rate_m_s", "normal_force_n",
+                 "velocity_1_m_s", "velocity_2_m_s", "displacement_2_m"):
+        x, y = getattr(a, name), getattr(b, name)
+        assert (x is None) == (y is None), name
+        assert x is None or np.array_equal(x, y, equal_nan=True), name
+    strip = ("wall_s",)
+    assert repr({k: v for k, v in a.meta.items() if k not in strip}) == \
+        repr({k: v for k, v in b.meta.items() if k not in strip})
+
+
+def test_rigid_flexible_run_many_is_run_bit_for_bit(m) -> None:
+    """Rigid–flexible runs in one vmap over every model leaf (run_rigid_flexible_batch):
+    both structures (a collapse among them), three local laws, two velocities, a tuned
+    solref and another step — one model tree, one batch — each record the lone run's to the
+    last bit; an injected run between them is refused as alone."""
+    mjx = get_adapter("mjx")
+    items = [(RigidFlexible(local=local, structure=structure, velocity_m_s=v), "native",
+              RunSettings()) for local, structure, v in (
+                  ("linear", "linear", 2.0), ("elastoplastic", "softening", 10.0),
+                  ("mutation", "linear", 10.0), ("linear", "softening", 2.0),
+                  ("linear", "softening", 40.0))]
+    items.append((RigidFlexible(), "tuned", RunSettings(tuned={"solref": [-2e7, -5.0]})))
+    items.append((RigidFlexible(velocity_m_s=3.0), "native", RunSettings(timestep_s=2e-5)))
+    items.insert(2, (RigidFlexible(), "injected", RunSettings()))
+    trees = {m._template(st.model, st.data, st.mjcf).mtree
+             for st in (m._pair_setup(*it) for it in items if it[1] != "injected")}
+    assert len(trees) == 1 and len(items) - 1 >= m.PAIR_BATCH_MIN_WORLDS  # one batch
+    many = mjx.run_many(items)
+    alone = [mjx.run(*item) for item in items]
+    assert str(alone[2].status) == "unsupported"
+    assert {str(r.status) for r in alone if r is not alone[2]} == {"ok", "structure_collapsed"}
+    for a, b in zip(alone, many, strict=True):
+        _same_records(a, b)
+
+
+def test_a_kept_loop_steps_as_the_traced_one_bit_for_bit(m, tmp_path, monkeypatch) -> None:
+    """A loop loaded from its kept program (jax.export's serialized form, LOOPS_DIR) gives
+    the records of the loop traced in this process, to the last bit: a ball run and a
+    rigid–flexible run, first traced here with nothing kept, then kept, then loaded from
+    the files written (one per loop)."""
+    mjx = get_adapter("mjx")
+    items = [(BallOnPlate(), "native", RunSettings()), (RigidFlexible(), "native", RunSettings())]
+    monkeypatch.setattr(m, "LOOPS_DIR", tmp_path)
+
+    def fresh(keep: bool):
+        monkeypatch.setattr(m, "EXPORT_LOOPS", keep)
+        m._stepper.cache_clear()
+        return [mjx.run(*item) for item in items]
+
+    traced = fresh(False)
+    assert not list(tmp_path.iterdir())
+    kept = fresh(True)
+    files = sorted(tmp_path.glob("*.jaxexport"))
+    assert len(files) == 2
+    loaded = fresh(True)
+    assert sorted(tmp_path.glob("*.jaxexport")) == files  # read, not written again
+    for a, b, c in zip(traced, kept, loaded, strict=True):
+        assert str(a.status) == "ok"
+        _same_records(a, b)
+        _same_records(a, c)
+    m._stepper.cache_clear()
