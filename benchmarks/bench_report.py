@@ -29,10 +29,13 @@ this layout is timed. ``--only`` times this layout alone.
 Compile caches (MJX's on disk, warp's kernels) are as they are on this machine: warm after a
 first run. ``IMPACTBENCH_BENCH_COLD=1`` gives every build caches in an empty folder
 (``XDG_CACHE_HOME``, ``WARP_CACHE_PATH``): the first report of a fresh machine, install
-excluded.
+excluded. ``--priors`` writes this layout's measured time ratios per group of work items
+(the last round's) to :data:`impactbench.matrix.TIME_PRIORS`, the time-left estimate's prior.
+``IMPACTBENCH_BENCH_KEEP=DIR`` copies each build's ``results.csv`` there
+(``new-results.csv``, ``previous-results.csv``: the last round's) to compare the two.
 
-Run: ``python -m benchmarks report [--rounds N] [--against REV | --only]`` (≈ 4–8 min a build
-on 2 cores).
+Run: ``python -m benchmarks report [--rounds N] [--against REV | --only] [--priors]``
+(≈ 2–6 min a build on 2 cores).
 """
 
 from __future__ import annotations
@@ -94,10 +97,16 @@ from impactbench.store import Store
 
 phases = defaultdict(float)
 results = []
+# the report's own run fills a time-left clock where this layout takes one (its ratios)
+clock = matrix.TimeLeft(1) if hasattr(matrix, "TimeLeft") else None
 
 def timed(owner, name, key, keep=False):
     original = getattr(owner, name)
+    import inspect
+    takes_clock = keep and clock is not None and "clock" in inspect.signature(original).parameters
     def wrapper(*args, **kwargs):
+        if takes_clock:
+            kwargs["clock"] = clock
         t0 = time.perf_counter()
         try:
             out = original(*args, **kwargs)
@@ -118,6 +127,11 @@ with tempfile.TemporaryDirectory() as tmp:
     report.build(config.load(None), Path(tmp) / "report", store=Store(
         Path(tmp) / "store.duckdb"), fresh=True, show_progress=False)
     phases["report"] = time.perf_counter() - t0
+    if os.environ.get("IMPACTBENCH_BENCH_KEEP"):  # the build's results.csv, to compare
+        import shutil
+        label = "previous" if os.environ.get("IMPACTBENCH_BENCH_TREE") else "new"
+        shutil.copy(Path(tmp) / "report" / "results.csv",
+                    Path(os.environ["IMPACTBENCH_BENCH_KEEP"]) / f"{label}-results.csv")
 engine_s = defaultdict(float)
 for r in (r for got in results for r in got):
     wall = float(r.run.get("wall_s", float("nan")))
@@ -125,6 +139,7 @@ for r in (r for got in results for r in got):
         engine_s[f"{r.job.scenario} × {r.job.engine}"] += wall
 phases["rendering"] = phases.pop("render") - phases["section runs"]
 print(json.dumps({"phases": dict(phases), "runs_total": sum(len(g) for g in results),
+                  "time_ratios": clock.measured() if clock is not None else [],
                   "engine_s": dict(engine_s),
                   "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0}))
 '''
@@ -238,6 +253,26 @@ def main(argv: list[str] | None = None) -> None:
     total = sum(v for _, v in ranked) or 1.0
     for key, seconds in ranked[:15]:
         print(f"  {key:36s} {seconds:8.1f} s  {100 * seconds / total:5.1f} %")
+    if "--priors" in argv:
+        write_priors(last["time_ratios"], cold)
+
+
+def write_priors(ratios: list[list[Any]], cold: bool) -> None:
+    """The time-left priors (:data:`impactbench.matrix.TIME_PRIORS`) from a build's measured
+    ratios, with where they were measured."""
+    import platform
+
+    from impactbench.matrix import TIME_PRIORS
+
+    head = {"about": "what each (engine, scenario, batched) group of a fresh default report's "
+                     "work items took over its estimate (impactbench.matrix.TimeLeft's prior); "
+                     "written by python -m benchmarks report --priors",
+            "measured_on": f"{platform.machine()}, {os.cpu_count()} cores, "
+                           f"compile caches {'empty' if cold else 'warm'}"}
+    rows = ",\n".join("  " + json.dumps([e, sc, b, float(f"{r:.4g}")]) for e, sc, b, r in ratios)
+    TIME_PRIORS.write_text(json.dumps(head, indent=1)[:-2] + ',\n "ratios": [\n' + rows
+                           + "\n ]\n}\n")
+    print(f"\ntime-left priors: {len(ratios)} groups written to {TIME_PRIORS}")
 
 
 @contextmanager

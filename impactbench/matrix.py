@@ -12,10 +12,13 @@ The results do not depend on scheduling or on the store: rows are sorted by job 
 from __future__ import annotations
 
 import contextlib
+import functools
+import json
 import math
 import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field, replace
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -261,18 +264,18 @@ BATCH_RUNS = 512
 def work_items(pending: list[Job], settings: dict[str, Any],
                references: dict[tuple, dict[str, Any]]) -> list[list[Item]]:
     """``pending`` as work items, in the order given: each job alone, but the jobs of an
-    engine whose builder batches their scenario (:attr:`~impactbench.engines.base.Builder.
-    batch`) together, per engine and scenario, in items of at most :data:`BATCH_RUNS` runs
-    (placed where the group's first job is)."""
-    batching: dict[tuple[str, str], bool] = {}
+    engine that runs their scenario as one item (:func:`_together`: a builder that batches
+    it, or an engine that compiles on first use) together, per engine and scenario, in items
+    of at most :data:`BATCH_RUNS` runs (placed where the group's first job is)."""
+    together: dict[tuple[str, str], bool] = {}
     groups: dict[tuple[str, str], list[list[Item]]] = {}
     out: list[list[Item]] = []
     for job in pending:
         item = (job, references[job.reference_key], settings[job.id])
         key = (job.engine, job.scenario)
-        if key not in batching:
-            batching[key] = _batches(job)
-        if not batching[key]:
+        if key not in together:
+            together[key] = _together(job)
+        if not together[key]:
             out.append([item])
             continue
         chunks = groups.get(key)
@@ -284,15 +287,21 @@ def work_items(pending: list[Job], settings: dict[str, Any],
     return out
 
 
-def _batches(job: Job) -> bool:
-    """Whether ``job``'s engine runs its scenario in batches (a builder with ``batch``)."""
+def _together(job: Job) -> bool:
+    """Whether ``job``'s engine runs of its scenario go to one process as one item: its
+    builder batches them (``batch``: one call), or the engine compiles on first use in a
+    process (its spec's ``first_use_s``: MJX's XLA, Newton's warp kernels), so that each
+    scenario's compile happens once, not once on every worker (cold caches, the default
+    report: MJX's cube tosses took 115 s of engine time over two workers)."""
     from impactbench.engines.base import get_adapter
+    from impactbench.engines.registry import spec
 
     try:
         found = get_adapter(job.engine).builder(job.build_scenario())
+        compiles = spec(job.engine).first_use_s > 0.0
     except Exception:  # an engine not installed here: its runs say so, one by one
         return False
-    return bool(found is not None and found.batch)
+    return bool(found is not None and (found.batch or compiles))
 
 
 def plan(config: ReportConfig, engines: Iterable[str] | None = None) -> list[Job]:
@@ -481,16 +490,38 @@ def estimated_steps(job: Job, reference: dict[str, Any]) -> float:
                                                  job.timestep_s)
 
 
+TIME_PRIORS = Path(__file__).resolve().parent / "data" / "time_priors.json"
+"""What each group of a fresh default report's work items took over its estimate, measured
+(``python -m benchmarks report --priors``): :class:`TimeLeft`'s prior for a group before any
+of its items has finished here."""
+
+
+@functools.lru_cache(maxsize=1)
+def time_priors() -> dict[tuple[str, str, bool], float]:
+    """:data:`TIME_PRIORS` as ``{(engine, scenario, batched): took / estimate}`` ({} where
+    the file is missing or unreadable: the estimates as they are)."""
+    try:
+        data = json.loads(TIME_PRIORS.read_text())
+        return {(str(e), str(sc), bool(b)): float(r) for e, sc, b, r in data["ratios"]}
+    except (OSError, ValueError, KeyError, TypeError):
+        return {}
+
+
 class TimeLeft:
     """The seconds a run of work items has left, learnt as it goes: each item's time estimate
     (:func:`impactbench.cluster.run_estimate_s` of its steps × its scenario's step cost)
     scaled by what finished items took over their estimate — per group of items
-    ``(engine, scenario, batched)``; for a group with none finished yet, the median over the
-    finished groups of its scenario (batched alike), else of its engine, else of all; 1 before
-    any — summed over the items left and shared over the workers."""
+    ``(engine, scenario, batched)``. A group with none finished yet takes its measured prior
+    (:func:`time_priors`: a fresh default report's ratio, engine imports and compiles
+    included) times this machine's pace (what the finished items took over their priors'
+    prediction: a busy machine's is above 1); a group without a prior the median over the
+    finished groups of its scenario (batched alike), else of its engine, else of all; 1
+    before any. Summed over the items left and shared over the workers."""
 
-    def __init__(self, workers: int) -> None:
+    def __init__(self, workers: int,
+                 priors: dict[tuple[str, str, bool], float] | None = None) -> None:
         self.workers = max(1, workers)
+        self.priors = time_priors() if priors is None else priors
         self.pending: dict[tuple, float] = {}
         self.done: dict[tuple, list[float]] = {}
         """group → [estimate, took] of its finished items."""
@@ -505,11 +536,21 @@ class TimeLeft:
             got[0] += estimate_s
             got[1] += took_s
 
+    def pace(self) -> float:
+        """What the finished items of groups with a prior took over the priors' prediction
+        (1 before any)."""
+        predicted = sum(est * self.priors[g] for g, (est, _) in self.done.items()
+                        if g in self.priors)
+        took = sum(t for g, (_, t) in self.done.items() if g in self.priors)
+        return took / predicted if predicted > 0.0 else 1.0
+
     def ratio(self, group: tuple) -> float:
         """What ``group``'s items take over their estimate."""
         ratios = {g: took / est for g, (est, took) in self.done.items() if est > 0.0}
         if group in ratios:
             return ratios[group]
+        if group in self.priors:
+            return self.priors[group] * self.pace()
         engine, scenario, batched = group
         for alike in (lambda g: g[1:] == (scenario, batched), lambda g: g[0] == engine,
                       lambda g: True):
@@ -520,6 +561,11 @@ class TimeLeft:
 
     def seconds(self) -> float:
         return sum(est * self.ratio(g) for g, est in self.pending.items()) / self.workers
+
+    def measured(self) -> list[list[Any]]:
+        """The finished groups' ratios, ``[[engine, scenario, batched, took / estimate]]``
+        (sorted: what :data:`TIME_PRIORS` holds)."""
+        return sorted([*g, took / est] for g, (est, took) in self.done.items() if est > 0.0)
 
 
 DISPATCH_MIN_S = 1.0
@@ -533,7 +579,8 @@ def run_jobs(jobs: list[Job], workers: int | None = None,
              fresh: bool = False, scheduler: str | None = None,
              yes: bool = True, limits: Any = None,
              timeout_s: float | None = None,
-             references: dict[tuple, dict[str, Any]] | None = None) -> list[JobResult]:
+             references: dict[tuple, dict[str, Any]] | None = None,
+             clock: TimeLeft | None = None) -> list[JobResult]:
     """Run ``jobs``; results sorted by job id.
 
     ``store`` (an :class:`impactbench.store.Store`) serves finished runs and keeps new ones
@@ -553,6 +600,8 @@ def run_jobs(jobs: list[Job], workers: int | None = None,
     ``limits`` (:class:`impactbench.plausibility.Limits`): judge every run, stored or new, by
     these instead of the defaults (a stored run keeps its measures, not its verdict).
     ``references``: reference metrics already computed, by ``Job.reference_key`` (filled in).
+    ``clock``: the time-left estimate to keep (:class:`TimeLeft`; a new one by default): after
+    the run it holds what each group of work items took.
     """
     from impactbench import cluster
     from impactbench import store as store_mod
@@ -661,7 +710,7 @@ def run_jobs(jobs: list[Job], workers: int | None = None,
             # given --workers N, or a scheduler, always sends it to the workers)
             floor = DISPATCH_MIN_S if workers is None and scheduler is None else 0.0
             items = work_items(pending, settings, references)
-            clock = TimeLeft(1)
+            clock = clock if clock is not None else TimeLeft(1)
             for item in items:
                 group = (item[0][0].engine, item[0][0].scenario, len(item) > 1)
                 for job, _, _ in item:

@@ -3,6 +3,7 @@ finish (#32: an estimate from the first minute on, not only once a count-based r
 
 from __future__ import annotations
 
+import math
 import re
 
 import pytest
@@ -12,7 +13,7 @@ from impactbench.matrix import TimeLeft
 
 
 def test_the_estimate_learns_each_groups_ratio_and_shares_the_rest_over_the_workers() -> None:
-    clock = TimeLeft(2)
+    clock = TimeLeft(2, priors={})  # no measured priors: the estimates, then what is learnt
     slow, fast = ("drake", "cube-toss", False), ("mujoco", "ball-on-plate", False)
     clock.add(slow, 10.0)   # two runs estimated 5 s each
     clock.add(fast, 30.0)   # three runs estimated 10 s each
@@ -62,3 +63,39 @@ def test_a_run_matrix_gives_its_progress_an_estimate_before_any_run_finished() -
             for v in (1.0, 2.0)]
     run_jobs(jobs, 0, progress=progress)
     assert len(heard) == 3 and heard[0] > 0.0 and heard[-1] == 0.0
+
+
+def test_a_group_without_finished_items_takes_its_prior_at_this_machines_pace() -> None:
+    """A measured prior (a fresh report's ratio) stands for a group until one of its own
+    items finishes, scaled by how the finished groups' items kept to their priors."""
+    slow, fast = ("mjx", "cube-toss", False), ("mujoco", "ball-on-plate", False)
+    clock = TimeLeft(1, priors={slow: 4.0, fast: 0.5})
+    clock.add(slow, 10.0)
+    clock.add(fast, 20.0)
+    clock.add(("pymunk", "oblique", False), 6.0)  # no prior and nothing finished: 1
+    assert clock.pace() == 1.0
+    assert clock.seconds() == pytest.approx(10.0 * 4.0 + 20.0 * 0.5 + 6.0)
+    clock.finished(fast, 10.0, 10.0)  # took twice its prior's 5 s: a busy machine
+    assert clock.pace() == pytest.approx(2.0)
+    # fast: its own ratio (1); slow: its prior at twice the pace; pymunk: the median of all
+    assert clock.seconds() == pytest.approx(10.0 * 1.0 + 10.0 * 4.0 * 2.0 + 6.0 * 1.0)
+    assert clock.measured() == [["mujoco", "ball-on-plate", False, 1.0]]
+
+
+def test_the_packaged_priors_cover_the_default_reports_groups() -> None:
+    """Every group of work items of the default report has a measured prior (a new
+    engine or scenario needs `python -m benchmarks report --priors` again), each a
+    ratio ≥ 0 (a group of refused runs takes next to nothing)."""
+    from impactbench import config
+    from impactbench.matrix import plan, time_priors, work_items
+
+    priors = time_priors()
+    assert priors and all(0.0 <= r < math.inf for r in priors.values())
+    jobs = plan(config.load(None))
+    refs = {j.reference_key: {} for j in jobs}
+    groups = {(it[0][0].engine, it[0][0].scenario, len(it) > 1)
+              for it in work_items(jobs, {j.id: None for j in jobs}, refs)}
+    missing = {g for g in groups if g not in priors}
+    # a group of one run in the default report may be a batch of one: alike either way
+    missing = {g for g in missing if (g[0], g[1], not g[2]) not in priors}
+    assert missing == set()
