@@ -207,8 +207,11 @@ def _old_push(engine: str, sim, force: np.ndarray, torque: np.ndarray) -> None:
         applied.body_index = sim._body.index()
         applied.p_BoBq_B = np.zeros(3)
         applied.F_Bq_W = SpatialForce(torque, force)
-        sim._plant.get_applied_spatial_force_input_port().FixValue(sim._plant_context,
-                                                                    [applied])
+        # FixValue replaces the port's value object, freeing the one the adapter holds and
+        # sets in place (sim._fixed): hand it the new one, or the next new-path step writes
+        # into freed memory (a segfault seen once in a full run of the suite)
+        sim._fixed = sim._plant.get_applied_spatial_force_input_port().FixValue(
+            sim._plant_context, [applied])
         sim._steps += 1
         sim._sim.AdvanceTo((sim._steps + 0.25) * sim.step_s)
     elif engine == "sapien":
