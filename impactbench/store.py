@@ -361,11 +361,15 @@ class _Interruptible:
 def _interruptible(function: Any) -> Any:
     """``function`` with DuckDB's ``RuntimeError("Query interrupted")`` (and an error that
     wraps a KeyboardInterrupt raised while DuckDB read a registered table's schema) raised as
-    the KeyboardInterrupt it was (:class:`_Interruptible`)."""
+    the KeyboardInterrupt it was (:class:`_Interruptible`); a DuckDB object it returns (the
+    connection ``execute`` returns, a relation) is wrapped alike, so that its ``fetchall``
+    hands an interrupt on too (measured: 1 of 400 signals came through one raw)."""
 
     def call(*args: Any, **kwargs: Any) -> Any:
         try:
-            return function(*args, **kwargs)
+            got = function(*args, **kwargs)
+            return _Interruptible(got) if type(got).__module__.startswith(("duckdb", "_duckdb")) \
+                else got
         except Exception as exc:  # RuntimeError, or a duckdb.Error that wraps the interrupt
             text = str(exc)
             if "Query interrupted" in text or "KeyboardInterrupt" in text:
