@@ -662,12 +662,14 @@ def _run_ball_setup(s: BallOnPlate, setup: _BallSetup) -> ImpactRecord:
 
 
 @dataclass
-class _BallSetup:
-    """A ball run set up and planned (:func:`_ball_setup`), before its first step."""
+class _Setup:
+    """A run set up and planned, before its first step: the model with the mode's contact,
+    the start, the per-step control's parameters, the record's facts, the step (s), the
+    start's gap (m), the drive plan (cap, first look for the end, chunk; steps) and the
+    MJCF it was compiled from."""
 
     model: Any
     data: Any
-    control: str
     params: np.ndarray
     meta: dict[str, Any]
     dt: float
@@ -676,6 +678,13 @@ class _BallSetup:
     first: int
     chunk: int
     mjcf: str
+
+
+@dataclass
+class _BallSetup(_Setup):
+    """A ball run set up and planned (:func:`_ball_setup`), with its per-step control."""
+
+    control: str = ""
 
     def end_finder(self) -> Any:
         """A fresh end rule (:func:`~impactbench.engines.mujoco_adapter.ball_end_finder`)."""
@@ -691,8 +700,9 @@ def _ball_setup(s: BallOnPlate, mode: str, settings: RunSettings) -> _BallSetup 
     gap, n_max, first, chunk = ball_start(s, mode, settings, built.data, dt, built.t_est_s,
                                           MIN_CHUNK)
     built.meta["phase"] = ball_phase(settings.phase)
-    return _BallSetup(built.model, built.data, built.control, built.params, built.meta, dt,
-                      gap, step_cap(n_max, BALL_CHUNK), first, chunk, built.mjcf)
+    return _BallSetup(built.model, built.data, built.params, built.meta, dt, gap,
+                      step_cap(n_max, BALL_CHUNK), first, chunk, built.mjcf,
+                      control=built.control)
 
 
 @dataclass
@@ -851,24 +861,13 @@ def _batches(groups: dict[Any, list[tuple[int, Any]]], width: int, fewest: int
 
 
 @dataclass
-class _PairSetup:
-    """A rigid–flexible run set up and planned (:func:`_pair_setup`), before its first
-    step: the model with the mode's contact, the start, the per-step control (β of the
-    softening structure's cubic term, 0 for a linear one), the drive plan and the
-    record's facts."""
+class _PairSetup(_Setup):
+    """A rigid–flexible run set up and planned (:func:`_pair_setup`): its scenario and
+    structural law besides (the control's parameter: β of the softening structure's cubic
+    term, 0 for a linear one)."""
 
-    s: RigidFlexible
-    model: Any
-    data: Any
-    params: np.ndarray
-    meta: dict[str, Any]
-    dt: float
-    gap: float
-    n_max: int
-    first: int
-    chunk: int
-    mjcf: str
-    structure: Any
+    s: RigidFlexible | None = None
+    structure: Any = None
     collapsed: list[int] = field(default_factory=list)
     control: ClassVar[str] = "pair"
 
@@ -905,9 +904,9 @@ def _pair_setup(s: RigidFlexible, mode: str, settings: RunSettings) -> _PairSetu
     data.qpos[:] = (-gap, 0.0)
     data.qvel[:] = (v1, 0.0)
     n_max, first, chunk = pair_plan(s, dt, settings.max_time_s, bool(beta))
-    return _PairSetup(s, model, data, np.array([beta]), meta, dt, gap,
+    return _PairSetup(model, data, np.array([beta]), meta, dt, gap,
                       step_cap(n_max, RIGID_FLEXIBLE_CHUNK), first, chunk, mjcf,
-                      s.structural_law())
+                      s=s, structure=s.structural_law())
 
 
 def run_rigid_flexible(s: RigidFlexible, mode: str, settings: RunSettings) -> ImpactRecord:

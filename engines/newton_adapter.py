@@ -143,6 +143,7 @@ from impactbench.engines.mujoco_adapter import (
     driving,
     face_radius_m,
     hertz_duration_s,
+    pair_plan,
     rigid_flexible_end_finder,
     rigid_flexible_record,
 )
@@ -823,19 +824,6 @@ def run_rigid_flexible_batch(items: list[tuple[RigidFlexible, str, RunSettings]]
     each record is the one :func:`run_rigid_flexible` gives, bit for bit (tested); an
     ``injected`` world's local law (and its memory) is evaluated in Python every step."""
     return _run_batch([_pair_setup(*item) for item in items])
-
-
-def pair_plan(s: RigidFlexible, dt: float, max_time_s: float | None, softening: bool
-              ) -> tuple[int, int, int]:
-    """The drive plan of a 2-DOF run, :func:`~impactbench.engines.mujoco_adapter.drive_pair`'s
-    (a lone run is driven by it; a batch's worlds by this, the same numbers, tested): the
-    step cap, the first step the end is looked for at, the chunk."""
-    m_eff = s.m1_kg * s.m2_kg / (s.m1_kg + s.m2_kg)
-    t_contact = math.pi * math.sqrt(m_eff / min(s.k1_n_per_m, s.k2_n_per_m))
-    n_max = math.ceil((max_time_s or s.max_time_s) / dt)
-    chunk = max(64, math.ceil(0.1 * t_contact / dt))
-    first = chunk if softening else math.ceil(GAP_STEPS) + math.ceil(2.0 * t_contact / dt)
-    return n_max, first, chunk
 
 
 def _pair_setup(s: RigidFlexible, mode: str, settings: RunSettings) -> _Setup:
