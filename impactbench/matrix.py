@@ -546,11 +546,16 @@ class TimeLeft:
 
     def ratio(self, group: tuple) -> float:
         """What ``group``'s items take over their estimate."""
-        ratios = {g: took / est for g, (est, took) in self.done.items() if est > 0.0}
+        return self._ratio(group, self._learnt(), self.pace())
+
+    def _learnt(self) -> dict[tuple, float]:
+        return {g: took / est for g, (est, took) in self.done.items() if est > 0.0}
+
+    def _ratio(self, group: tuple, ratios: dict[tuple, float], pace: float) -> float:
         if group in ratios:
             return ratios[group]
         if group in self.priors:
-            return self.priors[group] * self.pace()
+            return self.priors[group] * pace
         engine, scenario, batched = group
         for alike in (lambda g: g[1:] == (scenario, batched), lambda g: g[0] == engine,
                       lambda g: True):
@@ -560,7 +565,9 @@ class TimeLeft:
         return 1.0
 
     def seconds(self) -> float:
-        return sum(est * self.ratio(g) for g, est in self.pending.items()) / self.workers
+        ratios, pace = self._learnt(), self.pace()  # once per estimate, not once per group
+        return sum(est * self._ratio(g, ratios, pace)
+                   for g, est in self.pending.items()) / self.workers
 
     def measured(self) -> list[list[Any]]:
         """The finished groups' ratios, ``[[engine, scenario, batched, took / estimate]]``
