@@ -144,11 +144,12 @@ class ReportContext:
 
 class FigurePool:
     """A report's figures drawn in worker processes while the report goes on (matplotlib's
-    Agg draws a figure in ~0.3–3 s of pure CPU; a default report has ~50): one spawned
-    process per core available (at most ``workers``; 0: none, every figure drawn here), each
+    Agg draws a figure in ~0.3–3 s of pure CPU; a default report has ~50): one process per
+    core available (:func:`impactbench.figures.pool.process_pool`: forked from a fork server,
+    SIGINT left to this process) (at most ``workers``; 0: none, every figure drawn here), each
     figure a task, its arguments pickled (the plot functions are module-level and take plain
-    data). The processes start only once :data:`MIN_PARALLEL` figures are queued (a spawned
-    process's imports cost about what two figures do): a small report draws here.
+    data). The processes start only once :data:`MIN_PARALLEL` figures are queued (a worker's
+    imports cost about what two figures do): a small report draws here.
     :meth:`close` draws or waits for every figure and raises the first error a figure raised.
     The same bytes as drawn here: each figure is the same function of the same arguments."""
 
@@ -173,11 +174,9 @@ class FigurePool:
             return path
         self._queued.append((fn, args, kwargs))
         if self.workers > 1 and len(self._queued) >= self.MIN_PARALLEL:
-            import multiprocessing
-            from concurrent.futures import ProcessPoolExecutor
+            from impactbench.figures.pool import process_pool
 
-            self._executor = ProcessPoolExecutor(
-                self.workers, mp_context=multiprocessing.get_context("spawn"))
+            self._executor = process_pool(self.workers)
             self._futures += [self._executor.submit(f, *a, **k) for f, a, k in self._queued]
             self._queued = []
         return path
@@ -202,7 +201,9 @@ class FigurePool:
         if exc[0] is None:
             self.close()
         elif self._executor is not None:  # the report's own error: its figures do not matter
-            self._executor.shutdown(wait=False, cancel_futures=True)
+            from impactbench.figures.pool import end_now
+
+            end_now(self._executor)
 
 
 @dataclass(frozen=True)

@@ -74,13 +74,25 @@ def figure_pool(workers: int | None = None, preload: Sequence[str] = ()
     if n == 0:
         yield IN_PROCESS
         return
-    pool = ProcessPoolExecutor(n, mp_context=_context(preload), initializer=_worker_start)
+    pool = process_pool(n, preload)
     try:
         yield pool
     except BaseException:
-        processes = list((getattr(pool, "_processes", None) or {}).values())
-        pool.shutdown(wait=False, cancel_futures=True)
-        for process in processes:  # a running figure: no use finishing it
-            process.terminate()
+        end_now(pool)
         raise
     pool.shutdown(wait=True)
+
+
+def process_pool(n: int, preload: Sequence[str] = ()) -> ProcessPoolExecutor:
+    """``n`` figure worker processes: forked from a fork server that preloads ``preload``
+    (else spawned), SIGINT ignored, the Agg backend (the report's figure pool's too)."""
+    return ProcessPoolExecutor(n, mp_context=_context(preload), initializer=_worker_start)
+
+
+def end_now(pool: ProcessPoolExecutor) -> None:
+    """Cancel ``pool``'s queued tasks and end its workers at once (a running figure: no use
+    finishing it)."""
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for process in processes:
+        process.terminate()
