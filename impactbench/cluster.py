@@ -177,6 +177,21 @@ def _reap(pids: set[int]) -> None:
                 child.join(1)
 
 
+def _end_workers(cluster: Any, pids: set[int]) -> None:
+    """End a local cluster's worker processes at once (SIGKILL, their nannies told not to
+    restart them), before the cluster closes: everything they did has come back by then (a
+    run's result, or its crash), and a worker with the engines loaded takes ~2.5 s to close
+    itself (measured: the cluster's close 2.6 s after the workers load MuJoCo, MJX, Drake,
+    PyBullet, SAPIEN and Newton, 0.05 s with the workers ended first). What the engines keep
+    on disk (XLA's and warp's compile caches, MJX's kept loops) is written when compiled."""
+    for nanny in list(getattr(cluster, "workers", {}).values()):
+        with contextlib.suppress(Exception):
+            nanny.auto_restart = False
+    for pid in pids:
+        with contextlib.suppress(OSError):
+            os.kill(pid, signal.SIGKILL)
+
+
 def _refused(address: str) -> str:
     """Why a ``tcp://host:port`` scheduler address refuses a connection outright (nothing
     listens on the port: the machine answers at once), "" when it does not, or cannot be
@@ -240,6 +255,8 @@ def client(workers: int | None = None, scheduler: str | None = None) -> Iterator
             yield c
         finally:
             pids = _worker_pids(cluster) if cluster is not None else set()
+            if cluster is not None:
+                _end_workers(cluster, pids)
             if c is not None:
                 with contextlib.suppress(BaseException):
                     c.close(timeout=5)

@@ -106,6 +106,9 @@ class ReportContext:
     section that runs work of its own uses when its store is the same file."""
     pool: Any = None
     """Where :meth:`draw` draws (a :class:`FigurePool`); None: here, at once."""
+    background: dict[str, Any] = field(default_factory=dict)
+    """Work the report started while the engines ran, by name (each ``result()`` its value:
+    :meth:`~impactbench.scenarios.spec.ScenarioSpec.report_background`)."""
 
     @property
     def fig_dir(self) -> Path:
@@ -181,6 +184,23 @@ class FigurePool:
             self._queued = []
         return path
 
+    def start(self) -> bool:
+        """Start the worker processes now (when there are to be any): True if they run."""
+        if self._executor is None and self.workers > 1:
+            from impactbench.figures.pool import process_pool
+
+            self._executor = process_pool(self.workers)
+            self._futures += [self._executor.submit(f, *a, **k) for f, a, k in self._queued]
+            self._queued = []
+        return self._executor is not None
+
+    def call(self, fn: Callable[[], Any]) -> Any:
+        """``fn()`` (picklable) in a worker process when the workers run (:meth:`start`),
+        else here when its value is first asked for: an object whose ``result()`` is it."""
+        if self._executor is not None:
+            return self._executor.submit(fn)
+        return _Later(fn)
+
     def close(self) -> None:
         """Draw what is queued here, wait for the rest (the first error a figure raised is
         raised here)."""
@@ -204,6 +224,19 @@ class FigurePool:
             from impactbench.figures.pool import end_now
 
             end_now(self._executor)
+
+
+class _Later:
+    """A value computed here when first asked for (:meth:`FigurePool.call` without workers)."""
+
+    def __init__(self, fn: Callable[[], Any]) -> None:
+        self._fn: Callable[[], Any] | None = fn
+        self._value: Any = None
+
+    def result(self) -> Any:
+        if self._fn is not None:
+            self._value, self._fn = self._fn(), None
+        return self._value
 
 
 @dataclass(frozen=True)

@@ -13,6 +13,7 @@ from functools import partial
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pandas as pd
 
 from impactbench import scenarios
@@ -121,12 +122,15 @@ def _status_counts(runs: pd.DataFrame) -> str:
 
 def worst(rows: pd.DataFrame, metric: str) -> tuple[float, Any]:
     """The signed relative error of largest magnitude among ok runs, and its row."""
-    r = rows[(rows.metric == metric) & (rows.status == "ok")]
-    r = r[pd.to_numeric(r.rel_error, errors="coerce").notna()]
-    if r.empty:
+    # on the columns' arrays, not filtered frames: the report asks ~1000 times (each filter
+    # of the tidy table copied all its columns: 5.9 s of the documents' 15.7 s)
+    at = np.flatnonzero((rows.metric.to_numpy() == metric) & (rows.status.to_numpy() == "ok"))
+    errors = pd.to_numeric(rows.rel_error.iloc[at], errors="coerce").to_numpy(dtype=float)
+    keep = ~np.isnan(errors)
+    if not keep.any():
         return math.nan, None
-    i = r.rel_error.astype(float).abs().idxmax()
-    return float(r.rel_error[i]), r.loc[i]
+    i = int(np.argmax(np.abs(errors[keep])))  # the first of equal magnitudes, as idxmax
+    return float(errors[keep][i]), rows.iloc[at[keep][i]]
 
 
 def verdict(rows: pd.DataFrame, scenario: str) -> str:
@@ -651,18 +655,24 @@ def your_timestep_section(ctx: ReportContext) -> dict[str, Any] | None:
 
 
 def _section_store(ctx: ReportContext) -> Any:
+    """The results store of a report's replays (:func:`section_store` of its config and
+    store)."""
+    return section_store(ctx.cfg, ctx.store)
+
+
+def section_store(cfg: Any, store: Any = None) -> Any:
     """The results store of a report's replays: the config's ``[execution] store``, else the
     default one (``$IMPACTBENCH_STORE`` or the per-user cache). ``report --store`` does not
-    reach a section. Where that is the report's own store file, the report's
+    reach a section. Where that is the report's own store file (``store``), the report's
     :class:`~impactbench.report_store.KeepWhatFits` (a full disk is found, and said, once);
     else one of its own."""
     from impactbench.report_store import KeepWhatFits
     from impactbench.store import Store, default_path
 
-    path = (getattr(ctx.cfg, "execution", None) or {}).get("store")
+    path = (getattr(cfg, "execution", None) or {}).get("store")
     path = Path(path) if path else default_path()
-    if ctx.store is not None and Path(ctx.store.path).resolve() == path.resolve():
-        return ctx.store
+    if store is not None and Path(store.path).resolve() == path.resolve():
+        return store
     return KeepWhatFits(Store(path))
 
 

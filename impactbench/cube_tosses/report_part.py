@@ -148,7 +148,8 @@ def report_part(ctx: ReportContext, spec: scenarios.ScenarioSpec, sm: Any) -> di
     if table.get("model", True):  # the reference model first: the floor the engines approach
         from impactbench.cube_tosses.scenario import MODEL_LABEL, model_run
 
-        out = model_run(scenario, store=_section_store(ctx))
+        out = model_run(scenario, store=_section_store(ctx),
+                        computed=ctx.background.get(f"{spec.name}:model"))
         tick(1)
         numbers = out["status"] in ("ok", "partial")
         rows.append(_replay_row(f"{MODEL_LABEL} ({out['engine_version']})", "fitted",

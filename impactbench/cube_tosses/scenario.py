@@ -396,39 +396,68 @@ MODEL_LABEL = "reference model"
 reference_model`: a rigid box with compliant corners, fitted on training tosses)."""
 
 
-def model_run(scenario: Any, *, store: Any = None, fresh: bool = False) -> dict[str, Any]:
+def model_run(scenario: Any, *, store: Any = None, fresh: bool = False,
+              computed: Any = None) -> dict[str, Any]:
     """The reference model's replay of ``scenario``'s tosses with its packaged fit (the model
     floor of the comparison: what a converged continuous contact model reaches, no time
-    step in the way): :func:`~impactbench.cube_tosses.reference_model.replay_reference`'s
-    dict plus ``message``, ``engine_version`` (scipy's), ``timestep_s`` (none: adaptive),
-    ``box`` and ``wall_s``; kept in ``store`` keyed by the box, data, selection, protocol,
-    the fitted file's SHA-256 and impactbench's version."""
+    step in the way): :func:`model_replay`'s dict, kept in ``store`` keyed by
+    :func:`model_key`. ``computed``: that replay already under way elsewhere (an object
+    whose ``result()`` is its dict: the report starts it in a process of its own while the
+    engines run, :meth:`~impactbench.scenarios.spec.ScenarioSpec.report_background`), used
+    when the store has none."""
+    key = inputs = None
+    if store is not None:
+        key, inputs = model_key(scenario)
+        if (stored := _stored(store, key, fresh)) is not None:
+            return stored
+    result = computed.result() if computed is not None else model_replay(scenario)
+    if key is not None:
+        import impactbench.cube_tosses.reference_model as model
+
+        _keep(store, key, inputs, model.ENGINE, "fitted", scenario, result)
+    return result
+
+
+def model_stored(scenario: Any, store: Any) -> bool:
+    """Whether ``store`` holds the reference model's replay of ``scenario``."""
+    return store is not None and _stored(store, model_key(scenario)[0], False) is not None
+
+
+def model_key(scenario: Any) -> tuple[str, dict[str, Any]]:
+    """The store key and inputs of the reference model's replay of ``scenario``: the box,
+    data, selection, protocol, the fitted file's SHA-256, scipy's and impactbench's versions."""
     from importlib import metadata
 
     import impactbench.cube_tosses.reference_model as model
     from impactbench.store import _canonical, impactbench_version, run_key
 
+    inputs = _canonical({"engine": model.ENGINE,
+                         "engine_version": f"scipy {metadata.version('scipy')}",
+                         "impactbench_version": impactbench_version(),
+                         "scenario": type(scenario).name, "physics": scenario.to_dict(),
+                         "mode": "fitted", "data_sha256": data_sha256(data_path(scenario)),
+                         "fitted_sha256": hashlib.sha256(
+                             model.FITTED_PATH.read_bytes()).hexdigest()})
+    return run_key(inputs), inputs
+
+
+def model_replay(scenario: Any) -> dict[str, Any]:
+    """The reference model's replay of ``scenario``'s tosses, computed (no store):
+    :func:`~impactbench.cube_tosses.reference_model.replay_reference`'s dict plus
+    ``message``, ``engine_version`` (scipy's), ``timestep_s`` (none: adaptive), ``box`` and
+    ``wall_s``. A module-level function of a picklable scenario: it runs in another process."""
+    from importlib import metadata
+
+    import impactbench.cube_tosses.reference_model as model
+
     path = data_path(scenario)
-    version = f"scipy {metadata.version('scipy')}"
-    key = inputs = None
-    if store is not None:
-        inputs = _canonical({"engine": model.ENGINE, "engine_version": version,
-                             "impactbench_version": impactbench_version(),
-                             "scenario": type(scenario).name, "physics": scenario.to_dict(),
-                             "mode": "fitted", "data_sha256": data_sha256(path),
-                             "fitted_sha256": hashlib.sha256(
-                                 model.FITTED_PATH.read_bytes()).hexdigest()})
-        key = run_key(inputs)
-        if (stored := _stored(store, key, fresh)) is not None:
-            return stored
     t0 = time.perf_counter()
     out = model.replay_reference(scenario.selection, None, str(path) if scenario.data else None,
                                  protocol_of(scenario), box=box_of(scenario))
-    result = {**out, "message": _message(out), "engine_version": version,
-              "timestep_s": None, "timestep_source": "adaptive (scipy LSODA)",
-              "substeps": None, "box": _box_of(scenario), "wall_s": time.perf_counter() - t0}
-    _keep(store, key, inputs, model.ENGINE, "fitted", scenario, result)
-    return result
+    return {**out, "message": _message(out),
+            "engine_version": f"scipy {metadata.version('scipy')}",
+            "timestep_s": None, "timestep_source": "adaptive (scipy LSODA)",
+            "substeps": None, "box": _box_of(scenario), "wall_s": time.perf_counter() - t0}
 
 
 def measurement(scenario: Any) -> dict[str, Any]:

@@ -270,6 +270,21 @@ class CubeTossSpec(ScenarioSpec):
 
         return replay_jobs(cfg, self, table, engines)
 
+    def report_background(self, cfg: Any, table: Any, store: Any) -> dict[str, Any]:
+        """The reference model's replay (``model = true``, the default), unless ``store``
+        has it: ~6 s of scipy on one core, which ran in the report's process after the
+        engines' runs."""
+        import functools
+
+        from impactbench.cube_tosses.scenario import model_replay, model_stored
+
+        if not cfg.raw.get(self.table, {}).get("model", True):
+            return {}
+        scenario = self.build(parameters=table.parameters)
+        if model_stored(scenario, store):
+            return {}
+        return {f"{self.name}:model": functools.partial(model_replay, scenario)}
+
     def estimated_steps(self, scenario: Any, reference: Any, timestep_s: Any) -> float:
         """A replay's engine steps: every sample of the selected tosses, ``substeps`` each."""
         samples = reference.get("samples", 0) if isinstance(reference, dict) else 0

@@ -291,6 +291,13 @@ class ScenarioSpec:
         and store; [] for a scenario whose runs are the matrix's own points."""
         return []
 
+    def report_background(self, cfg: Any, table: Any, store: Any) -> dict[str, Any]:
+        """Work of a measured scenario's report part that needs none of the engines' runs,
+        to start in a process of its own while they run (its config ``table``; ``store``:
+        the part's results store): name → a picklable callable of no arguments, whose
+        result :meth:`report_part` finds as ``ctx.background[name].result()``; none."""
+        return {}
+
     def estimated_steps(self, scenario: Any, reference: Mapping[str, Any],
                         timestep_s: float | None) -> float:
         """Rough integration steps of one run (what its timeout and the time-left estimate
