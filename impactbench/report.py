@@ -336,7 +336,7 @@ def build(cfg: config_mod.ReportConfig, out_dir: Path, *, engines: list[str] | N
             finally:
                 close()
         except BaseException:
-            pool.__exit__(*sys.exc_info())
+            pool.end()
             raise
         if store is not None and store.full is not None:
             store.say_full(store.kept_of(jobs), len(jobs))
@@ -355,6 +355,8 @@ def build(cfg: config_mod.ReportConfig, out_dir: Path, *, engines: list[str] | N
                 else ""
             raise ValueError(f"out = '{out_dir}': cannot write the report "
                              f"({exc.strerror or exc}){kept}") from None
+        finally:  # closed by the rendering; else (a kept report, an error) ended here
+            pool.end()
     rep.out_dir = out_dir
     rep.files = [out_dir / f.relative_to(stage) for f in rep.files]
     return rep

@@ -213,6 +213,16 @@ class FigurePool:
             self._queued, self._futures = [], []
             if self._executor is not None:
                 self._executor.shutdown(wait=True, cancel_futures=True)
+                self._executor = None
+
+    def end(self) -> None:
+        """End the workers at once, whatever they still do (a report that keeps its previous
+        files needs none of it); nothing after :meth:`close`."""
+        if self._executor is not None:
+            from impactbench.figures.pool import end_now
+
+            end_now(self._executor)
+            self._executor = None
 
     def __enter__(self) -> FigurePool:
         return self
