@@ -668,11 +668,10 @@ def _mjx_loop(mtree: Any, dtree: Any, stride: int, records: int) -> Any:
     """:func:`_mjx_chunk`'s chunk on the flat leaves of the model and the data (trees
     ``mtree``, ``dtree``), ``loop(m_leaves, d_leaves) → (d_leaves, rows)``, its traced
     program kept on disk (MJX's kept loops, :class:`impactbench.engines.mjx_adapter._Loop`):
-    a process loads it instead of tracing ``mjx.step`` again (measured: the first call of a
-    mode 3.1–3.3 s with the trace, against its 3.0 s of stepping). The model's values are
-    arguments, not constants of the program: the modes whose models differ only in values
-    (native's and tuned's elliptic cones) share one program and one XLA compile. Bit for bit
-    the plain chunk's (tested)."""
+    a process loads it (~0.45 s with XLA's cached compile) instead of tracing ``mjx.step``
+    again. The model's values are arguments, not constants of the program: the modes whose
+    models differ only in values (native's and tuned's elliptic cones) share one program and
+    one XLA compile. Bit for bit the plain chunk's (tested)."""
     from impactbench.engines.mjx_adapter import _Loop, _tree_key
 
     _, jax, mjx = _mjx()
