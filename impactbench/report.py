@@ -243,8 +243,8 @@ def render(out_dir: Path, cfg: config_mod.ReportConfig, df: pd.DataFrame,
         old.unlink()
     from impactbench.report_render import FigurePool
 
-    with pool if pool is not None else FigurePool(workers) as pool:  # the figures draw in
-        # worker processes meanwhile
+    pool = pool if pool is not None else FigurePool(workers)
+    with pool:  # the figures draw in worker processes meanwhile
         ctx = ReportContext(cfg, df, meta, out_dir, results, show_progress=show_progress,
                             store=store, pool=pool, background=dict(background or {}))
         _figures(ctx)
@@ -370,10 +370,11 @@ def _background(cfg: config_mod.ReportConfig, store: Any, pool: Any) -> dict[str
     from impactbench.report_sections import section_store
 
     work: dict[str, Any] = {}
+    own = section_store(cfg, store)
     for sm in cfg.scenarios:
         spec = scenarios.get(sm.name)
         if spec.measured and spec.table in cfg.raw:
-            work.update(spec.report_background(cfg, sm, section_store(cfg, store)))
+            work.update(spec.report_background(cfg, sm, own))
     if work:
         pool.start()
     return {name: pool.call(fn) for name, fn in work.items()}

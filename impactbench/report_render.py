@@ -176,12 +176,8 @@ class FigurePool:
             self._futures.append(self._executor.submit(fn, *args, **kwargs))
             return path
         self._queued.append((fn, args, kwargs))
-        if self.workers > 1 and len(self._queued) >= self.MIN_PARALLEL:
-            from impactbench.figures.pool import process_pool
-
-            self._executor = process_pool(self.workers)
-            self._futures += [self._executor.submit(f, *a, **k) for f, a, k in self._queued]
-            self._queued = []
+        if len(self._queued) >= self.MIN_PARALLEL:
+            self.start()
         return path
 
     def start(self) -> bool:
@@ -230,10 +226,8 @@ class FigurePool:
     def __exit__(self, *exc: object) -> None:
         if exc[0] is None:
             self.close()
-        elif self._executor is not None:  # the report's own error: its figures do not matter
-            from impactbench.figures.pool import end_now
-
-            end_now(self._executor)
+        else:  # the report's own error: its figures do not matter
+            self.end()
 
 
 class _Later:
