@@ -702,18 +702,21 @@ def _source_hash() -> str:
     return hashlib.sha256(Path(__file__).read_bytes()).hexdigest()
 
 
-_MJX_INIT: list[Any] = []
+@functools.lru_cache(maxsize=1)
+def _normalize() -> Any:
+    from mujoco.mjx._src import math as mjx_math
+
+    _, jax, _ = _mjx()
+    return jax.jit(jax.vmap(mjx_math.normalize))
 
 
-def _mjx_init() -> Any:
-    """``init(mx, dx0, qpos, qvel) → dx``: ``mjx.forward`` of ``dx0`` at each row of the
-    initial states (vmapped); one jitted function in a process (shared by every model)."""
-    if not _MJX_INIT:
-        _, jax, mjx = _mjx()
-        _MJX_INIT.append(jax.jit(jax.vmap(
-            lambda mx, dx, q, v: mjx.forward(mx, dx.replace(qpos=q, qvel=v)),
-            in_axes=(None, None, 0, 0))))
-    return _MJX_INIT[0]
+def _mjx_normalize(quats: np.ndarray) -> np.ndarray:
+    """The quaternions (rows w x y z) normalized as MJX's kinematics normalizes a free joint's
+    (``math.normalize``, written back into qpos by every forward): a toss's start as it was
+    after the ``mjx.forward`` that once came before its first step, so that the first step's
+    own forward normalizes it a second time, as then (a second normalization changes the
+    last bit of 10 of the 89 test tosses' starts: the same poses bit for bit, tested)."""
+    return np.asarray(_normalize()(quats))
 
 
 class MjxCube(BatchedCube, MujocoPlaneCube):
@@ -736,16 +739,40 @@ class MjxCube(BatchedCube, MujocoPlaneCube):
             self._mx = mjx.put_model(self._model)
         except NotImplementedError as exc:
             raise ValueError(f"mjx cube parameters {dict(self.params)!r}: {exc}") from None
-        from impactbench.engines.mjx_adapter import _compiled_forward
+        from impactbench.engines.mjx_adapter import WIDENED
 
-        self._forward = _compiled_forward()
-        self._dx0 = self._forward(self._mx, mjx.put_data(self._model, self._data))
-        self._init = _mjx_init()
+        # the data every toss starts from: put_data's of a fresh MjData, its qpos and qvel
+        # set per toss (:meth:`_initial`), the leaves of WIDENED 64-bit (a step returns them
+        # so). No mjx.forward first: a step's own forward recomputes every derived field from
+        # the state before it reads it (the same poses bit for bit as a forward first,
+        # tested), and a separate forward and its vmapped twin would each be traced in every
+        # process and compiled on every machine (~2 s and ~12 s each model structure).
+        paths, self._dtree = jax.tree_util.tree_flatten_with_path(
+            mjx.put_data(self._model, self._mj.MjData(self._model)))
+        names = [jax.tree_util.keystr(p) for p, _ in paths]
+        self._d_leaves = [np.array(leaf) for _, leaf in paths]
+        for name in WIDENED:
+            if name in names:
+                i = names.index(name)
+                self._d_leaves[i] = self._d_leaves[i].astype(np.int64)
+        self._qpos, self._qvel = names.index(".qpos"), names.index(".qvel")
+
+    def _initial(self, starts: Sequence[Start]) -> list[np.ndarray]:
+        """The data leaves of ``starts``' tosses, one row each (:meth:`_build`): qpos the
+        toss's centre and its quaternion normalized as MJX's forward normalizes it
+        (:func:`_mjx_normalize`), qvel its velocity and body-frame angular velocity."""
+        n = len(starts)
+        out = [np.repeat(leaf[None], n, axis=0) for leaf in self._d_leaves]
+        out[self._qpos] = np.concatenate(
+            [np.stack([s.p for s in starts]), _mjx_normalize(np.stack([s.q for s in starts]))],
+            axis=1)
+        out[self._qvel] = np.stack([np.concatenate([s.v, s.w_body]) for s in starts])
+        return out
 
     def run_many(self, starts: Sequence[Start]
                  ) -> list[tuple[np.ndarray, np.ndarray] | Exception]:
         """Every toss of ``starts`` in :attr:`batch` world slots (module doc): each toss's
-        initial data from ``mjx.forward`` (``batch`` at a time), then chunks of
+        initial data (:meth:`_initial`), then chunks of
         :data:`MJX_CHUNK_RECORDS` samples over all slots; between chunks a slot whose toss
         has all its samples takes the next toss's initial data (copied, every field). A
         world's floats depend on its own data only (vmap; checked bit for bit against
@@ -758,26 +785,14 @@ class MjxCube(BatchedCube, MujocoPlaneCube):
         need = [int(s.record_steps[-1] // stride) for s in starts]
         order = [int(i) for i in np.argsort(-np.array(need), kind="stable")]
         size = n if self.batch is None else min(self.batch, n)
-        # the initial data of every toss, `size` at a time (one compiled shape), on the host
-        initial: dict[int, tuple[list[np.ndarray], int]] = {}
-        treedef = None
-        for first in range(0, n, size):
-            group = order[first:first + size]
-            members = group + [group[0]] * (size - len(group))   # pad: one compiled shape
-            qpos = np.stack([np.concatenate([starts[i].p, starts[i].q]) for i in members])
-            qvel = np.stack([np.concatenate([starts[i].v, starts[i].w_body]) for i in members])
-            dx = self._init(self._mx, self._dx0, jnp.asarray(qpos), jnp.asarray(qvel))
-            leaves, treedef = jax.tree_util.tree_flatten(dx)
-            host = [np.array(leaf) for leaf in leaves]
-            initial.update((i, (host, j)) for j, i in enumerate(group))
         rows: dict[int, list[np.ndarray]] = {
             i: [np.concatenate([starts[i].p, starts[i].q])[None, :7]] for i in range(n)}
         got = dict.fromkeys(range(n), 0)
         slots: list[int | None] = list(order[:size])
         queue = order[size:][::-1]                 # popped from the end: longest first
-        carry = initial[order[0]][0]               # the first group is the slots' start
+        carry = self._initial([starts[i] for i in slots])
         m_leaves, mtree = jax.tree_util.tree_flatten(self._mx)
-        chunk = _mjx_loop(mtree, treedef, stride, MJX_CHUNK_RECORDS)
+        chunk = _mjx_loop(mtree, self._dtree, stride, MJX_CHUNK_RECORDS)
         while any(i is not None for i in slots):
             leaves, r = chunk(m_leaves, [jnp.array(a) for a in carry])
             r = np.asarray(r)
@@ -792,9 +807,8 @@ class MjxCube(BatchedCube, MujocoPlaneCube):
                 slots[k] = None
                 if queue:                          # the next toss takes the slot
                     nxt = queue.pop()
-                    host, j = initial[nxt]
-                    for a, b in zip(carry, host, strict=True):
-                        a[k] = b[j]
+                    for a, b in zip(carry, self._initial([starts[nxt]]), strict=True):
+                        a[k] = b[0]
                     slots[k] = nxt
         out: list[Any] = []
         for i, s in enumerate(starts):

@@ -289,19 +289,31 @@ def test_recorded_poses_are_the_old_reads(engine: str, starts: list) -> None:
 
 def test_mjx_slots_are_the_old_batches(starts: list) -> None:
     """MJX's world slots (2 slots for 5 tosses of different lengths: a finished toss's slot
-    takes the next) give each toss the poses the old fixed batches gave (sorted by length,
-    2 at a time, the last padded with a copy)."""
+    takes the next), each toss started from put_data's leaves (no forward first), give each
+    toss the poses the old fixed batches gave (sorted by length, 2 at a time, the last
+    padded with a copy, each batch's data from a vmapped ``mjx.forward`` of the model's
+    forward data at the tosses' states): bit for bit, so that neither the slots nor
+    starting without a forward (MJX's forward writes the normalized quaternion back into
+    qpos: the start is normalized once on the host to match) changes a pose."""
     require_engine("mjx")
     from impactbench.engines import cube_toss_more as more
 
     scenario = scenarios.get("cube-toss").build()
     every, _ = scenario.starts()
+    # toss 567: its start's quaternion is one whose second normalization changes a bit, and
+    # the poses from sample 21 on (default mode) differ where the start is not normalized
+    picked = [*every[:3], next(s for s in every if int(s.toss) == 567), every[3]]
     short = [dataclasses.replace(s, record_steps=s.record_steps[:n])
-             for s, n in zip(every[:5], (40, 7, 23, 33, 12), strict=True)]
+             for s, n in zip(picked, (40, 7, 23, 33, 12), strict=True)]
     sim = more.MjxCube({}, short[0].step_s, 0.0, batch=2)
     got = sim.run_many(short)
     # the old run_many: fixed batches of 2, each to its longest toss
-    jnp = sim._jax.numpy
+    _, jax, mjx = more._mjx()
+    jnp = jax.numpy
+    mx = mjx.put_model(sim._model)
+    dx0 = jax.jit(mjx.forward)(mx, mjx.put_data(sim._model, sim._data))
+    init = jax.jit(jax.vmap(lambda m, d, q, v: mjx.forward(m, d.replace(qpos=q, qvel=v)),
+                            in_axes=(None, None, 0, 0)))
     stride = sim._check(short)
     lengths = np.array([int(s.record_steps[-1] // stride) for s in short])
     order = np.argsort(-lengths, kind="stable")
@@ -312,10 +324,10 @@ def test_mjx_slots_are_the_old_batches(starts: list) -> None:
         members = group + [group[0]] * (2 - len(group))
         qpos = np.stack([np.concatenate([short[i].p, short[i].q]) for i in members])
         qvel = np.stack([np.concatenate([short[i].v, short[i].w_body]) for i in members])
-        dx = sim._init(sim._mx, sim._dx0, jnp.asarray(qpos), jnp.asarray(qvel))
+        dx = init(mx, dx0, jnp.asarray(qpos), jnp.asarray(qvel))
         rows, done = [qpos[:, None, :7]], 0
         while done < int(lengths[group].max()):
-            dx, r = chunk(sim._mx, dx)
+            dx, r = chunk(mx, dx)
             rows.append(np.asarray(r))
             done += more.MJX_CHUNK_RECORDS
         rows = np.concatenate(rows, axis=1)
