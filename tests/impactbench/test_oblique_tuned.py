@@ -37,6 +37,14 @@ from tests.conftest import require_engine
 DT = 1e-6
 ENGINES = ("mujoco", "mjx", "pybullet", "drake", "sapien", "dart", "newton", "pymunk",
            "box2d")
+# How closely a rerun reproduces the packaged objectives, relative. Bit for bit on one machine
+# for every engine; 1e-6 holds across the CPUs CI has met, except Drake's. Drake's continuous
+# plant with regularised Coulomb friction (RK3, fixed 1 µs steps, stiction tolerance 1.2e-3
+# m/s) amplifies the last bit of its inputs in a sticking contact: measured, 1 ulp more μ moves
+# the tuned J by 6.8e-5, and the same run on a CPU without AVX-512 (CI's, and here with
+# NPY_DISABLE_CPU_FEATURES="X86_V4 AVX512_ICL AVX512_SPR" OPENBLAS_CORETYPE=Haswell) gives
+# tuned J 7.211387e-7 against 7.210469e-7 (1.27e-4) and native 1.5e-6; the bound is ~3× that.
+REPRODUCED_REL = {"drake": 4e-4}
 
 
 def objective(engine: str, mode: str, params: dict | None = None) -> float:
@@ -59,8 +67,9 @@ def test_packaged_file_is_no_worse_than_native(engine: str) -> None:
     assert prov["scenario_friction"] == 0.3 and prov["seed"] == fit.SEED
     native, got = objective(engine, "native"), objective(engine, "tuned", params)
     assert got <= native
-    assert got == pytest.approx(prov["objective_tuned"], rel=1e-6)
-    assert native == pytest.approx(prov["objective_native"], rel=1e-6)
+    rel = REPRODUCED_REL.get(engine, 1e-6)
+    assert got == pytest.approx(prov["objective_tuned"], rel=rel)
+    assert native == pytest.approx(prov["objective_native"], rel=rel)
     assert prov["objective_start"] == prov["objective_native"]  # start = the native run
 
 
