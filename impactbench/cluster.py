@@ -412,6 +412,12 @@ class _DaskRun:
         self.placed_at = 0.0
         self.warm: set[str] = set()
         """Workers that have announced a start: their imports are done."""
+        self.killed: dict[str, float] = {}
+        """Workers this run killed (a timed-out item), and when: not counted as free while
+        the scheduler still lists them."""
+        self.recount_until = 0.0
+        """Until then (after a kill) the free workers are counted on the scheduler itself at
+        each submission, not from the client's view (refreshed every 2 s)."""
 
     # -- announcements and batch sizes
     def started(self, event: Any) -> None:  # on the client's event-loop thread
@@ -508,21 +514,47 @@ class _DaskRun:
         self.placed_at = now
         with contextlib.suppress(Exception):
             where = {key: w for w, keys in self.c.processing().items() for key in keys}
+            running = {b.started[1] for f, b in self.flying.items()
+                       if b.started is not None and not f.done()}
             for fut, batch in self.flying.items():
                 if batch.started is not None:
                     continue
                 worker = where.get(fut.key)
-                if worker is None:
+                if worker is None or worker in running:  # queued behind a batch that runs
                     batch.placed = None
                 elif batch.placed is None or batch.placed[0] != worker:
                     batch.placed = (worker, now)
+
+    def kill(self, address: str) -> None:
+        """Restart the worker at ``address`` (its item timed out): until its replacement has
+        registered, it is not a free slot, or the next batch would be queued behind a hung
+        one on the other worker, its clock running and the kill of that worker counted
+        against it (``allowed-failures``)."""
+        self.runner._restart(self.c, address)
+        now = time.monotonic()
+        self.killed[address] = now
+        self.recount_until = now + RESTART_TIMEOUT_S
+
+    def slots(self, now: float, counted: int) -> int:
+        """How many batches may be in flight: ``counted`` (the client's view of the workers)
+        except shortly after a kill, when the workers the scheduler lists now, less those
+        killed, are counted (a round trip of ~1 ms)."""
+        if now >= self.recount_until:
+            return counted
+        try:
+            listed = set(self.c.nthreads())
+        except Exception:  # the cluster may be closing: the client's view
+            return counted
+        self.killed = {a: t for a, t in self.killed.items()
+                       if a in listed and now - t < RESTART_TIMEOUT_S}
+        return len(listed - self.killed.keys())
 
     def requeue(self, fut: Any, address: str, alone: list[Any], before: list[Any],
                 batch: _Batch) -> None:
         """Cancel a batch, restart its worker, and queue ``alone`` items one at a time after
         ``before`` (the batch's items that ran) as they were."""
         self.drop(fut)
-        self.runner._restart(self.c, address)
+        self.kill(address)
         self.todo.extendleft((i, True) for i in reversed(alone))
         self.todo.extendleft((i, batch.alone) for i in reversed(before))
 
@@ -557,7 +589,7 @@ class _DaskRun:
             else:
                 continue
             self.drop(fut)
-            self.runner._restart(self.c, address)
+            self.kill(address)
             timed_out(batch.items[k], f"timed out after {limit:.3g} s (cancelled; its worker "
                       "was restarted)")
             self.todo.extendleft((i, batch.alone) for i in reversed(batch.items[:k]))
@@ -600,13 +632,14 @@ class _DaskRun:
             timed_out: Callable[[Any, str], None], on_tick: Callable[[], None] | None) -> None:
         # one batch per worker: a second would wait on the worker (Dask queues only large
         # groups of tasks), die with it, and sit behind a hang
-        slots, counted = self.runner.size, time.monotonic()
+        size, counted = self.runner.size, time.monotonic()
         self.c.subscribe_topic(self.topic, self.started)
         try:
             while self.todo or self.flying:
-                if time.monotonic() - counted > 2.0:  # workers may come and go
-                    slots, counted = self.runner.size, time.monotonic()
-                while self.todo and len(self.flying) < slots:
+                now = time.monotonic()
+                if now - counted > 2.0:  # workers may come and go
+                    size, counted = self.runner.size, now
+                while self.todo and len(self.flying) < self.slots(now, size):
                     self.submit()
                 with contextlib.suppress(queue.Empty):  # a wake-up: any future may be done
                     self.done.get(timeout=TICK_S)

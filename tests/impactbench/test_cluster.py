@@ -133,3 +133,31 @@ def test_a_small_report_runs_in_this_process_by_default() -> None:
     there = subprocess.run([sys.executable, "-c", code.replace("WORKERS", "1")],
                            capture_output=True, text=True, timeout=120)
     assert there.stdout.strip() == "True", there.stderr
+
+
+def test_a_killed_worker_is_no_free_slot_until_its_replacement_registers() -> None:
+    """After a timed-out item's worker is killed, the free slots are counted on the
+    scheduler, less the killed worker: a batch submitted before the replacement registers
+    would be queued behind the other worker's batch (a hung one, in CI: its clock ran there
+    and the kill of that worker was counted against it, 'marked as failed because 2 workers
+    died'). Real Dask, 2 local workers."""
+    import time
+
+    from impactbench import cluster
+
+    with cluster.Runner(workers=2) as runner:
+        c = runner.client()
+        c.wait_for_workers(2, timeout=60)
+        run = cluster._DaskRun(runner, c, abs, [], "t", None, lambda _i: None,
+                               lambda _i: None, lambda _i: None)
+        before = set(c.nthreads())
+        assert run.slots(time.monotonic(), 2) == 2  # no kill: the count given
+        gone = sorted(before)[0]
+        run.kill(gone)
+        assert run.slots(time.monotonic(), 2) == 1  # at once, whatever the scheduler lists
+        deadline = time.monotonic() + 60
+        while run.slots(time.monotonic(), 2) < 2:
+            assert time.monotonic() < deadline, "the killed worker was not replaced"
+            time.sleep(0.1)
+        assert gone not in c.nthreads() and len(c.nthreads()) == 2
+        assert runner.restarted == 1
