@@ -1,6 +1,7 @@
 """PyBullet adapter: both scenarios through Bullet's soft (stiffness/damping) contact.
 
-World (one ``p.connect(p.DIRECT)`` client per run, disconnected in ``finally``):
+World (one DIRECT client per run, its world reset in ``finally`` and the client reused,
+:mod:`~impactbench.engines.pybullet_clients`):
 ``fixedTimeStep = dt``, ``numSubSteps = 0``, ``contactBreakingThreshold = 1e-12 m`` (no
 speculative contact braking the body before it touches), ``contactSlop = 0`` (the default slop
 would shift the penetration by 10 µm), split impulse off; every body has restitution 0,
@@ -151,7 +152,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-from impactbench.engines import oblique_tuned
+from impactbench.engines import oblique_tuned, pybullet_clients
 from impactbench.engines.base import (
     RIGID_FLEXIBLE_MODES,
     Adapter,
@@ -263,7 +264,7 @@ def _version() -> str:
 
 
 def _connect(p: Any, dt: float, gravity_z: float = 0.0) -> int:
-    cid = p.connect(p.DIRECT)
+    cid = pybullet_clients.acquire(p)
     p.setPhysicsEngineParameter(
         fixedTimeStep=dt, numSubSteps=0, contactBreakingThreshold=BREAKING_THRESHOLD_M,
         contactSlop=0.0, useSplitImpulse=0, restitutionVelocityThreshold=0.0,
@@ -328,7 +329,7 @@ class BallWorld:
         if out_of_box is None:
             self.cid = _connect(p, dt, -scenario.gravity_m_s2)
         else:
-            self.cid = p.connect(p.DIRECT)
+            self.cid = pybullet_clients.acquire(p)
             p.setPhysicsEngineParameter(  # Bullet's default, process-wide: set it back
                 fixedTimeStep=dt, contactBreakingThreshold=BULLET_BREAKING_THRESHOLD_M,
                 physicsClientId=self.cid)
@@ -418,7 +419,7 @@ class BallWorld:
         return float(reported.get("restitutionVelocityThreshold", self.threshold_set_m_s))
 
     def close(self) -> None:
-        self.p.disconnect(self.cid)
+        pybullet_clients.release(self.p, self.cid)
 
 
 class FlexWorld:
@@ -468,7 +469,7 @@ class FlexWorld:
                               physicsClientId=self.cid)
 
     def close(self) -> None:
-        self.p.disconnect(self.cid)
+        pybullet_clients.release(self.p, self.cid)
 
 
 def rf_sphere_radius_m(s: RigidFlexible) -> float:
@@ -603,7 +604,7 @@ class ObliqueWorld(BallWorld):
             p.setPhysicsEngineParameter(contactBreakingThreshold=self.threshold,
                                         physicsClientId=self.cid)
         else:
-            self.cid = p.connect(p.DIRECT)
+            self.cid = pybullet_clients.acquire(p)
             self.threshold = None
             p.setPhysicsEngineParameter(  # Bullet's default, process-wide: set it back
                 fixedTimeStep=dt, contactBreakingThreshold=BULLET_BREAKING_THRESHOLD_M,
