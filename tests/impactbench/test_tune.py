@@ -390,7 +390,7 @@ def test_ctrl_c_then_the_same_tune_resumes_from_the_store(tmp_path):
 
     store, out = tmp_path / "s.duckdb", tmp_path / "mj.toml"
     argv = [sys.executable, "-m", "impactbench.cli", "tune", "--engine", "mujoco",
-            "--velocities", "1,4", "--timestep", "1e-7", "--max-evals", "300", "--workers",
+            "--velocities", "1,4", "--timestep", "1e-7", "--max-evals", "150", "--workers",
             "0", "--store", str(store), "--no-plot", "--out", str(out), "--json"]
     plain_argv = [*argv[:-6], "--store", str(tmp_path / "plain.duckdb"), "--no-plot",
                   "--out", str(tmp_path / "plain.toml"), "--json"]
