@@ -79,7 +79,7 @@ def test_ctrl_c_stops_a_long_reference_solve_within_seconds() -> None:
     # the budgeted solve spans ~0.95-1.55 s of CPU here (measured: a signal at 1.6-1.7 s
     # found it printed and exiting, where dying by the signal is any program's exit) — it
     # stops with the one Ctrl-C line and 130 (the exit itself 0.5-1.5 s on a loaded 2-core
-    # machine, measured). The quick run is timed with numba's cache filled (the second of two
+    # machine, measured). The quick run is timed with numba's cache filled (the lesser of two
     # runs): on a fresh clone the first compiles the kernels (17.0 s of CPU against 2.1 s
     # cached, measured here), which the long run then loads, so it finished its budgeted
     # solve (exit 0) before that much CPU was spent
