@@ -42,6 +42,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import math
 import os
 import statistics
 import subprocess
@@ -98,7 +99,29 @@ from impactbench.store import Store
 phases = defaultdict(float)
 results = []
 # the report's own run fills a time-left clock where this layout takes one (its ratios)
-clock = matrix.TimeLeft(1) if hasattr(matrix, "TimeLeft") else None
+said, span = [], []
+if hasattr(matrix, "TimeLeft"):
+    class Clock(matrix.TimeLeft):
+        """The estimate as a progress line would hear it, and when: once the run has set its
+        workers (its first), then after each finished item."""
+
+        @property
+        def workers(self):
+            return self._workers
+
+        @workers.setter
+        def workers(self, n):
+            self._workers = n
+            if self.__dict__.get("pending"):
+                said.append((time.monotonic(), self.seconds()))
+
+        def finished(self, *args):
+            super().finished(*args)
+            said.append((time.monotonic(), self.seconds()))
+
+    clock = Clock(1)
+else:
+    clock = None
 
 def timed(owner, name, key, keep=False):
     original = getattr(owner, name)
@@ -112,6 +135,8 @@ def timed(owner, name, key, keep=False):
             out = original(*args, **kwargs)
         finally:
             phases[key] += time.perf_counter() - t0
+            if key == "runs":
+                span.append(time.monotonic())
         if keep:
             results.append(out)
         return out
@@ -140,6 +165,7 @@ for r in (r for got in results for r in got):
 phases["rendering"] = phases.pop("render") - phases["section runs"]
 print(json.dumps({"phases": dict(phases), "runs_total": sum(len(g) for g in results),
                   "time_ratios": clock.measured() if clock is not None else [],
+                  "time_left": {"said": said, "end": span[-1] if span else None},
                   "engine_s": dict(engine_s),
                   "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0}))
 '''
@@ -253,26 +279,78 @@ def main(argv: list[str] | None = None) -> None:
     total = sum(v for _, v in ranked) or 1.0
     for key, seconds in ranked[:15]:
         print(f"  {key:36s} {seconds:8.1f} s  {100 * seconds / total:5.1f} %")
+    error = time_left_error(last.get("time_left") or {})
+    if error is not None:
+        median, worst, samples = error
+        print(f"\ntime left as the progress lines say it, against the runs' actual end "
+              f"(every {TICK_S:.0f} s while ≥ {MIN_LEFT_S:.0f} s are left): median error "
+              f"×{median:.2f}, worst ×{worst:.2f}")
+        print("  " + "; ".join(f"at {t:.0f} s: said {s:.0f} s, {a:.0f} s left"
+                               for t, s, a in samples))
     if "--priors" in argv:
         write_priors(last["time_ratios"], cold)
 
 
+TICK_S = 10.0
+MIN_LEFT_S = 15.0
+
+
+def time_left_error(record: dict[str, Any]) -> tuple[float, float, list] | None:
+    """How far the time left a progress line shows is from the truth: every :data:`TICK_S`
+    from the run's first estimate, the last estimate counted down since it was made (as
+    :func:`impactbench.cliutil.progress_bar` shows it, to a fifth of it at most) against the
+    seconds until the runs ended; the median and worst factor (×, either way) while at least
+    :data:`MIN_LEFT_S` are left, and the lines at 10, 30, 60 and 90 s. None without
+    estimates (a layout without them)."""
+    said, end = record.get("said") or [], record.get("end")
+    if not said or end is None:
+        return None
+    start, k, t = said[0][0], 0, said[0][0] + TICK_S
+    factors, samples = [], []
+    while end - t >= MIN_LEFT_S:
+        while k + 1 < len(said) and said[k + 1][0] <= t:
+            k += 1
+        at, value = said[k]
+        shown = max(0.2 * value, value - (t - at))
+        factors.append(math.exp(abs(math.log(max(shown, 1e-3) / (end - t)))))
+        if round(t - start) in (10, 30, 60, 90):
+            samples.append((t - start, shown, end - t))
+        t += TICK_S
+    if not factors:
+        return None
+    return statistics.median(factors), max(factors), samples
+
+
 def write_priors(ratios: list[list[Any]], cold: bool) -> None:
-    """The time-left priors (:data:`impactbench.matrix.TIME_PRIORS`) from a build's measured
-    ratios, with where they were measured."""
+    """One column of the time-left priors (:data:`impactbench.matrix.TIME_PRIORS`: ``cold``
+    with ``IMPACTBENCH_BENCH_COLD=1``, else ``warm``) from a build's measured ratios, with where
+    they were measured; the other column is kept."""
     import platform
 
     from impactbench.matrix import TIME_PRIORS
 
+    column = "cold" if cold else "warm"
+    try:
+        old = json.loads(TIME_PRIORS.read_text())
+    except (OSError, ValueError):
+        old = {}
+    measured_on = old.get("measured_on") if isinstance(old.get("measured_on"), dict) else {}
+    measured_on[column] = (f"{platform.machine()}, {os.cpu_count()} cores, compile caches "
+                           f"{'empty' if cold else 'warm'}")
+    columns = {c: old[c] for c in ("cold", "warm") if isinstance(old.get(c), list)}
+    columns[column] = [[e, sc, b, float(f"{r:.4g}")] for e, sc, b, r in ratios]
     head = {"about": "what each (engine, scenario, batched) group of a fresh default report's "
-                     "work items took over its estimate (impactbench.matrix.TimeLeft's prior); "
-                     "written by python -m benchmarks report --priors",
-            "measured_on": f"{platform.machine()}, {os.cpu_count()} cores, "
-                           f"compile caches {'empty' if cold else 'warm'}"}
-    rows = ",\n".join("  " + json.dumps([e, sc, b, float(f"{r:.4g}")]) for e, sc, b, r in ratios)
-    TIME_PRIORS.write_text(json.dumps(head, indent=1)[:-2] + ',\n "ratios": [\n' + rows
-                           + "\n ]\n}\n")
-    print(f"\ntime-left priors: {len(ratios)} groups written to {TIME_PRIORS}")
+                     "work items took over its estimate (impactbench.matrix.TimeLeft's prior), "
+                     "cold (compile caches empty) and warm; written by python -m benchmarks "
+                     "report --priors (IMPACTBENCH_BENCH_COLD=1 for the cold column)",
+            "measured_on": {c: measured_on[c] for c in ("cold", "warm") if c in measured_on}}
+    parts = [json.dumps(head, indent=1)[:-2]]
+    for c in ("cold", "warm"):
+        if c in columns:
+            rows = ",\n".join("  " + json.dumps(row) for row in columns[c])
+            parts.append(f' "{c}": [\n{rows}\n ]')
+    TIME_PRIORS.write_text(",\n".join(parts) + "\n}\n")
+    print(f"\ntime-left priors: {len(ratios)} groups written to {TIME_PRIORS} ({column})")
 
 
 @contextmanager

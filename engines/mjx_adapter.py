@@ -82,6 +82,7 @@ from impactbench.engines.base import (
     ball_phase,
     cube_toss_builder,
 )
+from impactbench.engines.compile_caches import impactbench_jax_dir
 from impactbench.engines.mujoco_adapter import (
     BALL_TIMESTEP_S,
     BOUNCE_TIMESTEP_S,
@@ -141,8 +142,7 @@ by one (a :data:`BATCH_WORLDS`-wide step costs about 12 lone steps)."""
 MIN_CHUNK = 64
 """The fewest steps a run asks for after its first look for the end (the plan's chunk is at
 least this): a compiled call costs about as much as 20–30 ball steps besides its steps."""
-COMPILE_CACHE_DIR = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) \
-    / "impactbench" / "jax"
+COMPILE_CACHE_DIR = impactbench_jax_dir()
 """jax's persistent compilation cache, unless ``JAX_COMPILATION_CACHE_DIR`` sets another: the
 compile of each loop (5–20 s on this machine) happens once per machine, not once per process
 (a process still traces each loop it uses, ~1 s)."""

@@ -99,6 +99,9 @@ class EngineSpec:
         first_use_s: what a run's timeout allows on top for the engine's first use in a
             process, compiling (s): JIT engines compile their kernels on first use, which
             is no hang; 0 for an engine that does not compile.
+        compile_cache: ``"module:function"`` of a function (standard library only) giving
+            the folder where the engine keeps what it compiles; "" for an engine that
+            compiles nothing (:meth:`compile_cache_warm`).
     """
 
     name: str
@@ -113,6 +116,19 @@ class EngineSpec:
     color: str = ""
     spaces: tuple[tuple[str, str], ...] = ()
     first_use_s: float = 0.0
+    compile_cache: str = ""
+
+    def compile_cache_warm(self) -> bool | None:
+        """Whether the engine's compile cache (:attr:`compile_cache`) holds anything — its
+        first run here loads what an earlier one compiled — or None where it keeps none."""
+        if not self.compile_cache:
+            return None
+        import importlib
+
+        from impactbench.engines.compile_caches import holds_anything
+
+        module, _, attr = self.compile_cache.partition(":")
+        return holds_anything(getattr(importlib.import_module(module), attr)())
 
     @property
     def variants(self) -> tuple[str, ...]:
@@ -190,7 +206,8 @@ BUILTIN: tuple[EngineSpec, ...] = (
                        ("tosses", "impactbench.engines.cube_toss_spaces:MUJOCO")),
                # jax compiles each scan kind on first use (2–5 s each on a quiet machine,
                # several kinds per scenario; a busy one timed out at 60 s): ~3× that
-               first_use_s=120.0),
+               first_use_s=120.0,
+               compile_cache="impactbench.engines.compile_caches:jax_cache_dir"),
     EngineSpec("newton", "impactbench.engines.newton_adapter:NewtonAdapter",
                "pip install newton", "newton", "newton", "newton",
                (("ke+kd", "impactbench.engines.tuning_spaces_extras:newton_space"),),
@@ -198,7 +215,8 @@ BUILTIN: tuple[EngineSpec, ...] = (
                spaces=(("friction", "impactbench.engines.oblique_tuned:NEWTON"),
                        ("tosses", "impactbench.engines.cube_toss_spaces:NEWTON")),
                # warp compiles its kernels on first use: 20–40 s on a quiet machine, ~3×
-               first_use_s=120.0),
+               first_use_s=120.0,
+               compile_cache="impactbench.engines.compile_caches:warp_cache_dir"),
 )
 """The packaged engines, in the report's order (colours: matplotlib's tab10, one each)."""
 
