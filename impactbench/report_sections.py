@@ -220,6 +220,11 @@ def scoreboard(ctx: ReportContext) -> dict[str, Any] | None:
 # ----------------------------------------------------------------------------- per scenario
 
 
+_CELL_COLUMNS = ("mode", "metric", "params", "reference", "value", "rel_error", "resolved",
+                 "status", "message")
+"""The result columns a scenario table's cells read (:func:`value_cell`, the settings)."""
+
+
 def scenario_tables(ctx: ReportContext, scenario: str) -> list[dict[str, Any]]:
     """Per engine: rows = scenario point × (reference, modes), columns = headline metrics."""
     s = ctx.matrix[ctx.matrix.scenario == scenario]
@@ -240,17 +245,22 @@ def scenario_tables(ctx: ReportContext, scenario: str) -> list[dict[str, Any]]:
                         "table": None})
             continue
         rows = []
-        for point, p in e.groupby(keys, sort=True):
+        # the columns the cells read, once per engine (a frame's itertuples costs per column)
+        cells_of = e[[*keys, *(c for c in _CELL_COLUMNS if c in e.columns and c not in keys)]]
+        for point, p in cells_of.groupby(keys, sort=True):
             point = point if isinstance(point, tuple) else (point,)
             labels = [f"{x:g}" if isinstance(x, float) else str(x) for x in point]
-            ref = [p[p.metric == x].reference.iloc[0] if (p.metric == x).any() else math.nan
-                   for x in metrics]
+            records = list(p.itertuples())
+            first: dict[str, Any] = {}  # each metric's reference: its first row's
+            for r in records:
+                first.setdefault(r.metric, r.reference)
+            ref = [first.get(x, math.nan) for x in metrics]
             rows.append([*labels, Cell("**reference**"),
                          *[Cell(f"{v:.5g}" if isinstance(v, int | float) else str(v))
                            for v in ref]])
-            runs = {(r.mode, r.metric): r for r in p.itertuples()}
-            settings = {r.mode: getattr(r, "params", "") for r in p.itertuples()}
-            for mode in [x for x in MODES if x in set(p["mode"])]:
+            runs = {(r.mode, r.metric): r for r in records}
+            settings = {r.mode: getattr(r, "params", "") for r in records}
+            for mode in [x for x in MODES if x in {r.mode for r in records}]:
                 label = f"{mode} [{settings[mode]}]" if settings.get(mode) else mode
                 rows.append([*[""] * len(labels), Cell(label),
                              *[value_cell(runs[mode, x]) if (mode, x) in runs
