@@ -24,33 +24,31 @@ def _engine_says(code: str, env: dict[str, str]) -> str:
     return out.stdout.strip().splitlines()[-1]
 
 
-@pytest.mark.parametrize("own_path", [False, True], ids=["default", "WARP_CACHE_PATH"])
-def test_warps_cache_folder_is_the_one_warp_resolves(tmp_path: Path, monkeypatch,
-                                                     own_path: bool) -> None:
-    require_engine("newton")
-    monkeypatch.delenv("WARP_CACHE_PATH", raising=False)
+FOLDERS = {
+    # engine: (the engine's own variable for the folder, code printing the folder the engine
+    # resolved, the function that finds it without the engine)
+    "newton": ("WARP_CACHE_PATH",
+               "import warp; warp.config.quiet = True; warp.init(); "
+               "print(warp.config.kernel_cache_dir)", compile_caches.warp_cache_dir),
+    "mjx": ("JAX_COMPILATION_CACHE_DIR",
+            "from impactbench.engines.mjx_adapter import _mjx\n_, jax, _ = _mjx()\n"
+            "print(jax.config.jax_compilation_cache_dir)", compile_caches.jax_cache_dir),
+}
+
+
+@pytest.mark.parametrize("own_path", [False, True], ids=["default", "own-variable"])
+@pytest.mark.parametrize("engine", sorted(FOLDERS))
+def test_the_cache_folder_is_the_one_the_engine_resolves(tmp_path: Path, monkeypatch,
+                                                         engine: str, own_path: bool) -> None:
+    require_engine(engine)
+    variable, code, found = FOLDERS[engine]
+    monkeypatch.delenv(variable, raising=False)
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
     if own_path:
-        monkeypatch.setenv("WARP_CACHE_PATH", str(tmp_path / "kernels"))
-    said = _engine_says("import warp; warp.config.quiet = True; warp.init(); "
-                        "print(warp.config.kernel_cache_dir)", dict(os.environ))
-    assert Path(said) == compile_caches.warp_cache_dir()
+        monkeypatch.setenv(variable, str(tmp_path / "own"))
+    said = _engine_says(code, dict(os.environ))
+    assert Path(said) == found()
     assert str(tmp_path) in said  # the environment was heeded, not a fixed path
-
-
-@pytest.mark.parametrize("own_path", [False, True], ids=["default", "JAX_COMPILATION_CACHE_DIR"])
-def test_jaxs_cache_folder_is_the_one_mjxs_adapter_gives_jax(tmp_path: Path, monkeypatch,
-                                                             own_path: bool) -> None:
-    require_engine("mjx")
-    monkeypatch.delenv("JAX_COMPILATION_CACHE_DIR", raising=False)
-    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
-    if own_path:
-        monkeypatch.setenv("JAX_COMPILATION_CACHE_DIR", str(tmp_path / "xla"))
-    said = _engine_says("from impactbench.engines.mjx_adapter import _mjx\n"
-                        "_, jax, _ = _mjx()\nprint(jax.config.jax_compilation_cache_dir)",
-                        dict(os.environ))
-    assert Path(said) == compile_caches.jax_cache_dir()
-    assert str(tmp_path) in said
 
 
 def test_an_engine_is_warm_once_its_cache_folder_holds_something(tmp_path: Path,
