@@ -17,7 +17,9 @@ timer; nothing else changes):
   cube tosses there, in the main process, one after another);
 - ``rendering``: the figures and the documents (:func:`impactbench.report.render`), the
   section runs taken out;
-- ``report``: the whole build, and the peak RSS of its process (the workers' apart).
+- ``report``: the whole build, and the peak RSS of its process (the workers' apart);
+- the time left the progress lines would say, every 10 s, against the runs' real end
+  (:func:`time_left_error`: the median and worst factor; this layout's estimate).
 
 The previous layout (:data:`PREVIOUS`, the last landing before issue #32's work; ``--against
 REV`` another) is checked out into a temporary git worktree and built the same way, its
