@@ -260,7 +260,7 @@ def scenario_tables(ctx: ReportContext, scenario: str) -> list[dict[str, Any]]:
                            for v in ref]])
             runs = {(r.mode, r.metric): r for r in records}
             settings = {r.mode: getattr(r, "params", "") for r in records}
-            for mode in [x for x in MODES if x in {r.mode for r in records}]:
+            for mode in [x for x in MODES if x in settings]:
                 label = f"{mode} [{settings[mode]}]" if settings.get(mode) else mode
                 rows.append([*[""] * len(labels), Cell(label),
                              *[value_cell(runs[mode, x]) if (mode, x) in runs

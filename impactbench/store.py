@@ -163,8 +163,9 @@ def default_path() -> Path:
     """``$IMPACTBENCH_STORE``, else the per-user cache ``…/impactbench/results.duckdb``."""
     if os.environ.get(STORE_ENV):
         return Path(os.environ[STORE_ENV]).expanduser()
-    cache_home = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
-    return Path(cache_home) / "impactbench" / "results.duckdb"
+    from impactbench.engines.compile_caches import cache_home
+
+    return cache_home() / "impactbench" / "results.duckdb"
 
 
 @cache
