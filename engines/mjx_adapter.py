@@ -146,8 +146,9 @@ COMPILE_CACHE_DIR = impactbench_jax_dir()
 """jax's persistent compilation cache, unless ``JAX_COMPILATION_CACHE_DIR`` sets another: the
 compile of each loop (5–20 s on this machine) happens once per machine, not once per process
 (a process still traces each loop it uses, ~1 s). XLA's own flags were measured for a shorter
-first compile and left at their defaults: ``--xla_cpu_use_fusion_emitters=false`` compiles the
-cube tosses' loop ×0.80 (medians of 3 alternated, empty caches) with their poses bit for bit,
+first compile and left at their defaults: ``--xla_cpu_use_fusion_emitters=false`` makes the
+cube tosses' first default-mode replay, compile included, ×0.80 as long (medians of 3
+alternated, empty caches: 14.3 s against 17.8 s) with their poses bit for bit,
 but moves MJX's ball and oblique records by one unit in the last place (175 of the default
 report's 8037 rows); ``--xla_llvm_disable_expensive_passes`` gives the same bits and no gain;
 ``--xla_backend_optimization_level=0`` makes the cube tosses' first replay, compile
