@@ -4,10 +4,9 @@ library only: the report's main process asks, before any engine is loaded).
 An engine that compiles on first use (MJX through jax and XLA, Newton through Warp) spends
 most of its first report compiling — the default report's MJX cube tosses 74 s with empty
 caches against 39 s warm, Newton's 34 s against 7 s (engine time on 2 cores, measured in
-fresh default reports) — and later processes
-load what it kept. The time-left estimate (:class:`impactbench.matrix.TimeLeft`) takes an
-engine's cold or warm prior by whether its folder holds anything
-(:meth:`impactbench.engines.registry.EngineSpec.compile_cache_warm`).
+fresh default reports) — and later processes load what it kept. The time-left estimate
+(:class:`impactbench.matrix.TimeLeft`) takes an engine's cold or warm prior by whether its
+folder holds anything (:meth:`impactbench.engines.registry.EngineSpec.compile_cache_warm`).
 """
 
 from __future__ import annotations

@@ -148,11 +148,11 @@ compile of each loop (5–20 s on this machine) happens once per machine, not on
 (a process still traces each loop it uses, ~1 s). XLA's own flags were measured for a shorter
 first compile and left at their defaults: ``--xla_cpu_use_fusion_emitters=false`` makes the
 cube tosses' first default-mode replay, compile included, ×0.80 as long (medians of 3
-alternated, empty caches: 14.3 s against 17.8 s) with their poses bit for bit,
-but moves MJX's ball and oblique records by one unit in the last place (175 of the default
-report's 8037 rows); ``--xla_llvm_disable_expensive_passes`` gives the same bits and no gain;
-``--xla_backend_optimization_level=0`` makes the cube tosses' first replay, compile
-included, 2.6× as long (168 s against 64 s)."""
+alternated, empty caches: 14.3 s against 17.8 s) with their poses bit for bit, but moves
+MJX's ball and oblique records by one unit in the last place (175 of the default report's
+8037 rows); ``--xla_llvm_disable_expensive_passes`` gives the same bits and no gain;
+``--xla_backend_optimization_level=0`` makes the cube tosses' first replay, compile included,
+2.6× as long (168 s against 64 s)."""
 
 
 WARP_BACKEND = "mujoco.mjx.third_party.mujoco_warp"
