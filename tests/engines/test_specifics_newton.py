@@ -219,6 +219,25 @@ def test_without_cpu_graph_capture_steps_eagerly(monkeypatch: pytest.MonkeyPatch
     _assert_same_record(eager, graph)
 
 
+def test_pipelines_share_their_narrow_phase_kernels(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Two runs' collision pipelines hold the same narrow-phase kernel objects (warp hashes
+    their modules once per process, not once per run), and a run through Newton's own
+    factories — every kernel defined anew, as Newton does — records the same bits."""
+    from newton._src.geometry import narrow_phase
+
+    _, newton = newton_adapter._newton()
+    model = newton_adapter.ball_model(BallOnPlate(), newton_adapter.newton_contact_defaults())
+    kernels = [(p.narrow_phase.primitive_kernel, p.narrow_phase.narrow_phase_kernel)
+               for p in (newton.CollisionPipeline(model), newton.CollisionPipeline(model))]
+    assert kernels[0][0] is kernels[1][0] and kernels[0][1] is kernels[1][1]
+    scenario, settings = BallOnPlate(velocity_m_s=2.0), RunSettings(timestep_s=1e-6)
+    shared = newton_adapter.run_ball(scenario, "injected", settings)
+    for name in newton_adapter.NARROW_PHASE_FACTORIES:
+        monkeypatch.setattr(narrow_phase, name, getattr(narrow_phase, name).__wrapped__)
+    own = newton_adapter.run_ball(scenario, "injected", settings)
+    _assert_same_record(own, shared)
+
+
 # --------------------------------------------------------------------------------- oblique
 
 
