@@ -67,6 +67,18 @@ def test_a_users_csv_of_the_same_columns_loads(df: pd.DataFrame, tmp_path) -> No
     assert np.array_equal(got["z_m"].to_numpy(), mine["z_m"].to_numpy())
 
 
+def test_a_file_rewritten_is_read_again_and_each_load_is_its_own(df: pd.DataFrame,
+                                                                 tmp_path) -> None:
+    """load keeps what it read per file (data.LOADED_FILES): a changed file is read again,
+    and a caller's change to its frame never reaches the next caller."""
+    path = _write(tmp_path, df[df["toss"] == 0])
+    first = load(path)
+    first.loc[0, "z_m"] = -1.0
+    assert load(path)["z_m"].iloc[0] == df[df["toss"] == 0]["z_m"].iloc[0]
+    _write(tmp_path, df[df["toss"].isin([0, 1])])
+    assert toss_ids(load(path)) == [0, 1]
+
+
 def test_missing_column(df: pd.DataFrame, tmp_path) -> None:
     path = _write(tmp_path, df[df["toss"] == 0].drop(columns=["qz"]))
     _one_line_error(path, "'qz'", "missing")
