@@ -19,9 +19,12 @@ report: $(STAMP)
 
 # The tests run on one process per core (pytest-xdist), a test file's tests together (its
 # module fixtures are built once); each process has its own results store and tuning cache.
+# Bytecode is written even where the environment says not to (PYTHONDONTWRITEBYTECODE): with
+# it, pytest rewrites the asserts of every test file again in every process of every run
+# (collection 9.7 s against 6.7 s a process, measured here).
 test: $(STAMP)
 	$(BIN)/ruff check .
-	$(BIN)/python -m pytest -n auto --dist loadfile
+	PYTHONDONTWRITEBYTECODE= $(BIN)/python -m pytest -n auto --dist loadfile
 
 lint: $(STAMP)
 	$(BIN)/ruff check .

