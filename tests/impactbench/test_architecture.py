@@ -11,6 +11,7 @@ registry entry imported by name is an arrow too), over the three installed packa
 from __future__ import annotations
 
 import ast
+import functools
 import re
 from pathlib import Path
 
@@ -28,6 +29,13 @@ def modules() -> dict[str, Path]:
                 parts = parts[:-1]
             out[".".join([package, *parts])] = path
     return out
+
+
+@functools.cache
+def parsed(source: str) -> ast.Module:
+    """``source``'s syntax tree, parsed once per process (the checks here walk every module's
+    tree several times and never change one)."""
+    return ast.parse(source)
 
 
 STRING_ARROW = re.compile(r"^(impactbench(?:\.\w+)*):\w+(?:\.\w+)*$")
@@ -84,7 +92,7 @@ def import_graph(strings: bool = True) -> dict[str, set[str]]:
     graph = {}
     for name, path in mods.items():
         base = name if path.name == "__init__.py" else name.rpartition(".")[0]
-        tree = ast.parse(path.read_text())
+        tree = parsed(path.read_text())
         found: set[str] = string_arrows(tree) if strings else set()
         for node in ast.walk(tree):
             if isinstance(node, ast.Import):
@@ -196,7 +204,7 @@ def test_an_f_string_arrow_the_wrong_way_would_be_found() -> None:
     assert all(layer(m) > layer(engine) for m in found)
     # the registry itself: every tuning space it names is an engine-layer module
     graph = import_graph()
-    named = string_arrows(ast.parse(modules()[engine].read_text()))
+    named = string_arrows(parsed(modules()[engine].read_text()))
     assert {"impactbench.engines.tuning_spaces", "impactbench.engines.tuning_spaces_extras",
             "impactbench.engines.oblique_tuned", "impactbench.engines.cube_toss_spaces"} <= named
     assert all(layer(m) == 1 for m in named) and named - {"impactbench.engines.plugins"} \
@@ -208,7 +216,7 @@ def test_one_string_per_registry_entry() -> None:
     strings (the scenarios', the engines' and their tuning spaces), and a scenario's spec
     holds none: its behaviour is methods."""
     holders = {name for name, path in modules().items()
-               if string_arrows(ast.parse(path.read_text()))}
+               if string_arrows(parsed(path.read_text()))}
     assert holders <= {"impactbench.scenarios", "impactbench.engines.registry"}, holders
 
 
@@ -267,7 +275,7 @@ def test_scenario_names_only_in_scenario_modules_and_builders() -> None:
     for name, path in modules().items():
         if name in ALLOWED:
             continue
-        tree = ast.parse(path.read_text())
+        tree = parsed(path.read_text())
         allowed = _builder_tables(tree)
         hits = [node.lineno for node in ast.walk(tree)
                 if isinstance(node, ast.Constant) and node.value in SCENARIO_NAMES
