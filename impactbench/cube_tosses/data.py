@@ -196,10 +196,7 @@ def split(ids: Iterable[int], which: str = "all") -> list[int]:
 
 def toss(df: pd.DataFrame, toss_id: int) -> Toss:
     """The arrays of toss ``toss_id`` (ValueError if ``df`` has no such toss)."""
-    rows = df[df["toss"] == int(toss_id)]
-    if rows.empty:
-        raise ValueError(f"toss = {toss_id!r}: not in the data (ids {_id_range(df)})")
-    return _toss(int(toss_id), rows)
+    return next(tosses(df, [toss_id]))
 
 
 def tosses(df: pd.DataFrame, ids: Iterable[int] | None = None) -> Iterator[Toss]:
@@ -222,16 +219,6 @@ def tosses(df: pd.DataFrame, ids: Iterable[int] | None = None) -> Iterator[Toss]
         q /= np.linalg.norm(q, axis=1, keepdims=True)
         yield Toss(int(i), t_s[rows], columns[POSITION][rows], q, columns[VELOCITY][rows],
                    columns[OMEGA_BODY][rows])
-
-
-def _toss(toss_id: int, rows: pd.DataFrame) -> Toss:
-    def arr(cols: tuple[str, ...]) -> np.ndarray:
-        return np.ascontiguousarray(rows[list(cols)].to_numpy(dtype=float))
-
-    q = arr(QUATERNION)
-    q /= np.linalg.norm(q, axis=1, keepdims=True)
-    return Toss(toss_id, rows["t_s"].to_numpy(dtype=float).copy(), arr(POSITION), q,
-                arr(VELOCITY), arr(OMEGA_BODY))
 
 
 def _id_range(df: pd.DataFrame) -> str:
