@@ -528,34 +528,53 @@ def _suggest(name: str) -> str:
     return f" (did you mean {hint[0]!r}?)" if hint else ""
 
 
+def adapter_class(name: str) -> type[Adapter]:
+    """The adapter class registered as ``name``: its module imported, not the engine (the
+    class's declarations, such as :attr:`Adapter.parameter_keys`, need no engine). Raises
+    ValueError for an unknown name."""
+    registry = _registry()
+    if name not in registry:
+        raise ValueError(
+            f"engine = {name!r}: must be one of {', '.join(registry)}{_suggest(name)}"
+        )
+    module_name, _, attr = registry[name].partition(":")
+    return getattr(importlib.import_module(module_name), attr)
+
+
 def get_adapter(name: str) -> Adapter:
     """Import and instantiate the adapter registered as ``name``.
 
     Raises ValueError for an unknown name and :class:`EngineUnavailable` when the engine's
     package is not installed.
     """
-    registry = _registry()
-    if name not in registry:
-        raise ValueError(
-            f"engine = {name!r}: must be one of {', '.join(registry)}{_suggest(name)}"
-        )
+    cls = adapter_class(name)
     if name in _disabled():
         raise EngineUnavailable(name, f"disabled by {DISABLE_ENV}")
-    module_name, _, attr = registry[name].partition(":")
-    module = importlib.import_module(module_name)
-    return getattr(module, attr)()
+    return cls()
 
 
 def parameter_keys(name: str) -> tuple[str, ...]:
     """The ``custom``-mode keys of engine ``name`` (:attr:`Adapter.parameter_keys`), read from
     the adapter class without importing the engine itself."""
-    registry = _registry()
-    if name not in registry:
-        raise ValueError(
-            f"engine = {name!r}: must be one of {', '.join(registry)}{_suggest(name)}"
-        )
-    module_name, _, attr = registry[name].partition(":")
-    return tuple(getattr(importlib.import_module(module_name), attr).parameter_keys)
+    return tuple(adapter_class(name).parameter_keys)
+
+
+def check_params(name: str, params: dict[str, Any]) -> None:
+    """Validate ``custom`` values of engine ``name`` before any run. Through the class's
+    :attr:`Adapter.value_check` where the adapter keeps the base :meth:`Adapter.check_params`
+    (a parser in Python: the engine is not imported, and the values are checked whether it
+    is installed or not); through an adapter's own :meth:`Adapter.check_params` otherwise,
+    where the engine is installed (elsewhere its run checks them)."""
+    cls = adapter_class(name)
+    if cls.check_params is Adapter.check_params:
+        if cls.value_check is not None:
+            cls.value_check(dict(params))
+        return
+    try:
+        adapter = get_adapter(name)
+    except EngineUnavailable:
+        return
+    adapter.check_params(dict(params))
 
 
 def available_engines() -> list[str]:
