@@ -374,8 +374,9 @@ def test_tune_on_dask_equals_tune_in_process(tmp_path):
 def test_ctrl_c_then_the_same_tune_resumes_from_the_store(tmp_path):
     """SIGINT a real `impactbench tune`: one line, exit 130, no tuned file; the rerun replays
     the stored runs (the search is deterministic) and ends where an uninterrupted tune does
-    (run at the same time, on the other core). At 1e-7 s the search takes several seconds,
-    so the first store write (after 2 s) lands mid-search."""
+    (run at the same time, on the other core). At 1e-7 s the 60 evaluations take about 4 s
+    here; the interrupted tune stores its runs every 0.25 s (2 s in the product, set in
+    the child below), so the interrupt lands mid-search with 20 or more evaluations stored."""
     require_engine("mujoco")
     import os
     import re
@@ -389,11 +390,14 @@ def test_ctrl_c_then_the_same_tune_resumes_from_the_store(tmp_path):
     from impactbench.store import Store
 
     store, out = tmp_path / "s.duckdb", tmp_path / "mj.toml"
-    argv = [sys.executable, "-m", "impactbench.cli", "tune", "--engine", "mujoco",
-            "--velocities", "1,4", "--timestep", "1e-7", "--max-evals", "150", "--workers",
-            "0", "--store", str(store), "--no-plot", "--out", str(out), "--json"]
-    plain_argv = [*argv[:-6], "--store", str(tmp_path / "plain.duckdb"), "--no-plot",
-                  "--out", str(tmp_path / "plain.toml"), "--json"]
+    tune = ["tune", "--engine", "mujoco", "--velocities", "1,4", "--timestep", "1e-7",
+            "--max-evals", "60", "--workers", "0"]
+    argv = [sys.executable, "-c", "import sys; import impactbench.tuning.objective as o; "
+            "o.FLUSH_EVERY_S = 0.25; from impactbench.cli import main; sys.exit(main())",
+            *tune, "--store", str(store), "--no-plot", "--out", str(out), "--json"]
+    plain_argv = [sys.executable, "-m", "impactbench.cli", *tune, "--store",
+                  str(tmp_path / "plain.duckdb"), "--no-plot", "--out",
+                  str(tmp_path / "plain.toml"), "--json"]
     plain_proc = subprocess.Popen(plain_argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                                   text=True)
     with interruptible_children():
@@ -417,7 +421,7 @@ def test_ctrl_c_then_the_same_tune_resumes_from_the_store(tmp_path):
                         r"\(0 served\); rerun the same tune to resume\n", err)
     assert line, err
     stored = int(line.group(2))
-    assert stored >= 40 and not out.exists()
+    assert stored >= 40 and int(line.group(1)) < 60 and not out.exists()
     again = subprocess.run(argv, capture_output=True, text=True, timeout=300)
     assert again.returncode == 0, again.stderr
     resumed = json.loads(again.stdout)
