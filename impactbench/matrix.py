@@ -625,13 +625,24 @@ def predicted_s(estimates: dict[tuple, float], clock: TimeLeft) -> float:
     return sum(est * clock.ratio(group) for group, est in estimates.items())
 
 
+def runner_for(workers: int | None = None, scheduler: str | None = None) -> Any:
+    """The :class:`impactbench.cluster.Runner` :func:`run_jobs` runs on by default: ``workers``
+    local processes or ``scheduler``; with neither, the default placement (work predicted
+    below :data:`DISPATCH_MIN_S` runs in this process, a given --workers N or a scheduler
+    always gets the work)."""
+    from impactbench import cluster
+
+    floor = DISPATCH_MIN_S if workers is None and scheduler is None else 0.0
+    return cluster.Runner(workers, scheduler, min_dispatch_s=floor)
+
+
 def run_jobs(jobs: list[Job], workers: int | None = None,
              progress: Callable[[int], None] | None = None, *, store: Any = None,
              fresh: bool = False, scheduler: str | None = None,
              yes: bool = True, limits: Any = None,
              timeout_s: float | None = None,
              references: dict[tuple, dict[str, Any]] | None = None,
-             clock: TimeLeft | None = None) -> list[JobResult]:
+             clock: TimeLeft | None = None, runner: Any = None) -> list[JobResult]:
     """Run ``jobs``; results sorted by job id.
 
     ``store`` (an :class:`impactbench.store.Store`) serves finished runs and keeps new ones
@@ -654,6 +665,10 @@ def run_jobs(jobs: list[Job], workers: int | None = None,
     ``references``: reference metrics already computed, by ``Job.reference_key`` (filled in).
     ``clock``: the time-left estimate to keep (:class:`TimeLeft`; a new one by default): after
     the run it holds what each group of work items took.
+    ``runner``: an open :class:`impactbench.cluster.Runner` to run the missing runs on (its
+    placement instead of ``workers`` and ``scheduler``'s), left open: calls that share one
+    share its cluster (a tune's generations: one cluster start, not one per generation);
+    default one of ``workers`` and ``scheduler``, closed on return.
     """
     from impactbench import cluster
     from impactbench import store as store_mod
@@ -756,9 +771,6 @@ def run_jobs(jobs: list[Job], workers: int | None = None,
 
     try:
         if pending:
-            # default placement: work predicted below a cluster's start-up runs here (a
-            # given --workers N, or a scheduler, always sends it to the workers)
-            floor = DISPATCH_MIN_S if workers is None and scheduler is None else 0.0
             items = work_items(pending, settings, references)
             clock = clock if clock is not None else TimeLeft(1)
             by_group: dict[tuple, float] = {}
@@ -776,7 +788,8 @@ def run_jobs(jobs: list[Job], workers: int | None = None,
                 for job, reference, _ in item:
                     finished(_crashed(job, why + more, reference, status))
 
-            with cluster.Runner(workers, scheduler, min_dispatch_s=floor) as runner:
+            with (contextlib.nullcontext(runner) if runner is not None else
+                  runner_for(workers, scheduler)) as runner:
                 clock.workers = 1 if estimate < runner.min_dispatch_s else runner.size
                 say_left(clock)
                 try:

@@ -199,6 +199,9 @@ class Replays:
     workers: int | None = None
     scheduler: str | None = None
     progress: Callable[[int, int, float, float], None] | None = None
+    runner: Any = None
+    """An open :class:`impactbench.cluster.Runner` the generations share (one cluster start
+    for the whole fit); None: each generation's own (:func:`impactbench.matrix.run_jobs`)."""
     history: list[tuple[dict[str, Any], float]] = field(default_factory=list)
     best: tuple[float, dict[str, Any], Evaluation] | None = None
     hits: int = 0
@@ -209,7 +212,7 @@ class Replays:
         engine out of the box, ``default`` mode), in order."""
         return replay_runs(self.engine, self.scenario, params, store=self.store,
                            fresh=self.fresh, workers=self.workers, scheduler=self.scheduler,
-                           references=self.references)
+                           references=self.references, runner=self.runner)
 
     def evaluate_batch(self, candidates: Sequence[Mapping[str, Any]]) -> list[float]:
         values = [_plain(c) for c in candidates]
@@ -232,12 +235,13 @@ class Replays:
 def replay_runs(engine: str, scenario: Any, params: Sequence[Mapping[str, Any] | None],
                 *, store: Any = None, fresh: bool = False, workers: int | None = None,
                 scheduler: str | None = None,
-                references: dict[tuple, dict[str, Any]] | None = None
+                references: dict[tuple, dict[str, Any]] | None = None, runner: Any = None
                 ) -> list[tuple[dict[str, Any], bool]]:
     """Run ``scenario`` in ``engine`` once per engine-parameter set of ``params`` (``custom``
     mode; None or {}: ``default``) through :func:`impactbench.matrix.run_jobs` (study
     :data:`~impactbench.store.CANDIDATE`): (run object, served from ``store``) each, in order.
-    A run past :data:`RUN_TIMEOUT_S` is a ``timeout``."""
+    A run past :data:`RUN_TIMEOUT_S` is a ``timeout``. ``runner``: an open Runner to run on
+    (:func:`~impactbench.matrix.run_jobs`'s)."""
     from impactbench.config import frozen_params
     from impactbench.matrix import Job, run_jobs
     from impactbench.store import CANDIDATE
@@ -248,7 +252,7 @@ def replay_runs(engine: str, scenario: Any, params: Sequence[Mapping[str, Any] |
                 frozen_params(dict(p)) if p else (), study=CANDIDATE) for p in params]
     results = {r.job.id: r for r in run_jobs(
         jobs, workers, store=store, fresh=fresh, scheduler=scheduler, timeout_s=RUN_TIMEOUT_S,
-        references=references if references is not None else {})}
+        references=references if references is not None else {}, runner=runner)}
     return [(results[j.id].run, results[j.id].cached) for j in jobs]
 
 
@@ -382,6 +386,8 @@ def tune(engine: str, budget: int, *, seed: int = SEED,
     """
     import nevergrad as ng
 
+    from impactbench.matrix import runner_for
+
     if not (isinstance(budget, int) and budget >= 2):
         raise ValueError(f"budget = {budget!r}: must be an integer ≥ 2")
     knobs = space(engine)
@@ -395,13 +401,14 @@ def tune(engine: str, budget: int, *, seed: int = SEED,
     dhash = data_hash(df, ids)
     version = engine_version(engine)
     results = open_store(store)
-    replays = Replays(engine, scenario_of(path, "train" if isinstance(tosses, str) else ids,
-                                          protocol),
-                      ids, budget, results, fresh, workers, scheduler, progress)
     t0 = time.perf_counter()
     start_knobs = {k.name: k.start for k in knobs}
-    objective_start = search_mod.nevergrad(knobs, replays, budget, seed=seed,
-                                           optimizer=optimizer)
+    with runner_for(workers, scheduler) as runner:  # one cluster (if any) for every generation
+        replays = Replays(engine, scenario_of(path, "train" if isinstance(tosses, str) else ids,
+                                              protocol),
+                          ids, budget, results, fresh, workers, scheduler, progress, runner)
+        objective_start = search_mod.nevergrad(knobs, replays, budget, seed=seed,
+                                               optimizer=optimizer)
     assert replays.best is not None
     objective, best_knobs, best_ev = replays.best
     params = engine_params(engine, best_knobs)

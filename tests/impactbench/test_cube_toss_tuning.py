@@ -50,6 +50,26 @@ def test_tiny_budget_improves_and_is_deterministic(df) -> None:
     assert [h[0] for h in c.history][1:] != [h[0] for h in a.history][1:]
 
 
+def test_on_dask_the_fit_is_the_same_on_one_cluster(df, monkeypatch) -> None:
+    """With workers, every generation goes to the same local cluster (one start for the
+    fit, not one per generation) and the fit is the in-process one."""
+    from impactbench import cluster
+
+    started = []
+    client = cluster.client
+
+    def counted(*a, **k):
+        started.append(a)
+        return client(*a, **k)
+
+    monkeypatch.setattr(cluster, "client", counted)
+    here = _tiny(df, workers=0)
+    assert started == []
+    there = _tiny(df, workers=1)
+    assert len(started) == 1   # three generations (the start, 6 + 1 candidates), one cluster
+    assert there.history == here.history and there.params == here.params
+
+
 def test_longer_budget_resumes_from_the_store(df, tmp_path) -> None:
     from impactbench.store import CANDIDATE, Store
 
