@@ -17,15 +17,20 @@ import math
 import numpy as np
 import pytest
 from conftest import require_engine
+from impactbench.engines import newton_adapter
+from impactbench.engines.base import RunSettings, get_adapter
+from impactbench.engines.newton_adapter import approach_damped_restitution
+from impactbench.reference.bounce_scenario import Bounce
+from impactbench.reference.record import Status
+from scipy import optimize
 
-require_engine("newton")
 
-from impactbench.engines import newton_adapter  # noqa: E402
-from impactbench.engines.base import RunSettings, get_adapter  # noqa: E402
-from impactbench.engines.newton_adapter import approach_damped_restitution  # noqa: E402
-from impactbench.reference.bounce_scenario import Bounce  # noqa: E402
-from impactbench.reference.record import Status  # noqa: E402
-from scipy import optimize  # noqa: E402
+@pytest.fixture(autouse=True, scope="module")
+def _newton_installed() -> None:
+    """Newton is imported when this file's tests run, not when it is collected: every test
+    process collects every file, and importing Newton costs ~3 s of CPU."""
+    require_engine("newton")
+
 
 DT = 1.0 / 1200.0
 ARRAYS = ("time_s", "penetration_m", "penetration_rate_m_s", "normal_force_n",

@@ -19,18 +19,23 @@ import math
 import numpy as np
 import pytest
 from conftest import require_engine
+from impactbench.engines.base import RunSettings, get_adapter
+from impactbench.engines.mujoco_adapter import GAP_STEPS
+from impactbench.engines.newton_adapter import NewtonAdapter, pair_plan
+from impactbench.reference.bounce_scenario import Bounce
+from impactbench.reference.oblique_scenario import Oblique
+from impactbench.reference.record import Status
+from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
 
-require_engine("newton")
+from impactbench import evaluate
 
-from impactbench.engines.base import RunSettings, get_adapter  # noqa: E402
-from impactbench.engines.mujoco_adapter import GAP_STEPS  # noqa: E402
-from impactbench.engines.newton_adapter import NewtonAdapter, pair_plan  # noqa: E402
-from impactbench.reference.bounce_scenario import Bounce  # noqa: E402
-from impactbench.reference.oblique_scenario import Oblique  # noqa: E402
-from impactbench.reference.record import Status  # noqa: E402
-from impactbench.reference.scenarios import BallOnPlate, RigidFlexible  # noqa: E402
 
-from impactbench import evaluate  # noqa: E402
+@pytest.fixture(autouse=True, scope="module")
+def _newton_installed() -> None:
+    """Newton is imported when this file's tests run, not when it is collected: every test
+    process collects every file, and importing Newton costs ~3 s of CPU."""
+    require_engine("newton")
+
 
 ARRAYS = ("time_s", "penetration_m", "penetration_rate_m_s", "normal_force_n",
           "velocity_1_m_s", "velocity_2_m_s", "displacement_2_m", "tangential_velocity_m_s",

@@ -18,24 +18,29 @@ import math
 import numpy as np
 import pytest
 from conftest import require_engine
-
-require_engine("newton")
-
-from impactbench.engines import newton_adapter  # noqa: E402
-from impactbench.engines.base import RunSettings, get_adapter  # noqa: E402
-from impactbench.engines.common import clipped_restitution  # noqa: E402
-from impactbench.engines.newton_adapter import (  # noqa: E402
+from impactbench.engines import newton_adapter
+from impactbench.engines.base import RunSettings, get_adapter
+from impactbench.engines.common import clipped_restitution
+from impactbench.engines.newton_adapter import (
     NewtonAdapter,
     approach_damped_duration_s,
     approach_damped_matching,
     approach_damped_restitution,
 )
-from impactbench.reference import two_dof  # noqa: E402
-from impactbench.reference.metrics import compute, contacts  # noqa: E402
-from impactbench.reference.oblique import Oblique  # noqa: E402
-from impactbench.reference.record import Status  # noqa: E402
-from impactbench.reference.scenarios import BallOnPlate, RigidFlexible  # noqa: E402
-from scipy.integrate import solve_ivp  # noqa: E402
+from impactbench.reference import two_dof
+from impactbench.reference.metrics import compute, contacts
+from impactbench.reference.oblique import Oblique
+from impactbench.reference.record import Status
+from impactbench.reference.scenarios import BallOnPlate, RigidFlexible
+from scipy.integrate import solve_ivp
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _newton_installed() -> None:
+    """Newton is imported when this file's tests run, not when it is collected: every test
+    process collects every file, and importing Newton costs ~3 s of CPU."""
+    require_engine("newton")
+
 
 K, D = 1.0e8, 316.2  # the engines note's target contact (N/m, N·s/m)
 
