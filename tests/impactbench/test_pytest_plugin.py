@@ -18,6 +18,16 @@ def _plugin_args() -> list[str]:
     return [] if installed else ["-p", "impactbench.pytest_plugin"]
 
 
+@pytest.fixture(autouse=True, scope="module")
+def _dask_imported_outside_the_runs() -> None:
+    """pytester's in-process runs drop the modules a run imported but not what they added to
+    ``sys.meta_path``: the first run's Dask brings in the ``importlib_metadata`` backport and
+    its finder, and the next runs' pytest header then found no metadata for pluggy
+    (``PackageNotFoundError``: these tests failed whenever this file was the first in its
+    process to use Dask, e.g. run alone). Imported here first, it outlives the runs."""
+    import distributed  # noqa: F401
+
+
 @pytest.fixture(scope="module")
 def engine() -> str:
     for name in ENGINES:
