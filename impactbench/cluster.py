@@ -699,6 +699,11 @@ class Runner:
         return self.workers == 0 and not self.scheduler
 
     @property
+    def started(self) -> bool:
+        """Whether its Dask client (a local cluster, or the scheduler's) is up."""
+        return self._client is not None
+
+    @property
     def size(self) -> int:
         """How many items run at once: 1 in process, else the cluster's workers once it is
         started, before that the local worker count it will have (``workers``, at most the

@@ -210,9 +210,15 @@ class Replays:
     def runs(self, params: Sequence[Mapping[str, Any] | None]) -> list[tuple[dict, bool]]:
         """(run object, served from the store) of each engine-parameter set (None or {}: the
         engine out of the box, ``default`` mode), in order."""
+        # a local cluster is started with at most one worker per item: a generation smaller
+        # than the cluster (the start candidate alone) runs on its own Runner, so that the
+        # shared one is started by a generation that fills it
+        shared = self.runner
+        if shared is not None and not shared.started and len(params) < shared.size:
+            shared = None
         return replay_runs(self.engine, self.scenario, params, store=self.store,
                            fresh=self.fresh, workers=self.workers, scheduler=self.scheduler,
-                           references=self.references, runner=self.runner)
+                           references=self.references, runner=shared)
 
     def evaluate_batch(self, candidates: Sequence[Mapping[str, Any]]) -> list[float]:
         values = [_plain(c) for c in candidates]
